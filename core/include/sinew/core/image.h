@@ -1,0 +1,98 @@
+// Scalar volumes in world millimetres. Physical space follows ITK (LPS): a voxel index i maps to
+// origin + direction * diag(spacing) * i. Image IO plugins convert to this; core has no ITK.
+#pragma once
+
+#include "sinew/core/types.h"
+
+#include <Eigen/Dense>
+
+#include <array>
+#include <vector>
+
+namespace sinew {
+
+struct ImageGeometry {
+  std::array<int, 3> size{0, 0, 0};
+  Eigen::Vector3d spacing = Eigen::Vector3d::Ones();
+  Eigen::Vector3d origin = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d direction = Eigen::Matrix3d::Identity();
+
+  std::size_t voxelCount() const {
+    return static_cast<std::size_t>(size[0]) * size[1] * size[2];
+  }
+  Eigen::Matrix3d indexToWorldMatrix() const { return direction * spacing.asDiagonal(); }
+};
+
+template <class T>
+class Volume {
+public:
+  Volume() = default;
+  explicit Volume(const ImageGeometry& g, const T& fill = T{})
+      : geometry_(g), voxels_(g.voxelCount(), fill) {
+    const Eigen::Matrix3d m = g.indexToWorldMatrix();
+    toIndex_ = m.inverse().cast<float>();
+    origin_ = g.origin.cast<float>();
+  }
+
+  const ImageGeometry& geometry() const { return geometry_; }
+  std::vector<T>& voxels() { return voxels_; }
+  const std::vector<T>& voxels() const { return voxels_; }
+  std::size_t bytes() const { return voxels_.size() * sizeof(T); }
+
+  std::size_t offset(int i, int j, int k) const {
+    return (static_cast<std::size_t>(k) * geometry_.size[1] + j) * geometry_.size[0] + i;
+  }
+  T& at(int i, int j, int k) { return voxels_[offset(i, j, k)]; }
+  const T& at(int i, int j, int k) const { return voxels_[offset(i, j, k)]; }
+
+  Vec3 worldToIndex(const Vec3& p) const { return toIndex_ * (p - origin_); }
+  Vec3 indexToWorld(const Vec3& i) const {
+    return (geometry_.indexToWorldMatrix().cast<float>() * i) + origin_;
+  }
+
+  // Trilinear interpolation at a world point; the border voxels extend outside the image.
+  T sample(const Vec3& world) const { return sampleIndex(worldToIndex(world)); }
+
+  T sampleIndex(const Vec3& idx) const {
+    const auto& s = geometry_.size;
+    float c[3];
+    int i0[3];
+    float f[3];
+    for (int a = 0; a < 3; ++a) {
+      c[a] = std::fmin(std::fmax(idx[a], 0.0f), static_cast<float>(s[a] - 1));
+      i0[a] = std::min(static_cast<int>(c[a]), std::max(s[a] - 2, 0));
+      f[a] = c[a] - static_cast<float>(i0[a]);
+    }
+    const int i1 = std::min(i0[0] + 1, s[0] - 1), j1 = std::min(i0[1] + 1, s[1] - 1),
+              k1 = std::min(i0[2] + 1, s[2] - 1);
+    const T c00 = lerp(at(i0[0], i0[1], i0[2]), at(i1, i0[1], i0[2]), f[0]);
+    const T c10 = lerp(at(i0[0], j1, i0[2]), at(i1, j1, i0[2]), f[0]);
+    const T c01 = lerp(at(i0[0], i0[1], k1), at(i1, i0[1], k1), f[0]);
+    const T c11 = lerp(at(i0[0], j1, k1), at(i1, j1, k1), f[0]);
+    return lerp(lerp(c00, c10, f[1]), lerp(c01, c11, f[1]), f[2]);
+  }
+
+  bool containsIndex(const Vec3& idx) const {
+    for (int a = 0; a < 3; ++a)
+      if (!(idx[a] >= -0.5f && idx[a] <= geometry_.size[a] - 0.5f)) return false;
+    return true;
+  }
+
+private:
+  static T lerp(const T& a, const T& b, float t) { return a + (b - a) * t; }
+
+  ImageGeometry geometry_;
+  std::vector<T> voxels_;
+  Eigen::Matrix3f toIndex_ = Eigen::Matrix3f::Identity();
+  Vec3 origin_ = Vec3::Zero();
+};
+
+using Image3D = Volume<float>;
+using VectorVolume = Volume<Vec3>;
+
+// Gaussian smoothing (sigma in mm, per axis converted to voxels; 0 = none) followed by central
+// differences, returned as the world-space gradient.
+VectorVolume worldGradient(const Image3D& image, float sigmaMm);
+Image3D gaussianSmooth(const Image3D& image, float sigmaMm);
+
+}  // namespace sinew

@@ -1,0 +1,40 @@
+// Inputs the forces read besides the mesh store: images and what the user placed (attraction
+// points). Image-derived data (the gradient volume) is built the first time a force asks for it,
+// so a scene without image forces allocates none.
+#pragma once
+
+#include "sinew/core/image.h"
+
+#include <memory>
+#include <vector>
+
+namespace sinew {
+
+class SceneData {
+public:
+  void setTargetImage(std::shared_ptr<const Image3D> image);
+  void setTrainingImage(std::shared_ptr<const Image3D> image);
+  bool hasTargetImage() const { return target_ != nullptr; }
+  // Throws InputError when the scene has no image.
+  const Image3D& targetImage() const;
+  // The training image, or the target image when none was given.
+  const Image3D& trainingImage() const;
+
+  // World-space gradient of the target image smoothed with sigmaMm; built on first request.
+  const VectorVolume& targetGradient(float sigmaMm);
+
+  // Bytes held by data derived from images (not the images themselves).
+  std::size_t imageDerivedBytes() const;
+
+  // Attraction points per structure (paper 000 section 4.5), in world millimetres.
+  std::vector<std::vector<Vec3>>& attractionPoints() { return attractionPoints_; }
+  const std::vector<std::vector<Vec3>>& attractionPoints() const { return attractionPoints_; }
+
+private:
+  std::shared_ptr<const Image3D> target_, training_;
+  std::unique_ptr<VectorVolume> gradient_;
+  float gradientSigma_ = -1.0f;
+  std::vector<std::vector<Vec3>> attractionPoints_;
+};
+
+}  // namespace sinew

@@ -1,0 +1,103 @@
+// Local geometry of a 2-simplex vertex from its three neighbours (Delingette 1999): normal,
+// circumcircle, elevation and the simplex parameters (two metric parameters eps1, eps2 with
+// eps3 = 1 - eps1 - eps2, and the simplex angle phi), all invariant under similarity except the
+// elevation. Templated on the scalar so the engine runs it in float (as the GPU does) and tests
+// can check the formulas in double; the CUDA kernels mirror it line for line.
+#pragma once
+
+#include "sinew/core/types.h"
+
+#include <Eigen/Geometry>
+
+#include <cmath>
+
+namespace sinew {
+
+template <class S>
+struct SimplexParamsT {
+  S eps1 = S(1) / S(3);
+  S eps2 = S(1) / S(3);
+  S phi = S(0);
+  S eps3() const { return S(1) - eps1 - eps2; }
+};
+using SimplexParams = SimplexParamsT<float>;
+
+// The neighbours' triangle: outward normal, circumcentre and circumradius.
+template <class S>
+struct NeighbourFrameT {
+  using V = Eigen::Matrix<S, 3, 1>;
+  V normal = V::Zero();
+  V circumCentre = V::Zero();
+  S circumRadius = S(0);
+  S twiceArea = S(0);  // |(p2 - p1) x (p3 - p1)|; 0 when the neighbours are collinear
+  bool valid() const { return twiceArea > S(0); }
+};
+using NeighbourFrame = NeighbourFrameT<float>;
+
+template <class V>
+NeighbourFrameT<typename V::Scalar> neighbourFrame(const V& p1, const V& p2, const V& p3) {
+  using S = typename V::Scalar;
+  NeighbourFrameT<S> f;
+  const V a = p1 - p3, b = p2 - p3;
+  const V axb = a.cross(b);
+  const S axb2 = axb.squaredNorm();
+  f.twiceArea = std::sqrt(axb2);
+  if (!(f.twiceArea > S(1e-20))) {
+    f.twiceArea = S(0);
+    return f;
+  }
+  f.normal = axb / f.twiceArea;  // (p1-p3)x(p2-p3) == (p2-p1)x(p3-p1)
+  f.circumCentre = p3 + (a.squaredNorm() * b - b.squaredNorm() * a).cross(axb) / (S(2) * axb2);
+  f.circumRadius = (p1 - f.circumCentre).norm();
+  return f;
+}
+
+// Signed distance from p to the neighbours' plane, positive along the outward normal.
+template <class V>
+typename V::Scalar elevation(const V& p, const V& p1, const NeighbourFrameT<typename V::Scalar>& f) {
+  return (p - p1).dot(f.normal);
+}
+
+template <class V>
+SimplexParamsT<typename V::Scalar> simplexParams(const V& p, const V& p1, const V& p2, const V& p3,
+                                                 const NeighbourFrameT<typename V::Scalar>& f) {
+  using S = typename V::Scalar;
+  SimplexParamsT<S> s;
+  if (!f.valid()) return s;
+  const S L = elevation(p, p1, f);
+  const V foot = p - L * f.normal;
+  const S inv = S(1) / f.twiceArea;
+  s.eps1 = (p2 - foot).cross(p3 - foot).dot(f.normal) * inv;
+  s.eps2 = (p3 - foot).cross(p1 - foot).dot(f.normal) * inv;
+  const S r = f.circumRadius;
+  const S d2 = (foot - f.circumCentre).squaredNorm();
+  // tan(phi) = 2 L r / (r^2 - d^2 - L^2): the angle of the sphere through p and its neighbours.
+  s.phi = std::atan2(S(2) * L * r, r * r - d2 - L * L);
+  return s;
+}
+
+// Elevation L(r, d, phi) of Delingette's equation, written with sin/cos so it has no branch:
+// L = (r^2 - d^2) sin(phi) / (sqrt(r^2 cos^2(phi) + (r^2 - d^2) sin^2(phi)) + r cos(phi)).
+// Exact inverse of simplexParams whenever r^2 - d^2 + L^2 > 0 (the foot point is not far outside
+// the circumcircle), which holds on quasi-regular meshes.
+template <class S>
+S elevationFromAngle(S r, S d2, S phi) {
+  const S k = r * r - d2;
+  const S s = std::sin(phi), c = std::cos(phi);
+  const S root = std::sqrt(std::fmax(r * r * c * c + k * s * s, S(0)));
+  const S den = root + r * c;
+  if (std::fabs(den) < S(1e-12) * (r + S(1e-30))) return S(0);
+  return k * s / den;
+}
+
+// The position the parameters give over the neighbours' current triangle.
+template <class V>
+V positionFromParams(const V& p1, const V& p2, const V& p3, const NeighbourFrameT<typename V::Scalar>& f,
+                     const SimplexParamsT<typename V::Scalar>& s) {
+  const V foot = s.eps1 * p1 + s.eps2 * p2 + s.eps3() * p3;
+  if (!f.valid()) return foot;
+  const typename V::Scalar d2 = (foot - f.circumCentre).squaredNorm();
+  return foot + elevationFromAngle(f.circumRadius, d2, s.phi) * f.normal;
+}
+
+}  // namespace sinew

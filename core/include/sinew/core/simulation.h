@@ -1,0 +1,73 @@
+// The simulation loop over all structures of a scene: geometry refresh, active forces accumulate,
+// the integrator moves vertices; coarse-to-fine through the levels of detail.
+#pragma once
+
+#include "sinew/core/registry.h"
+
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace sinew {
+
+struct StructureSpec {
+  std::string name;
+  LevelHierarchy levels;                 // level 0 = coarsest
+  std::vector<Vec3> initialPositions;    // at level 0
+  std::vector<Vec3> referencePositions;  // at level 0; empty when the structure has no reference
+  float density = 0.0f;                  // 0: chosen per level so the mean vertex mass is 1
+};
+
+class Simulation {
+public:
+  // threads <= 0: all hardware threads.
+  explicit Simulation(const Registry& registry, int threads = 0);
+  ~Simulation();
+
+  // Scene set-up, before initialize().
+  Index addStructure(StructureSpec spec);
+  // Adds a force (in evaluation order) and returns its per-structure parameters.
+  ParamTable& addForce(std::string_view name);
+  ParamTable& setIntegrator(std::string_view name);
+  SceneData& scene() { return scene_; }
+
+  // Builds the level-0 store, allocates what the forces and the integrator declared, prepares them.
+  void initialize();
+  void step();
+  void run(int iterations);
+  // Moves every structure to the next finer level; false when already at the finest.
+  bool advanceLevel();
+
+  int level() const { return level_; }
+  int levelCount() const;
+  long iteration() const { return iteration_; }
+  MeshStore& store() { return store_; }
+  const StructureSpec& structure(Index i) const { return structures_[i]; }
+  Index structureCount() const { return static_cast<Index>(structures_.size()); }
+  ParamTable& forceParams(std::string_view name);
+  ParamTable& integratorParams() { return integratorParams_; }
+  // How often each force was evaluated (a force weighted 0 everywhere is skipped).
+  long evaluations(std::string_view forceName) const;
+  const Executor& executor() const { return executor_; }
+
+private:
+  struct ForceSlot;
+  ForceSlot& slot(std::string_view name);
+  const ForceSlot& slot(std::string_view name) const;
+  void applyDensities();
+  void prepareForces();
+
+  const Registry& registry_;
+  Executor executor_;
+  SceneData scene_;
+  std::vector<StructureSpec> structures_;
+  std::vector<std::unique_ptr<ForceSlot>> forces_;
+  std::unique_ptr<Integrator> integrator_;
+  ParamTable integratorParams_;
+  MeshStore store_;
+  int level_ = 0;
+  long iteration_ = 0;
+  bool initialized_ = false;
+};
+
+}  // namespace sinew

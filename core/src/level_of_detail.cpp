@@ -1,0 +1,93 @@
+#include "sinew/core/level_of_detail.h"
+
+#include <algorithm>
+#include <map>
+
+namespace sinew {
+
+void Prolongation::apply(std::span<const Vec3> coarse, std::span<Vec3> fine) const {
+  for (Index i = 0; i < fineCount(); ++i) {
+    Vec3 sum = Vec3::Zero();
+    for (Index k = rowOffsets[i]; k < rowOffsets[i + 1]; ++k) sum += weight[k] * coarse[coarseIndex[k]];
+    fine[i] = sum;
+  }
+}
+
+std::vector<Vec3> Prolongation::apply(std::span<const Vec3> coarse) const {
+  std::vector<Vec3> fine(fineCount());
+  apply(coarse, fine);
+  return fine;
+}
+
+RefinedTopology refine(const SimplexTopology& coarse) {
+  const Index nCoarse = coarse.vertexCount();
+  const Index nCells = coarse.cellCount();
+  // Fine triangle-mesh vertices: the coarse cells, then one midpoint per coarse simplex edge.
+  std::map<std::pair<Index, Index>, Index> midpoints;
+  auto midpoint = [&](Index a, Index b) {
+    const auto key = std::minmax(a, b);
+    auto [it, inserted] = midpoints.emplace(key, nCells + static_cast<Index>(midpoints.size()));
+    return it->second;
+  };
+  TriangleMesh fineTriangles;
+  fineTriangles.triangles.reserve(static_cast<size_t>(nCoarse) * 4);
+  for (Index t = 0; t < nCoarse; ++t) {
+    const auto [a, b, c] = coarse.vertexCells[t];
+    const Index ab = midpoint(a, b), bc = midpoint(b, c), ca = midpoint(c, a);
+    fineTriangles.triangles.push_back({ab, bc, ca});  // centre child: fine vertex 4t
+    fineTriangles.triangles.push_back({a, ab, ca});   // corner a: 4t + 1
+    fineTriangles.triangles.push_back({b, bc, ab});   // corner b: 4t + 2
+    fineTriangles.triangles.push_back({c, ca, bc});   // corner c: 4t + 3
+  }
+  // Connectivity is all dualOf needs; points only have to exist.
+  fineTriangles.points.assign(nCells + midpoints.size(), Vec3::Zero());
+
+  RefinedTopology out;
+  out.fine = SimplexTopology::dualOf(fineTriangles);
+  Prolongation& p = out.prolongation;
+  p.rowOffsets.reserve(static_cast<size_t>(nCoarse) * 4 + 1);
+  p.rowOffsets.push_back(0);
+  auto closeRow = [&] { p.rowOffsets.push_back(static_cast<Index>(p.coarseIndex.size())); };
+  for (Index t = 0; t < nCoarse; ++t) {
+    p.coarseIndex.push_back(t);
+    p.weight.push_back(1.0f);
+    closeRow();
+    for (int k = 0; k < 3; ++k) {
+      const Index cell = coarse.vertexCells[t][k];
+      const Index begin = coarse.cellOffsets[cell], end = coarse.cellOffsets[cell + 1];
+      const float share = 0.5f / static_cast<float>(end - begin);
+      float own = 0.5f;
+      for (Index i = begin; i < end; ++i) {
+        if (coarse.cellVertices[i] == t) {
+          own += share;
+          continue;
+        }
+        p.coarseIndex.push_back(coarse.cellVertices[i]);
+        p.weight.push_back(share);
+      }
+      p.coarseIndex.push_back(t);
+      p.weight.push_back(own);
+      closeRow();
+    }
+  }
+  return out;
+}
+
+LevelHierarchy LevelHierarchy::build(const SimplexTopology& coarsest, int levelCount) {
+  LevelHierarchy h;
+  h.levels.push_back(coarsest);
+  for (int l = 1; l < levelCount; ++l) {
+    RefinedTopology r = refine(h.levels.back());
+    h.levels.push_back(std::move(r.fine));
+    h.prolongations.push_back(std::move(r.prolongation));
+  }
+  return h;
+}
+
+std::vector<Vec3> LevelHierarchy::carry(std::span<const Vec3> values, int from, int to) const {
+  std::vector<Vec3> current(values.begin(), values.end());
+  for (int l = from; l < to; ++l) current = prolongations[l].apply(current);
+  return current;
+}
+
+}  // namespace sinew

@@ -1,0 +1,171 @@
+#include "sinew/core/simulation.h"
+
+#include <numeric>
+
+namespace sinew {
+
+struct Simulation::ForceSlot {
+  std::string name;
+  std::unique_ptr<Force> force;
+  ParamTable params;
+  long evaluations = 0;
+};
+
+Simulation::Simulation(const Registry& registry, int threads) : registry_(registry), executor_(threads) {}
+Simulation::~Simulation() = default;
+
+Index Simulation::addStructure(StructureSpec spec) {
+  if (initialized_) throw std::logic_error("addStructure after initialize");
+  if (!forces_.empty() || integrator_) throw std::logic_error("add structures before forces");
+  if (spec.levels.levelCount() == 0) throw InputError("structure '" + spec.name + "' has no mesh");
+  const Index n = spec.levels.levels[0].vertexCount();
+  if (static_cast<Index>(spec.initialPositions.size()) != n)
+    throw InputError("structure '" + spec.name + "': initial positions do not match its mesh");
+  if (!spec.referencePositions.empty() && static_cast<Index>(spec.referencePositions.size()) != n)
+    throw InputError("structure '" + spec.name + "': reference shape does not match its mesh topology");
+  structures_.push_back(std::move(spec));
+  scene_.attractionPoints().resize(structures_.size());
+  return static_cast<Index>(structures_.size()) - 1;
+}
+
+ParamTable& Simulation::addForce(std::string_view name) {
+  const ForceDescriptor& d = registry_.force(name);
+  for (const auto& s : forces_)
+    if (s.get()->name == name) throw InputError("force '" + std::string(name) + "' added twice");
+  auto s = std::make_unique<ForceSlot>();
+  s->name = d.name;
+  s->force = d.create();
+  s->params = ParamTable(d.params, structureCount());
+  forces_.push_back(std::move(s));
+  return forces_.back()->params;
+}
+
+ParamTable& Simulation::setIntegrator(std::string_view name) {
+  const IntegratorDescriptor& d = registry_.integrator(name);
+  integrator_ = d.create();
+  integratorParams_ = ParamTable(d.params, 1);
+  return integratorParams_;
+}
+
+Simulation::ForceSlot& Simulation::slot(std::string_view name) {
+  for (auto& s : forces_)
+    if (s->name == name) return *s;
+  throw InputError("force '" + std::string(name) + "' is not part of the scene");
+}
+
+const Simulation::ForceSlot& Simulation::slot(std::string_view name) const {
+  return const_cast<Simulation*>(this)->slot(name);
+}
+
+ParamTable& Simulation::forceParams(std::string_view name) { return slot(name).params; }
+long Simulation::evaluations(std::string_view name) const { return slot(name).evaluations; }
+
+int Simulation::levelCount() const {
+  int n = 1 << 30;
+  for (const auto& s : structures_) n = std::min(n, s.levels.levelCount());
+  return structures_.empty() ? 0 : n;
+}
+
+void Simulation::initialize() {
+  if (!integrator_) throw InputError("the scene names no integrator");
+  if (structures_.empty()) throw InputError("the scene has no structure");
+  std::vector<const SimplexTopology*> topologies;
+  for (const auto& s : structures_) topologies.push_back(&s.levels.levels[0]);
+  store_ = MeshStore(topologies);
+  store_.setExecutor(&executor_);
+
+  std::vector<Requirements> reqs;
+  for (const auto& s : forces_) reqs.push_back(s->force->requirements());
+  reqs.push_back(integrator_->requirements());
+  store_.require(Attribute::Force);
+  for (size_t f = 0; f < reqs.size(); ++f) {
+    for (Attribute a : reqs[f].attributes) store_.require(a);
+    if (!reqs[f].referenceShape) continue;
+    store_.require(Attribute::ReferencePosition);
+    for (Index m = 0; m < structureCount(); ++m)
+      if (structures_[m].referencePositions.empty() && forces_[f]->params.get(m, 0) > 0.0)
+        throw InputError("structure '" + structures_[m].name + "' has no reference shape, which force '" +
+                         forces_[f]->name + "' needs");
+  }
+
+  auto x = store_.positionsForWrite();
+  const bool withReference = store_.has(Attribute::ReferencePosition);
+  std::span<Vec3> ref = withReference ? store_.referencePositionsForWrite() : std::span<Vec3>{};
+  for (Index m = 0; m < structureCount(); ++m) {
+    const MeshRange& r = store_.range(m);
+    std::copy(structures_[m].initialPositions.begin(), structures_[m].initialPositions.end(),
+              x.begin() + r.vertexBegin);
+    if (!withReference) continue;
+    // A structure without a reference (force inactive there) keeps its initial shape as one.
+    const auto& src = structures_[m].referencePositions.empty() ? structures_[m].initialPositions
+                                                                : structures_[m].referencePositions;
+    std::copy(src.begin(), src.end(), ref.begin() + r.vertexBegin);
+  }
+  level_ = 0;
+  iteration_ = 0;
+  applyDensities();
+  IntegratorContext ictx{store_, integratorParams_, executor_};
+  integrator_->start(ictx);
+  prepareForces();
+  initialized_ = true;
+}
+
+void Simulation::applyDensities() {
+  if (!store_.has(Attribute::Area)) return;
+  // Density 0 means "auto": the mean vertex mass of the structure is 1 at every level, so one time
+  // step suits every level (a level has 4x the vertices, each with about 1/4 of the area).
+  for (Index m = 0; m < structureCount(); ++m) {
+    if (structures_[m].density > 0.0f) {
+      store_.setDensity(m, structures_[m].density);
+      continue;
+    }
+    const auto areas = store_.areas();
+    const MeshRange& r = store_.range(m);
+    const double total = std::accumulate(areas.begin() + r.vertexBegin, areas.begin() + r.vertexEnd, 0.0);
+    store_.setDensity(m, total > 0.0 ? static_cast<float>(r.vertexCount() / total) : 1.0f);
+  }
+}
+
+void Simulation::prepareForces() {
+  for (auto& s : forces_) {
+    ForceContext ctx{store_, s->params, scene_, executor_};
+    s->force->prepare(ctx);
+  }
+}
+
+void Simulation::step() {
+  if (!initialized_) throw std::logic_error("Simulation::step before initialize");
+  store_.refresh();
+  auto f = store_.forces();
+  executor_.forEach(store_.vertexCount(), [&](Index v) { f[v] = Vec3::Zero(); }, 4096);
+  for (auto& s : forces_) {
+    if (!s->params.anyPositive(0)) continue;
+    ForceContext ctx{store_, s->params, scene_, executor_};
+    s->force->accumulate(ctx, f);
+    ++s->evaluations;
+  }
+  IntegratorContext ictx{store_, integratorParams_, executor_};
+  integrator_->step(ictx);
+  ++iteration_;
+}
+
+void Simulation::run(int iterations) {
+  for (int i = 0; i < iterations; ++i) step();
+}
+
+bool Simulation::advanceLevel() {
+  if (level_ + 1 >= levelCount()) return false;
+  std::vector<const SimplexTopology*> topologies;
+  std::vector<const Prolongation*> prolongations;
+  for (const auto& s : structures_) {
+    topologies.push_back(&s.levels.levels[level_ + 1]);
+    prolongations.push_back(&s.levels.prolongations[level_]);
+  }
+  store_ = store_.refined(topologies, prolongations);
+  ++level_;
+  applyDensities();
+  prepareForces();
+  return true;
+}
+
+}  // namespace sinew

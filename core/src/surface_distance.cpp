@@ -1,0 +1,175 @@
+#include "sinew/core/surface_distance.h"
+
+#include <Eigen/Geometry>
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+
+namespace sinew {
+
+namespace {
+
+// Closest point on triangle (Ericson, Real-Time Collision Detection, 5.1.5).
+Vec3 closestOnTriangle(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c) {
+  const Vec3 ab = b - a, ac = c - a, ap = p - a;
+  const float d1 = ab.dot(ap), d2 = ac.dot(ap);
+  if (d1 <= 0 && d2 <= 0) return a;
+  const Vec3 bp = p - b;
+  const float d3 = ab.dot(bp), d4 = ac.dot(bp);
+  if (d3 >= 0 && d4 <= d3) return b;
+  const float vc = d1 * d4 - d3 * d2;
+  if (vc <= 0 && d1 >= 0 && d3 <= 0) return a + ab * (d1 / (d1 - d3));
+  const Vec3 cp = p - c;
+  const float d5 = ab.dot(cp), d6 = ac.dot(cp);
+  if (d6 >= 0 && d5 <= d6) return c;
+  const float vb = d5 * d2 - d1 * d6;
+  if (vb <= 0 && d2 >= 0 && d6 <= 0) return a + ac * (d2 / (d2 - d6));
+  const float va = d3 * d6 - d5 * d4;
+  if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0) return b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6)));
+  const float denom = 1.0f / (va + vb + vc);
+  return a + ab * (vb * denom) + ac * (vc * denom);
+}
+
+using Box = Eigen::AlignedBox3f;
+
+}  // namespace
+
+struct SurfaceDistanceQuery::Impl {
+  struct Node {
+    Box box;
+    int left = -1, right = -1;  // children, or -1 for a leaf
+    int begin = 0, end = 0;     // triangle range in order
+  };
+  std::vector<Vec3> a, b, c;
+  std::vector<int> order;
+  std::vector<Node> nodes;
+
+  int build(int begin, int end) {
+    Node n;
+    n.begin = begin;
+    n.end = end;
+    Box centroids;
+    for (int i = begin; i < end; ++i) {
+      const int t = order[i];
+      n.box.extend(a[t]).extend(b[t]).extend(c[t]);
+      centroids.extend((a[t] + b[t] + c[t]) / 3.0f);
+    }
+    const int id = static_cast<int>(nodes.size());
+    nodes.push_back(n);
+    if (end - begin <= 8) return id;
+    int axis;
+    centroids.sizes().maxCoeff(&axis);
+    const int mid = (begin + end) / 2;
+    std::nth_element(order.begin() + begin, order.begin() + mid, order.begin() + end, [&](int s, int t) {
+      return (a[s] + b[s] + c[s])[axis] < (a[t] + b[t] + c[t])[axis];
+    });
+    const int l = build(begin, mid);
+    const int r = build(mid, end);
+    nodes[id].left = l;
+    nodes[id].right = r;
+    return id;
+  }
+
+  float query(const Vec3& p) const {
+    float best2 = std::numeric_limits<float>::max();
+    int stack[128];
+    int top = 0;
+    stack[top++] = 0;
+    while (top > 0) {
+      const Node& n = nodes[stack[--top]];
+      if (n.box.squaredExteriorDistance(p) >= best2) continue;
+      if (n.left < 0) {
+        for (int i = n.begin; i < n.end; ++i) {
+          const int t = order[i];
+          best2 = std::min(best2, (closestOnTriangle(p, a[t], b[t], c[t]) - p).squaredNorm());
+        }
+        continue;
+      }
+      const float dl = nodes[n.left].box.squaredExteriorDistance(p);
+      const float dr = nodes[n.right].box.squaredExteriorDistance(p);
+      // Visit the nearer child first (pushed last).
+      if (dl < dr) {
+        stack[top++] = n.right;
+        stack[top++] = n.left;
+      } else {
+        stack[top++] = n.left;
+        stack[top++] = n.right;
+      }
+    }
+    return std::sqrt(best2);
+  }
+};
+
+SurfaceDistanceQuery::SurfaceDistanceQuery(const TriangleMesh& mesh) : impl_(std::make_unique<Impl>()) {
+  if (mesh.triangles.empty()) throw InputError("surface distance: the mesh has no triangles");
+  for (const auto& t : mesh.triangles) {
+    impl_->a.push_back(mesh.points[t[0]]);
+    impl_->b.push_back(mesh.points[t[1]]);
+    impl_->c.push_back(mesh.points[t[2]]);
+  }
+  impl_->order.resize(mesh.triangles.size());
+  std::iota(impl_->order.begin(), impl_->order.end(), 0);
+  impl_->build(0, static_cast<int>(mesh.triangles.size()));
+}
+
+SurfaceDistanceQuery::~SurfaceDistanceQuery() = default;
+SurfaceDistanceQuery::SurfaceDistanceQuery(SurfaceDistanceQuery&&) noexcept = default;
+
+float SurfaceDistanceQuery::distance(const Vec3& p) const { return impl_->query(p); }
+
+std::vector<SurfaceSample> sampleSurface(const TriangleMesh& mesh, float spacing) {
+  std::vector<SurfaceSample> out;
+  for (const auto& t : mesh.triangles) {
+    const Vec3 &a = mesh.points[t[0]], &b = mesh.points[t[1]], &c = mesh.points[t[2]];
+    const float longest = std::max({(b - a).norm(), (c - b).norm(), (a - c).norm()});
+    const int n = std::max(1, static_cast<int>(std::ceil(longest / spacing)));
+    const float subArea = 0.5f * (b - a).cross(c - a).norm() / static_cast<float>(n * n);
+    const Vec3 u = (b - a) / static_cast<float>(n), v = (c - a) / static_cast<float>(n);
+    for (int i = 0; i < n; ++i)
+      for (int j = 0; i + j < n; ++j) {
+        const Vec3 o = a + static_cast<float>(i) * u + static_cast<float>(j) * v;
+        out.push_back({o + (u + v) / 3.0f, subArea});  // upright sub-triangle
+        if (i + j + 1 < n) out.push_back({o + 2.0f * (u + v) / 3.0f, subArea});  // inverted one
+      }
+  }
+  return out;
+}
+
+SurfaceDistanceStats surfaceDistance(const TriangleMesh& a, const TriangleMesh& b, float spacing) {
+  const SurfaceDistanceQuery qa(a), qb(b);
+  struct Weighted {
+    float d, w;
+  };
+  std::vector<Weighted> all;
+  double sumAB = 0, areaA = 0, sumBA = 0, areaB = 0;
+  for (const SurfaceSample& s : sampleSurface(a, spacing)) {
+    const float d = qb.distance(s.point);
+    sumAB += static_cast<double>(d) * s.area;
+    areaA += s.area;
+    all.push_back({d, s.area});
+  }
+  for (const SurfaceSample& s : sampleSurface(b, spacing)) {
+    const float d = qa.distance(s.point);
+    sumBA += static_cast<double>(d) * s.area;
+    areaB += s.area;
+    all.push_back({d, s.area});
+  }
+  SurfaceDistanceStats st;
+  st.meanAtoB = areaA > 0 ? sumAB / areaA : 0.0;
+  st.meanBtoA = areaB > 0 ? sumBA / areaB : 0.0;
+  st.assd = (sumAB + sumBA) / std::max(areaA + areaB, 1e-30);
+  std::sort(all.begin(), all.end(), [](const Weighted& x, const Weighted& y) { return x.d < y.d; });
+  const double target = 0.95 * (areaA + areaB);
+  double acc = 0;
+  for (const Weighted& w : all) {
+    acc += w.w;
+    if (acc >= target) {
+      st.hd95 = w.d;
+      break;
+    }
+  }
+  return st;
+}
+
+}  // namespace sinew

@@ -1,0 +1,111 @@
+// Intensity-profile force (paper 000 section 3.2.2, paper 001): each vertex has a reference profile
+// sampled along the reference shape's normal in a training image; the search slides a window of
+// the same length along the current normal in the target image and pulls the vertex to the offset
+// with the highest normalised cross-correlation (NCC) against its reference.
+#include "sinew/core/registry.h"
+
+#include <cmath>
+#include <string>
+#include <vector>
+
+namespace sinew {
+
+namespace {
+const std::string kChannel = "intensity_profile.reference";
+
+class IntensityProfileForce final : public Force {
+public:
+  Requirements requirements() const override {
+    return {{Attribute::Normal, Attribute::ReferenceNormal}, true};
+  }
+
+  // Trains the reference profiles from the training image and the reference shape (once per level).
+  void prepare(ForceContext& ctx) override {
+    readLayout(ctx.params);
+    MeshStore& s = ctx.store;
+    const Image3D& training = ctx.scene.trainingImage();
+    const auto ref = s.referencePositions();
+    const auto refNormal = s.referenceNormals();
+    auto profiles = s.requireChannel(kChannel, length_, MemoryCategory::ImageDerived);
+    ctx.executor.forEach(s.vertexCount(), [&](Index v) {
+      float* prof = &profiles[static_cast<size_t>(v) * length_];
+      for (int k = 0; k < length_; ++k) prof[k] = training.sample(ref[v] + offset(k) * refNormal[v]);
+      normalise(prof);
+    });
+  }
+
+  void accumulate(ForceContext& ctx, std::span<Vec3> forces) override {
+    MeshStore& s = ctx.store;
+    const ParamTable& p = ctx.params;
+    const int kDepth = p.indexOf("search_depth");
+    const Image3D& image = ctx.scene.targetImage();
+    const auto x = s.positions();
+    const auto normal = s.normals();
+    const auto meshOf = s.meshOfVertex();
+    const auto profiles = s.channel(kChannel);
+    forActiveVertices(ctx, [&](Index v, float alpha) {
+      const float* ref = &profiles[static_cast<size_t>(v) * length_];
+      const int reach = static_cast<int>(std::floor(p.getf(meshOf[v], kDepth) / spacing_));
+      thread_local std::vector<float> line;
+      line.resize(length_ + 2 * reach);
+      for (int q = 0; q < static_cast<int>(line.size()); ++q)
+        line[q] = image.sample(x[v] + (offset(q) - reach * spacing_) * normal[v]);
+      float best = -2.0f;
+      int bestJ = 0;
+      for (int j = -reach; j <= reach; ++j) {
+        const float* w = &line[j + reach];
+        float sum = 0.0f, sum2 = 0.0f, dot = 0.0f;
+        for (int k = 0; k < length_; ++k) {
+          sum += w[k];
+          sum2 += w[k] * w[k];
+          dot += w[k] * ref[k];
+        }
+        // ref has zero mean and unit norm, so NCC = dot / ||w - mean(w)||. A flat reference (all
+        // zeros) scores 0 everywhere and the tie rule keeps the vertex in place.
+        const float var = sum2 - sum * sum / static_cast<float>(length_);
+        const float ncc = var > 1e-12f ? dot / std::sqrt(var) : -1.0f;
+        if (ncc > best || (ncc == best && std::abs(j) < std::abs(bestJ))) {
+          best = ncc;
+          bestJ = j;
+        }
+      }
+      forces[v] += alpha * (static_cast<float>(bestJ) * spacing_) * normal[v];
+    });
+  }
+
+private:
+  void readLayout(const ParamTable& p) {
+    inside_ = static_cast<int>(p.get(0, p.indexOf("inside_samples")));
+    outside_ = static_cast<int>(p.get(0, p.indexOf("outside_samples")));
+    spacing_ = p.getf(0, p.indexOf("spacing"));
+    length_ = inside_ + outside_;
+  }
+  // Sample k sits (k - inside + 0.5) spacings along the normal: inside samples are negative.
+  float offset(int k) const { return (static_cast<float>(k - inside_) + 0.5f) * spacing_; }
+  void normalise(float* prof) const {
+    float mean = 0.0f;
+    for (int k = 0; k < length_; ++k) mean += prof[k];
+    mean /= static_cast<float>(length_);
+    float norm2 = 0.0f;
+    for (int k = 0; k < length_; ++k) norm2 += (prof[k] - mean) * (prof[k] - mean);
+    const float inv = norm2 > 1e-12f ? 1.0f / std::sqrt(norm2) : 0.0f;
+    for (int k = 0; k < length_; ++k) prof[k] = (prof[k] - mean) * inv;
+  }
+
+  int inside_ = 25, outside_ = 5, length_ = 30;
+  float spacing_ = 0.5f;
+};
+}  // namespace
+
+void registerIntensityProfileForce(Registry& registry) {
+  registry.addForce(
+      {"intensity_profile",
+       "toward the offset along the normal whose profile best matches (NCC) the trained one",
+       {{"inside_samples", 25, 1, 200, "", "profile samples inside the surface", false},
+        {"outside_samples", 5, 1, 200, "", "profile samples outside the surface", false},
+        {"spacing", 0.5, 0.05, 10.0, "mm", "distance between profile samples", false},
+        {"search_depth", 5.0, 0.0, 50.0, "mm", "how far to search on each side of the surface"}},
+       [] { return std::make_unique<IntensityProfileForce>(); }});
+}
+
+}  // namespace sinew

@@ -1,0 +1,13 @@
+# Fails when a file under core/ includes a Qt or VTK header.
+file(GLOB_RECURSE files "${DIR}/*.h" "${DIR}/*.cpp" "${DIR}/*.txt")
+set(bad "")
+foreach(f IN LISTS files)
+  file(STRINGS "${f}" lines REGEX "#include *[<\"](Q[A-Za-z]+|vtk[A-Za-z]*)(\\.h)?[>\"]|Qt[56]::|VTK::")
+  if(lines)
+    list(APPEND bad "${f}: ${lines}")
+  endif()
+endforeach()
+if(bad)
+  message(FATAL_ERROR "core/ depends on Qt or VTK:\n${bad}")
+endif()
+message(STATUS "core/ has no Qt or VTK dependency (${CMAKE_CURRENT_LIST_FILE})")

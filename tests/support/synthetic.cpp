@@ -1,0 +1,93 @@
+#include "synthetic.h"
+
+#include <Eigen/Dense>
+
+#include <random>
+
+namespace sinew::testing {
+
+const Registry& builtinRegistry() {
+  static const Registry registry = [] {
+    Registry r;
+    registerBuiltinPlugins(r);
+    return r;
+  }();
+  return registry;
+}
+
+std::vector<Vec3> withNoise(std::vector<Vec3> points, float sigma, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::normal_distribution<float> n(0.0f, sigma);
+  for (Vec3& p : points) p += Vec3(n(rng), n(rng), n(rng));
+  return points;
+}
+
+StructureSpec sphereStructure(const std::string& name, int level, float radius, const Vec3& centre,
+                              int levels) {
+  const SimplexMesh m = SimplexMesh::sphere(level, radius, centre);
+  StructureSpec s;
+  s.name = name;
+  s.levels = LevelHierarchy::build(m.topology, levels);
+  s.initialPositions = m.positions;
+  return s;
+}
+
+Vec3 onEllipsoid(const Vec3& unitDirection, const Vec3& centre, const Vec3& radii) {
+  return centre + unitDirection.cwiseProduct(radii);
+}
+
+TriangleMesh ellipsoidSurface(const Vec3& centre, const Vec3& radii, int level) {
+  TriangleMesh m = icosphere(level, 1.0f);
+  for (Vec3& p : m.points) p = onEllipsoid(p, centre, radii);
+  return m;
+}
+
+Image3D ellipsoidImage(const EllipsoidImageSpec& spec) {
+  ImageGeometry g;
+  g.size = {spec.size, spec.size, spec.size};
+  g.spacing = Eigen::Vector3d::Constant(spec.spacing);
+  Image3D image(g);
+  std::mt19937 rng(spec.seed);
+  std::normal_distribution<float> noise(0.0f, spec.noiseSigma);
+  const float extent = spec.size * spec.spacing;
+  for (int k = 0; k < spec.size; ++k)
+    for (int j = 0; j < spec.size; ++j)
+      for (int i = 0; i < spec.size; ++i) {
+        const Vec3 p = image.indexToWorld(Vec3(i, j, k));
+        // Approximate signed distance: scaled implicit function times the mean radius.
+        const Vec3 q = (p - spec.centre).cwiseQuotient(spec.radii);
+        const float meanRadius = spec.radii.mean();
+        const float sd = (q.norm() - 1.0f) * meanRadius;
+        const float inside = 1.0f / (1.0f + std::exp(sd / (0.25f * spec.edgeWidth)));
+        const float bias = 1.0f + spec.biasAmplitude * (2.0f * p.x() / extent - 1.0f);
+        image.at(i, j, k) = bias * (spec.outside + (spec.inside - spec.outside) * inside) + noise(rng);
+      }
+  return image;
+}
+
+SphereFit fitSphere(std::span<const Vec3> points) {
+  // |p|^2 = 2 c.p + (r^2 - |c|^2): linear least squares in (c, k).
+  Eigen::MatrixXd A(points.size(), 4);
+  Eigen::VectorXd b(points.size());
+  for (size_t i = 0; i < points.size(); ++i) {
+    const Eigen::Vector3d p = points[i].cast<double>();
+    A.row(i) << 2 * p.x(), 2 * p.y(), 2 * p.z(), 1.0;
+    b[i] = p.squaredNorm();
+  }
+  const Eigen::Vector4d s = A.colPivHouseholderQr().solve(b);
+  SphereFit fit;
+  const Eigen::Vector3d c = s.head<3>();
+  fit.centre = c.cast<float>();
+  fit.radius = std::sqrt(s[3] + c.squaredNorm());
+  double dev = 0;
+  for (const Vec3& p : points) dev += std::abs((p.cast<double>() - c).norm() - fit.radius);
+  fit.meanDeviation = dev / static_cast<double>(points.size());
+  return fit;
+}
+
+TriangleMesh tessellationOf(MeshStore& store, Index mesh) {
+  const auto x = store.mesh(store.positions(), mesh);
+  return tessellate(store.topologyOf(mesh), std::vector<Vec3>(x.begin(), x.end()));
+}
+
+}  // namespace sinew::testing

@@ -1,0 +1,52 @@
+// Synthetic shapes and images with known answers, shared by the test suites and the benchmark.
+#pragma once
+
+#include "builtin_plugins.h"
+#include "sinew/core/image.h"
+#include "sinew/core/simulation.h"
+#include "sinew/core/surface_distance.h"
+
+#include <vector>
+
+namespace sinew::testing {
+
+const Registry& builtinRegistry();
+
+// Adds independent Gaussian noise (sigma per axis) with a fixed seed.
+std::vector<Vec3> withNoise(std::vector<Vec3> points, float sigma, unsigned seed);
+
+// A structure of `levels` levels whose coarsest mesh is the dual of an icosphere of `level`.
+StructureSpec sphereStructure(const std::string& name, int level, float radius, const Vec3& centre,
+                              int levels = 1);
+
+// Maps a point of the unit sphere around `centre` onto the ellipsoid with these radii.
+Vec3 onEllipsoid(const Vec3& unitDirection, const Vec3& centre, const Vec3& radii);
+// Dense triangle surface of the ellipsoid (icosphere of `level` mapped onto it).
+TriangleMesh ellipsoidSurface(const Vec3& centre, const Vec3& radii, int level = 5);
+
+struct EllipsoidImageSpec {
+  int size = 64;
+  float spacing = 1.0f;
+  Vec3 centre{32.0f, 32.0f, 32.0f};
+  Vec3 radii{20.0f, 15.0f, 12.0f};
+  float inside = 100.0f;
+  float outside = 30.0f;
+  float edgeWidth = 1.0f;   // mm, width of the smooth step across the boundary
+  float biasAmplitude = 0.2f;  // multiplicative smooth bias, 1 +- amplitude across the image
+  float noiseSigma = 8.0f;
+  unsigned seed = 1;
+};
+Image3D ellipsoidImage(const EllipsoidImageSpec& spec);
+
+// Mean distance of the points to their least-squares sphere, and that sphere's radius.
+struct SphereFit {
+  Vec3 centre;
+  double radius = 0.0;
+  double meanDeviation = 0.0;
+};
+SphereFit fitSphere(std::span<const Vec3> points);
+
+// Fig. 1b tessellation of one structure of the store.
+TriangleMesh tessellationOf(MeshStore& store, Index mesh);
+
+}  // namespace sinew::testing
