@@ -1,5 +1,6 @@
 #include "sinew/core/registry.h"
 
+#include <algorithm>
 #include <sstream>
 
 namespace sinew {
@@ -38,6 +39,46 @@ const ForceDescriptor& Registry::force(std::string_view name) const { return fin
 
 const IntegratorDescriptor& Registry::integrator(std::string_view name) const {
   return find(integrators_, name, "integrator");
+}
+
+void Registry::addImageIO(ImageIODescriptor d) {
+  checkUnique(imageIOs_, d.name);
+  imageIOs_.push_back(std::move(d));
+}
+
+void Registry::addMeshIO(MeshIODescriptor d) {
+  checkUnique(meshIOs_, d.name);
+  meshIOs_.push_back(std::move(d));
+}
+
+namespace {
+template <class D>
+const D& byExtension(const std::vector<D>& list, const std::filesystem::path& path, const char* what) {
+  const std::string ext = ioExtension(path);
+  for (const D& d : list)
+    if (std::find(d.extensions.begin(), d.extensions.end(), ext) != d.extensions.end()) return d;
+  std::ostringstream m;
+  m << path.string() << ": no " << what << " plugin reads '" << (ext.empty() ? "(no extension)" : ext)
+    << "' files (supported:";
+  for (const D& d : list)
+    for (const auto& e : d.extensions) m << ' ' << (e == "/" ? "DICOM-directory" : e);
+  m << ')';
+  throw InputError(m.str());
+}
+}  // namespace
+
+const ImageIODescriptor& Registry::imageIOFor(const std::filesystem::path& path) const {
+  return byExtension(imageIOs_, path, "image IO");
+}
+
+const MeshIODescriptor& Registry::meshIOFor(const std::filesystem::path& path) const {
+  return byExtension(meshIOs_, path, "mesh IO");
+}
+
+const MeshIODescriptor& Registry::labelSurfaceBuilder() const {
+  for (const auto& d : meshIOs_)
+    if (d.labelSurface) return d;
+  throw InputError("no loaded mesh IO plugin can build a surface from a label map");
 }
 
 }  // namespace sinew

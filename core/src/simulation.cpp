@@ -163,6 +163,15 @@ bool Simulation::advanceLevel() {
   }
   store_ = store_.refined(topologies, prolongations);
   ++level_;
+  if (store_.has(Attribute::ReferencePosition)) {
+    std::span<Vec3> ref;
+    for (Index m = 0; m < structureCount(); ++m) {
+      const auto& finer = structures_[m].finerReferences;
+      if (static_cast<int>(finer.size()) < level_ || finer[level_ - 1].empty()) continue;
+      if (ref.empty()) ref = store_.referencePositionsForWrite();
+      std::copy(finer[level_ - 1].begin(), finer[level_ - 1].end(), ref.begin() + store_.range(m).vertexBegin);
+    }
+  }
   applyDensities();
   prepareForces();
   return true;

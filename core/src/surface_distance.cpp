@@ -1,5 +1,7 @@
 #include "sinew/core/surface_distance.h"
 
+#include "sinew/core/executor.h"
+
 #include <Eigen/Geometry>
 
 #include <algorithm>
@@ -71,8 +73,9 @@ struct SurfaceDistanceQuery::Impl {
     return id;
   }
 
-  float query(const Vec3& p) const {
+  Vec3 query(const Vec3& p) const {
     float best2 = std::numeric_limits<float>::max();
+    Vec3 bestPoint = p;
     int stack[128];
     int top = 0;
     stack[top++] = 0;
@@ -82,7 +85,12 @@ struct SurfaceDistanceQuery::Impl {
       if (n.left < 0) {
         for (int i = n.begin; i < n.end; ++i) {
           const int t = order[i];
-          best2 = std::min(best2, (closestOnTriangle(p, a[t], b[t], c[t]) - p).squaredNorm());
+          const Vec3 q = closestOnTriangle(p, a[t], b[t], c[t]);
+          const float d2 = (q - p).squaredNorm();
+          if (d2 < best2) {
+            best2 = d2;
+            bestPoint = q;
+          }
         }
         continue;
       }
@@ -97,7 +105,7 @@ struct SurfaceDistanceQuery::Impl {
         stack[top++] = n.right;
       }
     }
-    return std::sqrt(best2);
+    return bestPoint;
   }
 };
 
@@ -116,7 +124,8 @@ SurfaceDistanceQuery::SurfaceDistanceQuery(const TriangleMesh& mesh) : impl_(std
 SurfaceDistanceQuery::~SurfaceDistanceQuery() = default;
 SurfaceDistanceQuery::SurfaceDistanceQuery(SurfaceDistanceQuery&&) noexcept = default;
 
-float SurfaceDistanceQuery::distance(const Vec3& p) const { return impl_->query(p); }
+float SurfaceDistanceQuery::distance(const Vec3& p) const { return (impl_->query(p) - p).norm(); }
+Vec3 SurfaceDistanceQuery::closestPoint(const Vec3& p) const { return impl_->query(p); }
 
 std::vector<SurfaceSample> sampleSurface(const TriangleMesh& mesh, float spacing) {
   std::vector<SurfaceSample> out;
@@ -136,25 +145,12 @@ std::vector<SurfaceSample> sampleSurface(const TriangleMesh& mesh, float spacing
   return out;
 }
 
-SurfaceDistanceStats surfaceDistance(const TriangleMesh& a, const TriangleMesh& b, float spacing) {
-  const SurfaceDistanceQuery qa(a), qb(b);
-  struct Weighted {
-    float d, w;
-  };
-  std::vector<Weighted> all;
-  double sumAB = 0, areaA = 0, sumBA = 0, areaB = 0;
-  for (const SurfaceSample& s : sampleSurface(a, spacing)) {
-    const float d = qb.distance(s.point);
-    sumAB += static_cast<double>(d) * s.area;
-    areaA += s.area;
-    all.push_back({d, s.area});
-  }
-  for (const SurfaceSample& s : sampleSurface(b, spacing)) {
-    const float d = qa.distance(s.point);
-    sumBA += static_cast<double>(d) * s.area;
-    areaB += s.area;
-    all.push_back({d, s.area});
-  }
+namespace {
+struct Weighted {
+  float d, w;
+};
+
+SurfaceDistanceStats combine(std::vector<Weighted>& all, double sumAB, double areaA, double sumBA, double areaB) {
   SurfaceDistanceStats st;
   st.meanAtoB = areaA > 0 ? sumAB / areaA : 0.0;
   st.meanBtoA = areaB > 0 ? sumBA / areaB : 0.0;
@@ -170,6 +166,39 @@ SurfaceDistanceStats surfaceDistance(const TriangleMesh& a, const TriangleMesh& 
     }
   }
   return st;
+}
+
+// Distances from samples of one surface to another, accumulated with their areas.
+// Distances are computed in parallel and summed in order, so the result does not depend on threads.
+void accumulate(const std::vector<SurfaceSample>& samples, const SurfaceDistanceQuery& to,
+                std::vector<Weighted>& all, double& sum, double& area) {
+  static const Executor executor;
+  const size_t first = all.size();
+  all.resize(first + samples.size());
+  executor.forEach(static_cast<Index>(samples.size()), [&](Index i) {
+    all[first + i] = {to.distance(samples[i].point), samples[i].area};
+  });
+  for (size_t i = first; i < all.size(); ++i) {
+    sum += static_cast<double>(all[i].d) * all[i].w;
+    area += all[i].w;
+  }
+}
+}  // namespace
+
+SurfaceDistanceStats surfaceDistance(const TriangleMesh& a, const TriangleMesh& b, float spacing) {
+  return ReferenceSurface(b, spacing).compare(a);
+}
+
+ReferenceSurface::ReferenceSurface(TriangleMesh surface, float spacing)
+    : surface_(std::move(surface)), spacing_(spacing), query_(surface_), samples_(sampleSurface(surface_, spacing)) {}
+
+SurfaceDistanceStats ReferenceSurface::compare(const TriangleMesh& other) const {
+  const SurfaceDistanceQuery otherQuery(other);
+  std::vector<Weighted> all;
+  double sumAB = 0, areaA = 0, sumBA = 0, areaB = 0;
+  accumulate(sampleSurface(other, spacing_), query_, all, sumAB, areaA);
+  accumulate(samples_, otherQuery, all, sumBA, areaB);
+  return combine(all, sumAB, areaA, sumBA, areaB);
 }
 
 }  // namespace sinew

@@ -7,6 +7,8 @@ void registerGradientForce(Registry&);
 void registerIntensityProfileForce(Registry&);
 void registerAttractionPointsForce(Registry&);
 void registerDampedVerlet(Registry&);
+void registerItkImageIO(Registry&);
+void registerVtkMeshIO(Registry&);
 
 void registerBuiltinPlugins(Registry& registry) {
   registerSmoothingForce(registry);
@@ -15,5 +17,7 @@ void registerBuiltinPlugins(Registry& registry) {
   registerIntensityProfileForce(registry);
   registerAttractionPointsForce(registry);
   registerDampedVerlet(registry);
+  registerItkImageIO(registry);
+  registerVtkMeshIO(registry);
 }
 }  // namespace sinew

@@ -4,6 +4,7 @@
 #pragma once
 
 #include "sinew/core/force.h"
+#include "sinew/core/io.h"
 
 #include <functional>
 #include <memory>
@@ -37,9 +38,21 @@ public:
   const std::vector<ForceDescriptor>& forces() const { return forces_; }
   const std::vector<IntegratorDescriptor>& integrators() const { return integrators_; }
 
+  void addImageIO(ImageIODescriptor d);
+  void addMeshIO(MeshIODescriptor d);
+  // The plugin that handles this path's extension; throws InputError naming the file otherwise.
+  const ImageIODescriptor& imageIOFor(const std::filesystem::path& path) const;
+  const MeshIODescriptor& meshIOFor(const std::filesystem::path& path) const;
+  // A mesh IO plugin that can build surfaces from labels; throws InputError when none is loaded.
+  const MeshIODescriptor& labelSurfaceBuilder() const;
+  const std::vector<ImageIODescriptor>& imageIOs() const { return imageIOs_; }
+  const std::vector<MeshIODescriptor>& meshIOs() const { return meshIOs_; }
+
 private:
   std::vector<ForceDescriptor> forces_;
   std::vector<IntegratorDescriptor> integrators_;
+  std::vector<ImageIODescriptor> imageIOs_;
+  std::vector<MeshIODescriptor> meshIOs_;
 };
 
 }  // namespace sinew

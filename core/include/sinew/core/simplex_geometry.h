@@ -78,26 +78,35 @@ SimplexParamsT<typename V::Scalar> simplexParams(const V& p, const V& p1, const 
 
 // Elevation L(r, d, phi) of Delingette's equation, written with sin/cos so it has no branch:
 // L = (r^2 - d^2) sin(phi) / (sqrt(r^2 cos^2(phi) + (r^2 - d^2) sin^2(phi)) + r cos(phi)).
-// Exact inverse of simplexParams whenever r^2 - d^2 + L^2 > 0 (the foot point is not far outside
-// the circumcircle), which holds on quasi-regular meshes.
+// tan(phi) = 2 L r / (r^2 - d^2 - L^2) has two roots in L with product -(r^2 - d^2). When the foot
+// point lies inside the circumcircle (r^2 - d^2 > 0) they have opposite signs and only the formula's
+// root matches phi. Outside it both have the sign of phi and the angle cannot tell them apart; the
+// root nearer `hint` (the vertex's current elevation) is taken, which keeps the shape prior
+// continuous and makes the parameters an exact inverse for any configuration when hint is the
+// original elevation.
 template <class S>
-S elevationFromAngle(S r, S d2, S phi) {
+S elevationFromAngle(S r, S d2, S phi, S hint) {
   const S k = r * r - d2;
   const S s = std::sin(phi), c = std::cos(phi);
   const S root = std::sqrt(std::fmax(r * r * c * c + k * s * s, S(0)));
   const S den = root + r * c;
-  if (std::fabs(den) < S(1e-12) * (r + S(1e-30))) return S(0);
-  return k * s / den;
+  S L = std::fabs(den) < S(1e-12) * (r + S(1e-30)) ? S(0) : k * s / den;
+  if (k < S(0) && L != S(0)) {
+    const S other = -k / L;
+    if (std::fabs(other - hint) < std::fabs(L - hint)) L = other;
+  }
+  return L;
 }
 
-// The position the parameters give over the neighbours' current triangle.
+// The position the parameters give over the neighbours' current triangle; `hint` is the vertex's
+// current elevation (see elevationFromAngle).
 template <class V>
 V positionFromParams(const V& p1, const V& p2, const V& p3, const NeighbourFrameT<typename V::Scalar>& f,
-                     const SimplexParamsT<typename V::Scalar>& s) {
+                     const SimplexParamsT<typename V::Scalar>& s, typename V::Scalar hint) {
   const V foot = s.eps1 * p1 + s.eps2 * p2 + s.eps3() * p3;
   if (!f.valid()) return foot;
   const typename V::Scalar d2 = (foot - f.circumCentre).squaredNorm();
-  return foot + elevationFromAngle(f.circumRadius, d2, s.phi) * f.normal;
+  return foot + elevationFromAngle(f.circumRadius, d2, s.phi, hint) * f.normal;
 }
 
 }  // namespace sinew

@@ -15,6 +15,9 @@ struct StructureSpec {
   LevelHierarchy levels;                 // level 0 = coarsest
   std::vector<Vec3> initialPositions;    // at level 0
   std::vector<Vec3> referencePositions;  // at level 0; empty when the structure has no reference
+  // Optional reference positions for finer levels (index l - 1 for level l); a level without one
+  // gets the coarser reference carried by the prolongation.
+  std::vector<std::vector<Vec3>> finerReferences;
   float density = 0.0f;                  // 0: chosen per level so the mean vertex mass is 1
 };
 

@@ -15,6 +15,7 @@ public:
   ~SurfaceDistanceQuery();
   SurfaceDistanceQuery(SurfaceDistanceQuery&&) noexcept;
   float distance(const Vec3& p) const;
+  Vec3 closestPoint(const Vec3& p) const;
 
 private:
   struct Impl;
@@ -38,5 +39,20 @@ struct SurfaceDistanceStats {
 };
 
 SurfaceDistanceStats surfaceDistance(const TriangleMesh& a, const TriangleMesh& b, float spacing);
+
+// A fixed surface (e.g. a ground truth) compared with many others: its query structure and
+// samples are built once.
+class ReferenceSurface {
+public:
+  ReferenceSurface(TriangleMesh surface, float spacing);
+  SurfaceDistanceStats compare(const TriangleMesh& other) const;
+  const TriangleMesh& surface() const { return surface_; }
+
+private:
+  TriangleMesh surface_;
+  float spacing_;
+  SurfaceDistanceQuery query_;
+  std::vector<SurfaceSample> samples_;
+};
 
 }  // namespace sinew

@@ -24,4 +24,10 @@ public:
   using std::runtime_error::runtime_error;
 };
 
+// Thrown when the simulation state becomes non-finite or explodes and cannot be recovered.
+class NumericalError : public std::runtime_error {
+public:
+  using std::runtime_error::runtime_error;
+};
+
 }  // namespace sinew

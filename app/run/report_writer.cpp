@@ -1,0 +1,89 @@
+#include "report_writer.h"
+
+#include <nlohmann/json.hpp>
+
+#include <cmath>
+#include <fstream>
+#include <iomanip>
+
+namespace sinew {
+
+namespace {
+using Json = nlohmann::ordered_json;
+
+Json number(double v) { return std::isnan(v) ? Json(nullptr) : Json(v); }
+
+void writeText(const std::filesystem::path& path, const std::string& text) {
+  AtomicOutput out(path);
+  {
+    std::ofstream f(out.tempPath());
+    f << text;
+    if (!f) throw InputError(path.string() + ": cannot write the file");
+  }
+  out.commit();
+}
+
+std::string csvNumber(double v) {
+  if (std::isnan(v)) return "";
+  std::ostringstream s;
+  s << std::setprecision(6) << v;
+  return s.str();
+}
+}  // namespace
+
+void writeReportJson(const std::filesystem::path& path, const RunReport& r, const SceneDesc& scene) {
+  Json j;
+  j["scene"] = scene.file.string();
+  j["backend"] = r.backend;
+  j["device"] = r.device;
+  j["threads"] = r.threads;
+  j["total_seconds"] = r.totalSeconds;
+  j["simulation_seconds"] = r.simulationSeconds;
+  j["level_start_seconds"] = r.levelStartSeconds;
+  Json structures = Json::array();
+  for (const StructureResult& s : r.structures) {
+    structures.push_back({{"name", s.name},
+                          {"label", s.label},
+                          {"vertices", s.vertices},
+                          {"assd_mm", {{"initial", number(s.assdInitialMm)}, {"final", number(s.assdFinalMm)}}},
+                          {"hd95_mm", number(s.hd95Mm)},
+                          {"dice", number(s.dice)},
+                          {"dice_initial", number(s.diceInitial)},
+                          {"seconds", s.seconds}});
+  }
+  j["structures"] = structures;
+  Json timeline = Json::array();
+  for (const TimelineSample& t : r.timeline) {
+    timeline.push_back({{"seconds", t.seconds},
+                        {"iteration", t.iteration},
+                        {"level", t.level},
+                        {"structure", r.structures.empty() ? Json(t.structure) : Json(r.structures[t.structure].name)},
+                        {"assd_mm", number(t.assdMm)},
+                        {"mean_displacement_mm", t.meanDisplacementMm},
+                        {"mean_force", t.meanForce}});
+  }
+  j["timeline"] = timeline;
+  writeText(path, j.dump(2) + "\n");
+}
+
+void writeReportCsv(const std::filesystem::path& path, const RunReport& r) {
+  std::ostringstream s;
+  s << "structure,label,vertices,assd_initial_mm,assd_final_mm,hd95_mm,dice_initial,dice,seconds\n";
+  for (const StructureResult& x : r.structures)
+    s << x.name << ',' << x.label << ',' << x.vertices << ',' << csvNumber(x.assdInitialMm) << ','
+      << csvNumber(x.assdFinalMm) << ',' << csvNumber(x.hd95Mm) << ',' << csvNumber(x.diceInitial) << ','
+      << csvNumber(x.dice) << ',' << csvNumber(x.seconds) << '\n';
+  writeText(path, s.str());
+}
+
+void writeTimelineCsv(const std::filesystem::path& path, const RunReport& r, const SceneDesc& scene) {
+  std::ostringstream s;
+  s << "seconds,iteration,level,structure,assd_mm,mean_displacement_mm,mean_force\n";
+  for (const TimelineSample& t : r.timeline)
+    s << csvNumber(t.seconds) << ',' << t.iteration << ',' << t.level << ',' << scene.structures[t.structure].name
+      << ',' << csvNumber(t.assdMm) << ',' << csvNumber(t.meanDisplacementMm) << ',' << csvNumber(t.meanForce)
+      << '\n';
+  writeText(path, s.str());
+}
+
+}  // namespace sinew

@@ -1,0 +1,18 @@
+// The machine-readable report of a run: report.json, report.csv (one row per structure) and
+// timeline.csv (error and motion against simulation time).
+#pragma once
+
+#include "sinew/core/scene_runner.h"
+
+#include <filesystem>
+
+namespace sinew {
+
+void writeReportJson(const std::filesystem::path& path, const RunReport& report, const SceneDesc& scene);
+void writeReportCsv(const std::filesystem::path& path, const RunReport& report);
+void writeTimelineCsv(const std::filesystem::path& path, const RunReport& report, const SceneDesc& scene);
+// error_vs_time.png: ASSD (or mean displacement without ground truth) against simulation time,
+// one curve per structure, level changes marked.
+void writeErrorPlot(const std::filesystem::path& path, const RunReport& report, const SceneDesc& scene);
+
+}  // namespace sinew

@@ -1,0 +1,210 @@
+// sinew-run: the headless engine. One scene (one subject) per run; machine-readable report;
+// documented exit codes (see --help and docs/sinew-run.md).
+#include "builtin_plugins.h"
+#include "report_writer.h"
+#include "sinew/core/scene_runner.h"
+
+#include <CLI/CLI.hpp>
+#include <QGuiApplication>
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <iostream>
+#include <unistd.h>
+
+namespace fs = std::filesystem;
+using namespace sinew;
+
+namespace {
+
+enum ExitCode { kOk = 0, kInternal = 1, kUsage = 2, kBadInput = 3, kNumerical = 4 };
+
+const char* kExitCodes =
+    "Exit codes:\n"
+    "  0  success\n"
+    "  1  internal error (a bug: please report it)\n"
+    "  2  bad command line\n"
+    "  3  bad input: scene, image, mesh or label problem (the message names the file)\n"
+    "  4  numerical failure: the simulation state became non-finite; nothing was written\n";
+
+// Progress on stderr: a bar redrawn in place on a terminal, a plain line every 10 % otherwise.
+class ProgressPrinter {
+public:
+  explicit ProgressPrinter(bool quiet) : quiet_(quiet), tty_(::isatty(::fileno(stderr))) {}
+  void operator()(const RunProgress& p) {
+    if (quiet_ || p.total == 0) return;
+    const int percent = static_cast<int>(100 * p.done / p.total);
+    if (tty_) {
+      const auto now = std::chrono::steady_clock::now();
+      if (p.done != p.total && now - last_ < std::chrono::milliseconds(100)) return;
+      last_ = now;
+      const int width = 30, filled = width * percent / 100;
+      std::fprintf(stderr, "\r[%s%s] %3d%%  level %d/%d  iteration %d/%d  %.2f s ", std::string(filled, '#').c_str(),
+                   std::string(width - filled, ' ').c_str(), percent, p.level + 1, p.levelCount, p.iteration,
+                   p.levelIterations, p.seconds);
+      if (p.done == p.total) std::fputc('\n', stderr);
+    } else if (percent / 10 != lastDecile_ || p.done == p.total) {
+      lastDecile_ = percent / 10;
+      std::fprintf(stderr, "progress %3d%%  level %d/%d  iteration %d/%d  %.2f s\n", percent, p.level + 1, p.levelCount,
+                   p.iteration, p.levelIterations, p.seconds);
+    }
+    std::fflush(stderr);
+  }
+
+private:
+  bool quiet_, tty_;
+  int lastDecile_ = -1;
+  std::chrono::steady_clock::time_point last_{};
+};
+
+void printTable(const RunReport& r) {
+  std::printf("%-22s %9s %12s %10s %8s %8s %9s\n", "structure", "vertices", "ASSD before", "ASSD after", "Dice 0",
+              "Dice", "time (s)");
+  double before = 0, after = 0, d0 = 0, d1 = 0;
+  int n = 0;
+  for (const StructureResult& s : r.structures) {
+    std::printf("%-22s %9d %12.3f %10.3f %8.3f %8.3f %9.2f\n", s.name.c_str(), s.vertices, s.assdInitialMm,
+                s.assdFinalMm, s.diceInitial, s.dice, s.seconds);
+    if (!std::isnan(s.assdFinalMm)) {
+      before += s.assdInitialMm;
+      after += s.assdFinalMm;
+      d0 += s.diceInitial;
+      d1 += s.dice;
+      ++n;
+    }
+  }
+  if (n > 0)
+    std::printf("%-22s %9s %12.3f %10.3f %8.3f %8.3f %9.2f\n", "mean", "", before / n, after / n, d0 / n, d1 / n,
+                r.simulationSeconds);
+  std::printf("backend %s, %s; simulation %.2f s, total %.2f s\n", r.backend.c_str(), r.device.c_str(),
+              r.simulationSeconds, r.totalSeconds);
+}
+
+// Every output is written into a staging folder inside the output directory and moved into place
+// only when all of them were written, so a failed run leaves no partial outputs.
+class Staging {
+public:
+  explicit Staging(const fs::path& out) : out_(out) {
+    createdOut_ = fs::create_directories(out_);
+    dir_ = out_ / (".sinew-staging-" + std::to_string(::getpid()));
+    fs::create_directories(dir_);
+  }
+  ~Staging() {
+    std::error_code ec;
+    fs::remove_all(dir_, ec);
+    if (!committed_ && createdOut_) fs::remove(out_, ec);  // only if still empty
+  }
+  fs::path file(const std::string& name) {
+    names_.push_back(name);
+    return dir_ / name;
+  }
+  void commit() {
+    for (const auto& n : names_) fs::rename(dir_ / n, out_ / n);
+    committed_ = true;
+  }
+
+private:
+  fs::path out_, dir_;
+  std::vector<std::string> names_;
+  bool createdOut_ = false, committed_ = false;
+};
+
+void listPlugins(const Registry& registry) {
+  for (const auto& f : registry.forces()) {
+    std::printf("force %s: %s\n", f.name.c_str(), f.summary.c_str());
+    for (const auto& p : f.params)
+      std::printf("    %-16s default %-8g [%g, %g] %-3s %s%s\n", p.name.c_str(), p.defaultValue, p.min, p.max,
+                  p.unit.c_str(), p.help.c_str(), p.perStructure ? "" : " (shared by all structures)");
+  }
+  for (const auto& i : registry.integrators()) {
+    std::printf("integrator %s: %s\n", i.name.c_str(), i.summary.c_str());
+    for (const auto& p : i.params)
+      std::printf("    %-16s default %-8g [%g, %g] %s\n", p.name.c_str(), p.defaultValue, p.min, p.max, p.help.c_str());
+  }
+  for (const auto& d : registry.imageIOs()) std::printf("image-io %s: %s\n", d.name.c_str(), d.summary.c_str());
+  for (const auto& d : registry.meshIOs()) std::printf("mesh-io %s: %s\n", d.name.c_str(), d.summary.c_str());
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App cli{"sinew-run: segment one subject with the deformable models a scene file describes."};
+  cli.footer(kExitCodes);
+  std::string scenePath, outDir = "sinew-output";
+  int threads = 0;
+  bool quiet = false, list = false;
+  cli.add_option("scene", scenePath, "scene file (JSON)");
+  cli.add_option("-o,--out", outDir, "output directory (created if missing)")->capture_default_str();
+  cli.add_option("-j,--threads", threads, "CPU threads (0 = all)")->check(CLI::NonNegativeNumber);
+  cli.add_flag("-q,--quiet", quiet, "no progress output");
+  cli.add_flag("--list-plugins", list, "list forces, integrators and IO plugins with their parameters");
+  cli.set_version_flag("--version", std::string("sinew-run ") + SINEW_VERSION);
+  try {
+    cli.parse(argc, argv);
+    if (!list && scenePath.empty()) throw CLI::RequiredError("scene");
+  } catch (const CLI::ParseError& e) {
+    const int code = cli.exit(e);
+    return code == 0 ? kOk : kUsage;
+  }
+
+  // The plot needs fonts, hence a QGuiApplication; the offscreen platform needs no display.
+  qputenv("QT_QPA_PLATFORM", "offscreen");
+  if (qgetenv("XDG_RUNTIME_DIR").isEmpty()) {  // keeps Qt from warning about it
+    const fs::path runtime = fs::temp_directory_path() / ("sinew-runtime-" + std::to_string(::getuid()));
+    std::error_code ec;
+    fs::create_directories(runtime, ec);
+    fs::permissions(runtime, fs::perms::owner_all, ec);
+    qputenv("XDG_RUNTIME_DIR", QByteArray::fromStdString(runtime.string()));
+  }
+  int qtArgc = 1;
+  QGuiApplication qt(qtArgc, argv);
+
+  Registry registry;
+  registerBuiltinPlugins(registry);
+  if (list) {
+    listPlugins(registry);
+    return kOk;
+  }
+  try {
+    SceneDesc scene = readScene(scenePath);
+    ProgressPrinter progress(quiet);
+    RunOptions options{threads, std::ref(progress), {}};
+    if (!quiet) options.log = [](const std::string& m) { std::fprintf(stderr, "%s\n", m.c_str()); };
+    SceneRunner runner(registry, scene, options);
+    if (!quiet) std::fprintf(stderr, "loading %s\n", scenePath.c_str());
+    runner.load();
+    const RunReport report = runner.run();
+    for (const auto& s : report.structures)
+      for (const Vec3& p : s.surface.points)
+        if (!p.allFinite()) throw NumericalError("structure '" + s.name + "' has a non-finite vertex; nothing was written");
+    Staging out(outDir);
+    if (scene.writeMeshes)
+      for (const auto& s : report.structures) {
+        const fs::path target = out.file(s.name + scene.meshFormat);
+        registry.meshIOFor(target).write(target, s.surface);
+      }
+    const fs::path labels = out.file(scene.labelMapName);
+    registry.imageIOFor(labels).writeLabels(labels, runner.labelMap(report));
+    writeReportJson(out.file("report.json"), report, scene);
+    writeReportCsv(out.file("report.csv"), report);
+    writeTimelineCsv(out.file("timeline.csv"), report, scene);
+    writeErrorPlot(out.file("error_vs_time.png"), report, scene);
+    out.commit();
+    printTable(report);
+    if (!quiet) std::fprintf(stderr, "outputs in %s\n", outDir.c_str());
+    return kOk;
+  } catch (const InputError& e) {
+    std::fprintf(stderr, "sinew-run: error: %s\n", e.what());
+    return kBadInput;
+  } catch (const NumericalError& e) {
+    std::fprintf(stderr, "sinew-run: numerical failure: %s\n", e.what());
+    return kNumerical;
+  } catch (const fs::filesystem_error& e) {
+    std::fprintf(stderr, "sinew-run: error: %s\n", e.what());
+    return kBadInput;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "sinew-run: internal error: %s\n", e.what());
+    return kInternal;
+  }
+}

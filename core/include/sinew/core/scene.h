@@ -1,0 +1,82 @@
+// The scene file: what to segment, with which forces, integrator and level-of-detail schedule,
+// against which ground truth, and what to write. JSON, versioned, schema in
+// resources/scene.schema.json; unknown keys and wrong types are errors naming the JSON path.
+#pragma once
+
+#include "sinew/core/types.h"
+
+#include <array>
+#include <filesystem>
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace sinew {
+
+inline constexpr int kSceneVersion = 1;
+
+// force name -> parameter name -> value; kept in the order of the file.
+using ForceSettings = std::vector<std::pair<std::string, std::vector<std::pair<std::string, double>>>>;
+
+struct LabelRef {
+  std::filesystem::path labelMap;
+  int label = 0;
+};
+
+struct ShapeSource {
+  std::optional<std::filesystem::path> mesh;  // a closed triangle mesh
+  std::optional<LabelRef> label;              // or a label of a label map
+};
+
+struct Placement {
+  std::optional<std::filesystem::path> mesh;     // a mesh of the reference's topology
+  std::optional<std::array<double, 16>> matrix;  // row-major 4x4 world transform
+  // Similarity about the reference's centroid: rotation by an angle about an axis, then scale,
+  // then translation.
+  std::array<double, 3> rotationAxis{0, 0, 1};
+  double rotationDeg = 0.0;
+  std::array<double, 3> translationMm{0, 0, 0};
+  double scale = 1.0;
+};
+
+struct StructureDesc {
+  std::string name;
+  int label = 1;  // value in the exported label map
+  ShapeSource reference;
+  Placement initial;
+  ForceSettings forces;
+  double density = 0.0;
+  std::optional<LabelRef> groundTruth;
+};
+
+struct LevelDesc {
+  int iterations = 0;
+  ForceSettings forces;  // parameter changes applied to every structure on entering the level
+};
+
+struct SceneDesc {
+  std::filesystem::path file;  // where it was read from; relative paths are relative to it
+  int version = kSceneVersion;
+  std::string description;
+  std::filesystem::path targetImage;
+  std::optional<std::filesystem::path> trainingImage;
+  std::vector<StructureDesc> structures;
+  ForceSettings forces;  // the scene's forces in evaluation order, with scene-wide values
+  std::string integrator = "damped_verlet";
+  std::vector<std::pair<std::string, double>> integratorParams;
+  std::vector<LevelDesc> schedule;
+  double coarseSpacingMm = 4.0;      // target vertex spacing of a reference built at level 0
+  int sampleInterval = 10;           // iterations between report samples
+  double surfaceSampleSpacingMm = 0.5;
+  std::string meshFormat = ".vtp";
+  bool writeMeshes = true;
+  std::string labelMapName = "segmentation.nii.gz";
+};
+
+// Reads and validates a scene; throws InputError "FILE: /json/path: problem".
+SceneDesc readScene(const std::filesystem::path& file);
+// Parses a scene from text (file is used for messages and relative paths).
+SceneDesc parseScene(const std::string& text, const std::filesystem::path& file);
+
+}  // namespace sinew

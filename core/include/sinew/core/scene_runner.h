@@ -1,0 +1,94 @@
+// Runs a scene end to end: loads only what it names (images, label maps, meshes, plugins' forces),
+// builds the reference shapes at every level, places the initial meshes, runs the schedule coarse
+// to fine and measures error against run time.
+#pragma once
+
+#include "sinew/core/io.h"
+#include "sinew/core/scene.h"
+#include "sinew/core/simulation.h"
+#include "sinew/core/surface_distance.h"
+
+#include <functional>
+#include <limits>
+#include <memory>
+
+namespace sinew {
+
+struct RunProgress {
+  int level = 0, levelCount = 0;
+  int iteration = 0, levelIterations = 0;  // within the level
+  long done = 0, total = 0;                // over the whole schedule
+  double seconds = 0.0;                    // simulation time so far
+};
+
+struct TimelineSample {
+  double seconds = 0.0;  // simulation time (evaluation excluded)
+  long iteration = 0;
+  int level = 0;
+  int structure = 0;
+  double assdMm = std::numeric_limits<double>::quiet_NaN();  // NaN without ground truth
+  double meanDisplacementMm = 0.0;  // mean |x - x_prev| over the structure's vertices
+  double meanForce = 0.0;           // mean |f|
+};
+
+struct StructureResult {
+  std::string name;
+  int label = 0;
+  Index vertices = 0;  // at the final level
+  double assdInitialMm = std::numeric_limits<double>::quiet_NaN();
+  double assdFinalMm = std::numeric_limits<double>::quiet_NaN();
+  double hd95Mm = std::numeric_limits<double>::quiet_NaN();
+  double diceInitial = std::numeric_limits<double>::quiet_NaN();
+  double dice = std::numeric_limits<double>::quiet_NaN();
+  double seconds = 0.0;  // simulation time; all structures are simulated together
+  TriangleMesh surface;  // final Fig. 1b tessellation, world mm
+};
+
+struct RunReport {
+  std::string backend = "cpu";
+  std::string device;
+  int threads = 0;
+  double totalSeconds = 0.0;       // wall time of load + run + evaluation
+  double simulationSeconds = 0.0;  // time spent in simulation steps
+  std::vector<double> levelStartSeconds;
+  std::vector<StructureResult> structures;
+  std::vector<TimelineSample> timeline;
+  bool hasGroundTruth() const;
+};
+
+struct RunOptions {
+  int threads = 0;  // 0: all hardware threads
+  std::function<void(const RunProgress&)> progress;
+  std::function<void(const std::string&)> log;  // what is being loaded, for long set-ups
+};
+
+class SceneRunner {
+public:
+  SceneRunner(const Registry& registry, SceneDesc scene, RunOptions options = {});
+  ~SceneRunner();
+
+  // Reads every input and sets the simulation up. Throws InputError naming the file and problem.
+  void load();
+  // Runs the schedule. Throws NumericalError when the state becomes non-finite.
+  RunReport run();
+  // The final meshes rasterised on the target image grid with the scene's label values.
+  LabelVolume labelMap(const RunReport& report) const;
+
+  Simulation& simulation();
+  const SceneDesc& scene() const { return scene_; }
+
+private:
+  struct Loaded;
+  void sample(RunReport& report, double seconds);
+  StructureResult evaluate(Index structure, bool final);
+
+  const Registry& registry_;
+  SceneDesc scene_;
+  RunOptions options_;
+  std::unique_ptr<Loaded> loaded_;
+};
+
+// A one-line description of the CPU, e.g. "AMD EPYC (2 threads)".
+std::string cpuDescription(int threads);
+
+}  // namespace sinew

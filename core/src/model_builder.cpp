@@ -1,0 +1,51 @@
+#include "sinew/core/model_builder.h"
+
+#include "sinew/core/executor.h"
+#include "sinew/core/simplex_geometry.h"
+#include "sinew/core/surface_distance.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace sinew {
+
+namespace {
+void relax(const SimplexTopology& t, std::vector<Vec3>& x, const SurfaceDistanceQuery& surface, int iterations) {
+  const Executor executor;
+  std::vector<Vec3> next(x.size());
+  for (int it = 0; it < iterations; ++it) {
+    // Tangential smoothing only, then back onto the surface: moving along the normal could carry
+    // a vertex across a thin part of the structure and fold the mesh.
+    executor.forEach(t.vertexCount(), [&](Index v) {
+      const auto& n = t.neighbours[v];
+      const NeighbourFrame f = neighbourFrame(x[n[0]], x[n[1]], x[n[2]]);
+      const Vec3 delta = (x[n[0]] + x[n[1]] + x[n[2]]) / 3.0f - x[v];
+      next[v] = surface.closestPoint(x[v] + 0.5f * (delta - delta.dot(f.normal) * f.normal));
+    });
+    x.swap(next);
+  }
+}
+}  // namespace
+
+BuiltModel buildModel(const TriangleMesh& coarse, const TriangleMesh& surface, int levelCount, int relaxIterations) {
+  BuiltModel m;
+  const SimplexMesh dual = SimplexMesh::dualOf(coarse);
+  m.levels = LevelHierarchy::build(dual.topology, levelCount);
+  const SurfaceDistanceQuery query(surface);
+  std::vector<Vec3> x = dual.positions;
+  for (int l = 0; l < levelCount; ++l) {
+    if (l > 0) x = m.levels.prolongations[l - 1].apply(x);
+    relax(m.levels.levels[l], x, query, relaxIterations);
+    m.positions.push_back(x);
+  }
+  return m;
+}
+
+int trianglesForSpacing(const TriangleMesh& surface, double spacingMm) {
+  // One simplex vertex per dual triangle, at its centroid. Centroids of equilateral triangles of
+  // side a are a / sqrt(3) apart, so spacing s needs triangles of side s sqrt(3), area 3 sqrt(3)/4 s^2.
+  const double perTriangle = 3.0 * std::sqrt(3.0) / 4.0 * spacingMm * spacingMm;
+  return std::max(20, static_cast<int>(std::lround(surface.area() / perTriangle)));
+}
+
+}  // namespace sinew

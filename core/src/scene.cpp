@@ -1,0 +1,250 @@
+#include "sinew/core/scene.h"
+
+#include <nlohmann/json.hpp>
+
+#include <fstream>
+#include <set>
+#include <sstream>
+
+namespace sinew {
+
+namespace {
+using Json = nlohmann::ordered_json;
+namespace fs = std::filesystem;
+
+// A JSON value with its path, for error messages that say exactly where the problem is.
+class Node {
+public:
+  Node(const Json& j, std::string path, const fs::path& file) : j_(j), path_(std::move(path)), file_(file) {}
+
+  [[noreturn]] void fail(const std::string& problem) const {
+    throw InputError(file_.string() + ": " + (path_.empty() ? "/" : path_) + ": " + problem);
+  }
+  const Json& json() const { return j_; }
+
+  void expectObject(std::initializer_list<const char*> known) const {
+    if (!j_.is_object()) fail("expected an object, got " + typeName());
+    std::set<std::string> k(known.begin(), known.end());
+    for (auto it = j_.begin(); it != j_.end(); ++it)
+      if (!k.count(it.key())) {
+        std::string list;
+        for (const auto& n : k) list += (list.empty() ? "" : ", ") + n;
+        Node(it.value(), path_ + "/" + it.key(), file_).fail("unknown key (known: " + list + ")");
+      }
+  }
+  bool has(const char* key) const { return j_.contains(key); }
+  Node at(const char* key) const {
+    if (!j_.contains(key)) fail(std::string("missing required key '") + key + "'");
+    return Node(j_.at(key), path_ + "/" + key, file_);
+  }
+  std::vector<Node> elements() const {
+    if (!j_.is_array()) fail("expected an array, got " + typeName());
+    std::vector<Node> out;
+    for (size_t i = 0; i < j_.size(); ++i) out.emplace_back(j_[i], path_ + "/" + std::to_string(i), file_);
+    return out;
+  }
+  std::vector<std::pair<std::string, Node>> members() const {
+    if (!j_.is_object()) fail("expected an object, got " + typeName());
+    std::vector<std::pair<std::string, Node>> out;
+    for (auto it = j_.begin(); it != j_.end(); ++it) out.emplace_back(it.key(), Node(it.value(), path_ + "/" + it.key(), file_));
+    return out;
+  }
+  double number() const {
+    if (!j_.is_number()) fail("expected a number, got " + typeName());
+    return j_.get<double>();
+  }
+  int integer() const {
+    if (!j_.is_number_integer()) fail("expected an integer, got " + typeName());
+    return j_.get<int>();
+  }
+  bool boolean() const {
+    if (!j_.is_boolean()) fail("expected true or false, got " + typeName());
+    return j_.get<bool>();
+  }
+  std::string string() const {
+    if (!j_.is_string()) fail("expected a string, got " + typeName());
+    return j_.get<std::string>();
+  }
+  fs::path path() const {
+    const fs::path p = string();
+    return p.is_absolute() ? p : file_.parent_path() / p;
+  }
+  template <size_t N>
+  std::array<double, N> numbers() const {
+    const auto e = elements();
+    if (e.size() != N) fail("expected " + std::to_string(N) + " numbers, got " + std::to_string(e.size()));
+    std::array<double, N> out{};
+    for (size_t i = 0; i < N; ++i) out[i] = e[i].number();
+    return out;
+  }
+
+private:
+  std::string typeName() const {
+    if (j_.is_number_integer()) return "an integer";
+    if (j_.is_number()) return "a number";
+    return std::string("a ") + j_.type_name();
+  }
+  const Json& j_;
+  std::string path_;
+  const fs::path& file_;
+};
+
+LabelRef readLabelRef(const Node& n) {
+  n.expectObject({"label_map", "label"});
+  return {n.at("label_map").path(), n.at("label").integer()};
+}
+
+// {"force": {"param": number, ...}, ...}; names are checked against the registry later, when the
+// plugins are loaded, but the shape is checked here.
+ForceSettings readForces(const Node& n) {
+  ForceSettings out;
+  for (const auto& [force, params] : n.members()) {
+    std::vector<std::pair<std::string, double>> values;
+    for (const auto& [name, value] : params.members()) values.emplace_back(name, value.number());
+    out.emplace_back(force, std::move(values));
+  }
+  return out;
+}
+
+StructureDesc readStructure(const Node& n) {
+  n.expectObject({"name", "label", "reference", "initial", "forces", "density", "ground_truth"});
+  StructureDesc s;
+  s.name = n.at("name").string();
+  if (s.name.empty()) n.at("name").fail("the name is empty");
+  s.label = n.at("label").integer();
+  if (s.label < 1 || s.label > 32767) n.at("label").fail("label values run from 1 to 32767");
+  const Node ref = n.at("reference");
+  ref.expectObject({"mesh", "label_map", "label"});
+  if (ref.has("mesh") == ref.has("label_map")) ref.fail("give either 'mesh' or 'label_map' with 'label'");
+  if (ref.has("mesh")) {
+    s.reference.mesh = ref.at("mesh").path();
+    if (ref.has("label")) ref.at("label").fail("'label' goes with 'label_map', not 'mesh'");
+  } else {
+    s.reference.label = LabelRef{ref.at("label_map").path(), ref.at("label").integer()};
+  }
+  if (n.has("initial")) {
+    const Node init = n.at("initial");
+    init.expectObject({"mesh", "matrix", "rotation_axis", "rotation_deg", "translation_mm", "scale"});
+    const int kinds = int(init.has("mesh")) + int(init.has("matrix")) +
+                      int(init.has("rotation_deg") || init.has("rotation_axis") || init.has("translation_mm") ||
+                          init.has("scale"));
+    if (kinds > 1) init.fail("give one of 'mesh', 'matrix', or rotation_axis/rotation_deg/translation_mm/scale");
+    if (init.has("mesh")) s.initial.mesh = init.at("mesh").path();
+    if (init.has("matrix")) s.initial.matrix = init.at("matrix").numbers<16>();
+    if (init.has("rotation_deg")) s.initial.rotationDeg = init.at("rotation_deg").number();
+    if (init.has("rotation_axis")) {
+      s.initial.rotationAxis = init.at("rotation_axis").numbers<3>();
+      const auto& a = s.initial.rotationAxis;
+      if (a[0] * a[0] + a[1] * a[1] + a[2] * a[2] == 0.0) init.at("rotation_axis").fail("the axis is zero");
+    }
+    if (init.has("translation_mm")) s.initial.translationMm = init.at("translation_mm").numbers<3>();
+    if (init.has("scale")) {
+      s.initial.scale = init.at("scale").number();
+      if (!(s.initial.scale > 0.0)) init.at("scale").fail("the scale must be positive");
+    }
+  }
+  if (n.has("forces")) s.forces = readForces(n.at("forces"));
+  if (n.has("density")) {
+    s.density = n.at("density").number();
+    if (s.density < 0.0) n.at("density").fail("the density must be >= 0 (0 = automatic)");
+  }
+  if (n.has("ground_truth")) s.groundTruth = readLabelRef(n.at("ground_truth"));
+  return s;
+}
+}  // namespace
+
+SceneDesc parseScene(const std::string& text, const fs::path& file) {
+  Json json;
+  try {
+    json = Json::parse(text);
+  } catch (const Json::parse_error& e) {
+    std::string what = e.what();
+    const auto colon = what.find("parse error");
+    throw InputError(file.string() + ": not valid JSON: " + (colon == std::string::npos ? what : what.substr(colon)));
+  }
+  const Node root(json, "", file);
+  root.expectObject({"version", "description", "images", "structures", "forces", "integrator", "schedule",
+                     "model", "report", "outputs"});
+  SceneDesc s;
+  s.file = file;
+  s.version = root.at("version").integer();
+  if (s.version != kSceneVersion)
+    root.at("version").fail("scene version " + std::to_string(s.version) + " is not supported (this Sinew reads version " +
+                            std::to_string(kSceneVersion) + ")");
+  if (root.has("description")) s.description = root.at("description").string();
+
+  const Node images = root.at("images");
+  images.expectObject({"target", "training"});
+  s.targetImage = images.at("target").path();
+  if (images.has("training")) s.trainingImage = images.at("training").path();
+
+  for (const Node& n : root.at("structures").elements()) s.structures.push_back(readStructure(n));
+  if (s.structures.empty()) root.at("structures").fail("the scene has no structure");
+  std::set<std::string> names;
+  for (size_t i = 0; i < s.structures.size(); ++i)
+    if (!names.insert(s.structures[i].name).second)
+      root.at("structures").fail("structure name '" + s.structures[i].name + "' is used twice");
+
+  s.forces = readForces(root.at("forces"));
+  for (size_t i = 0; i < s.structures.size(); ++i)
+    for (const auto& [force, params] : s.structures[i].forces) {
+      bool known = false;
+      for (const auto& f : s.forces) known |= f.first == force;
+      if (!known)
+        Node(json["structures"][i]["forces"][force], "/structures/" + std::to_string(i) + "/forces/" + force, file)
+            .fail("force '" + force + "' is not listed in the scene's /forces");
+    }
+
+  if (root.has("integrator")) {
+    const Node integ = root.at("integrator");
+    for (const auto& [key, value] : integ.members()) {
+      if (key == "name") s.integrator = value.string();
+      else s.integratorParams.emplace_back(key, value.number());
+    }
+  }
+
+  for (const Node& n : root.at("schedule").elements()) {
+    n.expectObject({"iterations", "forces"});
+    LevelDesc l;
+    l.iterations = n.at("iterations").integer();
+    if (l.iterations < 0) n.at("iterations").fail("iterations must be >= 0");
+    if (n.has("forces")) l.forces = readForces(n.at("forces"));
+    s.schedule.push_back(std::move(l));
+  }
+  if (s.schedule.empty()) root.at("schedule").fail("the schedule needs at least one level");
+  if (s.schedule.size() > 6) root.at("schedule").fail("at most 6 levels of detail are supported");
+
+  if (root.has("model")) {
+    const Node m = root.at("model");
+    m.expectObject({"coarse_spacing_mm"});
+    s.coarseSpacingMm = m.at("coarse_spacing_mm").number();
+    if (!(s.coarseSpacingMm > 0.0)) m.at("coarse_spacing_mm").fail("must be positive");
+  }
+  if (root.has("report")) {
+    const Node r = root.at("report");
+    r.expectObject({"sample_interval", "surface_sample_spacing_mm"});
+    if (r.has("sample_interval")) s.sampleInterval = r.at("sample_interval").integer();
+    if (s.sampleInterval < 1) r.at("sample_interval").fail("must be >= 1");
+    if (r.has("surface_sample_spacing_mm")) s.surfaceSampleSpacingMm = r.at("surface_sample_spacing_mm").number();
+    if (!(s.surfaceSampleSpacingMm > 0.0)) r.at("surface_sample_spacing_mm").fail("must be positive");
+  }
+  if (root.has("outputs")) {
+    const Node o = root.at("outputs");
+    o.expectObject({"mesh_format", "meshes", "label_map"});
+    if (o.has("mesh_format")) s.meshFormat = o.at("mesh_format").string();
+    if (o.has("meshes")) s.writeMeshes = o.at("meshes").boolean();
+    if (o.has("label_map")) s.labelMapName = o.at("label_map").string();
+    if (s.meshFormat.empty() || s.meshFormat[0] != '.') o.at("mesh_format").fail("expected an extension such as \".vtp\"");
+  }
+  return s;
+}
+
+SceneDesc readScene(const fs::path& file) {
+  std::ifstream in(file);
+  if (!in) throw InputError(file.string() + ": cannot open the scene file");
+  std::stringstream text;
+  text << in.rdbuf();
+  return parseScene(text.str(), file);
+}
+
+}  // namespace sinew

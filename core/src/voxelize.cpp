@@ -1,0 +1,58 @@
+#include "sinew/core/voxelize.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace sinew {
+
+std::vector<std::uint8_t> voxelize(const TriangleMesh& mesh, const ImageGeometry& grid) {
+  const Eigen::Matrix3d toIndex = grid.indexToWorldMatrix().inverse();
+  const int nx = grid.size[0], ny = grid.size[1], nz = grid.size[2];
+  std::vector<std::uint8_t> mask(grid.voxelCount(), 0);
+  // Work in continuous index space; rays run along i at (j, k) slightly offset so they never
+  // pass exactly through a vertex or an edge of a mesh built on the same grid.
+  constexpr double dj = 1.234567e-4, dk = 2.345678e-4;
+  std::vector<Eigen::Vector3d> p;
+  p.reserve(mesh.points.size());
+  for (const Vec3& w : mesh.points) p.push_back(toIndex * (w.cast<double>() - grid.origin));
+  std::vector<std::vector<double>> rows(static_cast<std::size_t>(ny) * nz);
+  for (const auto& t : mesh.triangles) {
+    const Eigen::Vector3d &a = p[t[0]], &b = p[t[1]], &c = p[t[2]];
+    const int j0 = std::max(0, int(std::ceil(std::min({a.y(), b.y(), c.y()}) - dj)));
+    const int j1 = std::min(ny - 1, int(std::floor(std::max({a.y(), b.y(), c.y()}) - dj)));
+    const int k0 = std::max(0, int(std::ceil(std::min({a.z(), b.z(), c.z()}) - dk)));
+    const int k1 = std::min(nz - 1, int(std::floor(std::max({a.z(), b.z(), c.z()}) - dk)));
+    const double det = (b.y() - a.y()) * (c.z() - a.z()) - (c.y() - a.y()) * (b.z() - a.z());
+    if (det == 0.0) continue;  // parallel to the rays
+    for (int k = k0; k <= k1; ++k)
+      for (int j = j0; j <= j1; ++j) {
+        const double y = j + dj - a.y(), z = k + dk - a.z();
+        const double u = (y * (c.z() - a.z()) - (c.y() - a.y()) * z) / det;
+        const double v = ((b.y() - a.y()) * z - y * (b.z() - a.z())) / det;
+        if (u < 0 || v < 0 || u + v > 1) continue;
+        rows[static_cast<std::size_t>(k) * ny + j].push_back(a.x() + u * (b.x() - a.x()) + v * (c.x() - a.x()));
+      }
+  }
+  for (int k = 0; k < nz; ++k)
+    for (int j = 0; j < ny; ++j) {
+      auto& xs = rows[static_cast<std::size_t>(k) * ny + j];
+      std::sort(xs.begin(), xs.end());
+      for (std::size_t q = 0; q + 1 < xs.size(); q += 2) {
+        const int i0 = std::max(0, int(std::ceil(xs[q]))), i1 = std::min(nx - 1, int(std::floor(xs[q + 1])));
+        for (int i = i0; i <= i1; ++i) mask[(static_cast<std::size_t>(k) * ny + j) * nx + i] = 1;
+      }
+    }
+  return mask;
+}
+
+double dice(const std::vector<std::uint8_t>& a, const std::vector<std::uint8_t>& b) {
+  std::size_t both = 0, na = 0, nb = 0;
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    na += a[i] != 0;
+    nb += b[i] != 0;
+    both += a[i] != 0 && b[i] != 0;
+  }
+  return na + nb == 0 ? 1.0 : 2.0 * double(both) / double(na + nb);
+}
+
+}  // namespace sinew

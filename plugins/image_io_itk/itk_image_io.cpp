@@ -1,0 +1,164 @@
+// Image IO through ITK: NIfTI (.nii, .nii.gz), NRRD (.nrrd, .nhdr), MetaImage (.mha, .mhd) and
+// DICOM series (a directory). ITK keeps images in LPS world coordinates and converts NIfTI's RAS
+// on read and write, so every image in Sinew is LPS (docs/architecture.md, "Physical space").
+#include "sinew/core/registry.h"
+
+#include <itkGDCMImageIO.h>
+#include <itkGDCMSeriesFileNames.h>
+#include <itkImage.h>
+#include <itkImageFileReader.h>
+#include <itkImageFileWriter.h>
+#include <itkImageIOFactory.h>
+#include <itkImageSeriesReader.h>
+
+#include <cmath>
+#include <sstream>
+
+namespace sinew {
+
+namespace {
+namespace fs = std::filesystem;
+
+std::string brief(const itk::ExceptionObject& e) {
+  std::string d = e.GetDescription();
+  while (!d.empty() && (d.back() == '\n' || d.back() == ' ')) d.pop_back();
+  return d;
+}
+
+[[noreturn]] void fail(const fs::path& path, const std::string& problem) {
+  throw InputError(path.string() + ": " + problem);
+}
+
+// Checks what the header says before a voxel is allocated.
+void checkHeader(const fs::path& path, itk::ImageIOBase& io) {
+  const unsigned dims = io.GetNumberOfDimensions();
+  if (dims < 3) fail(path, "is a " + std::to_string(dims) + "D image; a 3D volume is needed");
+  for (unsigned d = 3; d < dims; ++d)
+    if (io.GetDimensions(d) != 1) fail(path, "has more than three dimensions (time series?); a 3D volume is needed");
+  if (io.GetNumberOfComponents() != 1)
+    fail(path, "has " + std::to_string(io.GetNumberOfComponents()) + " components per voxel; a scalar image is needed");
+  std::size_t voxels = 1;
+  for (unsigned d = 0; d < 3; ++d) {
+    const auto n = io.GetDimensions(d);
+    if (n == 0) fail(path, "has size 0 along axis " + std::to_string(d));
+    voxels *= n;
+    if (voxels > kMaxImageVoxels) fail(path, "claims more than 2^31 voxels; refusing to allocate it");
+    const double s = io.GetSpacing(d);
+    if (!(s > 0.0) || !std::isfinite(s)) fail(path, "has a non-positive or non-finite voxel spacing");
+  }
+}
+
+template <class Pixel>
+typename itk::Image<Pixel, 3>::Pointer readItk(const fs::path& path) {
+  using ImageType = itk::Image<Pixel, 3>;
+  std::error_code ec;
+  if (!fs::exists(path, ec)) fail(path, "no such file or directory");
+  try {
+    if (fs::is_directory(path, ec)) {
+      auto names = itk::GDCMSeriesFileNames::New();
+      names->SetUseSeriesDetails(true);
+      names->SetDirectory(path.string());
+      const auto series = names->GetSeriesUIDs();
+      if (series.empty()) fail(path, "is a directory without a DICOM series");
+      auto dicom = itk::GDCMImageIO::New();
+      auto reader = itk::ImageSeriesReader<ImageType>::New();
+      reader->SetImageIO(dicom);
+      reader->SetFileNames(names->GetFileNames(series.front()));
+      reader->UpdateOutputInformation();
+      checkHeader(path, *dicom);
+      reader->Update();
+      return reader->GetOutput();
+    }
+    auto io = itk::ImageIOFactory::CreateImageIO(path.c_str(), itk::CommonEnums::IOFileMode::ReadMode);
+    if (!io) fail(path, "is not an image in a format Sinew reads (NIfTI, NRRD, MetaImage, DICOM), or it is corrupt");
+    io->SetFileName(path.string());
+    try {
+      io->ReadImageInformation();
+    } catch (const itk::ExceptionObject& e) {
+      fail(path, "cannot read the image header: " + brief(e));
+    }
+    checkHeader(path, *io);
+    auto reader = itk::ImageFileReader<ImageType>::New();
+    reader->SetImageIO(io);
+    reader->SetFileName(path.string());
+    reader->Update();
+    return reader->GetOutput();
+  } catch (const itk::ExceptionObject& e) {
+    fail(path, "cannot read the voxel data (truncated or corrupt file?): " + brief(e));
+  }
+}
+
+template <class T, class ItkImage>
+Volume<T> toVolume(const ItkImage& image) {
+  ImageGeometry g;
+  const auto size = image.GetLargestPossibleRegion().GetSize();
+  for (int a = 0; a < 3; ++a) {
+    g.size[a] = static_cast<int>(size[a]);
+    g.spacing[a] = image.GetSpacing()[a];
+    g.origin[a] = image.GetOrigin()[a];
+    for (int b = 0; b < 3; ++b) g.direction(a, b) = image.GetDirection()[a][b];
+  }
+  Volume<T> v(g);
+  const auto* buffer = image.GetBufferPointer();
+  for (std::size_t i = 0; i < g.voxelCount(); ++i) v.voxels()[i] = static_cast<T>(buffer[i]);
+  return v;
+}
+
+template <class Pixel, class T>
+typename itk::Image<Pixel, 3>::Pointer toItk(const Volume<T>& v) {
+  using ImageType = itk::Image<Pixel, 3>;
+  auto image = ImageType::New();
+  const ImageGeometry& g = v.geometry();
+  typename ImageType::SizeType size;
+  typename ImageType::SpacingType spacing;
+  typename ImageType::PointType origin;
+  typename ImageType::DirectionType direction;
+  for (int a = 0; a < 3; ++a) {
+    size[a] = g.size[a];
+    spacing[a] = g.spacing[a];
+    origin[a] = g.origin[a];
+    for (int b = 0; b < 3; ++b) direction[a][b] = g.direction(a, b);
+  }
+  image->SetRegions(typename ImageType::RegionType(size));
+  image->SetSpacing(spacing);
+  image->SetOrigin(origin);
+  image->SetDirection(direction);
+  image->Allocate();
+  Pixel* buffer = image->GetBufferPointer();
+  for (std::size_t i = 0; i < g.voxelCount(); ++i) buffer[i] = static_cast<Pixel>(v.voxels()[i]);
+  return image;
+}
+
+template <class ItkImage>
+void writeItk(const fs::path& path, ItkImage* image) {
+  AtomicOutput out(path);
+  try {
+    auto writer = itk::ImageFileWriter<ItkImage>::New();
+    writer->SetFileName(out.tempPath().string());
+    writer->SetInput(image);
+    writer->UseCompressionOn();
+    writer->Update();
+  } catch (const itk::ExceptionObject& e) {
+    fail(path, "cannot write the image: " + brief(e));
+  }
+  out.commit();
+}
+}  // namespace
+
+void registerItkImageIO(Registry& registry) {
+  ImageIODescriptor d;
+  d.name = "itk";
+  d.summary = "NIfTI, NRRD, MetaImage and DICOM series through ITK (LPS world coordinates)";
+  d.extensions = {".nii", ".nii.gz", ".nrrd", ".nhdr", ".mha", ".mhd", "/"};
+  d.readImage = [](const fs::path& p) { return toVolume<float>(*readItk<float>(p)); };
+  d.readLabels = [](const fs::path& p) { return toVolume<std::int32_t>(*readItk<std::int32_t>(p)); };
+  d.writeLabels = [](const fs::path& p, const LabelVolume& v) {
+    for (std::int32_t l : v.voxels())
+      if (l < 0 || l > 32767) fail(p, "label value " + std::to_string(l) + " does not fit a 16-bit label map");
+    writeItk(p, toItk<std::int16_t>(v).GetPointer());
+  };
+  d.writeImage = [](const fs::path& p, const Image3D& v) { writeItk(p, toItk<float>(v).GetPointer()); };
+  registry.addImageIO(std::move(d));
+}
+
+}  // namespace sinew
