@@ -3,9 +3,11 @@
 set -euo pipefail
 packages=(
   cmake ninja-build g++ pkg-config
-  libeigen3-dev libtbb-dev
-  qt6-base-dev
+  libeigen3-dev libtbb-dev nlohmann-json3-dev libcli11-dev zlib1g-dev
+  qt6-base-dev fonts-dejavu-core
+  libinsighttoolkit5-dev libvtk9-dev
   libbenchmark-dev
+  mricron-data
 )
 missing=()
 for p in "${packages[@]}"; do

@@ -11,6 +11,8 @@
 #include <itkImageIOFactory.h>
 #include <itkImageSeriesReader.h>
 
+#include <zlib.h>
+
 #include <cmath>
 #include <sstream>
 
@@ -48,6 +50,21 @@ void checkHeader(const fs::path& path, itk::ImageIOBase& io) {
   }
 }
 
+// ITK's NIfTI reader does not notice a gzip stream that ends early (it reads zeros), so compressed
+// files are checked to the end first: a truncated or corrupt stream is refused here.
+void checkGzipStream(const fs::path& path) {
+  gzFile f = gzopen(path.c_str(), "rb");
+  if (!f) fail(path, "cannot be opened");
+  std::vector<char> buffer(1 << 20);
+  int n = 0;
+  while ((n = gzread(f, buffer.data(), static_cast<unsigned>(buffer.size()))) > 0) {
+  }
+  int code = Z_OK;
+  gzerror(f, &code);
+  gzclose(f);
+  if (n < 0 || code != Z_OK) fail(path, "the compressed data ends early or is corrupt (truncated file?)");
+}
+
 template <class Pixel>
 typename itk::Image<Pixel, 3>::Pointer readItk(const fs::path& path) {
   using ImageType = itk::Image<Pixel, 3>;
@@ -69,6 +86,7 @@ typename itk::Image<Pixel, 3>::Pointer readItk(const fs::path& path) {
       reader->Update();
       return reader->GetOutput();
     }
+    if (ioExtension(path) == ".nii.gz") checkGzipStream(path);
     auto io = itk::ImageIOFactory::CreateImageIO(path.c_str(), itk::CommonEnums::IOFileMode::ReadMode);
     if (!io) fail(path, "is not an image in a format Sinew reads (NIfTI, NRRD, MetaImage, DICOM), or it is corrupt");
     io->SetFileName(path.string());

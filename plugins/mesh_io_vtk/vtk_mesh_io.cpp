@@ -109,6 +109,9 @@ vtkSmartPointer<vtkPolyData> toPolyData(const TriangleMesh& m) {
 
 template <class Reader>
 vtkSmartPointer<vtkPolyData> readWith(const fs::path& path) {
+  // Helper objects inside the readers (XML parsers) print to VTK's output window rather than
+  // raising events on the reader; keep them quiet and report one line ourselves.
+  vtkObject::GlobalWarningDisplayOff();
   vtkNew<Reader> reader;
   ErrorCatcher errors;
   errors.watch(reader);

@@ -1,0 +1,205 @@
+// The ITK image IO plugin: formats, physical space (LPS inside, RAS in NIfTI files), anisotropic
+// voxels, DICOM series, and refusals of bad files.
+#include "synthetic.h"
+
+#include <QTemporaryDir>
+#include <QtTest>
+
+#include <itkGDCMImageIO.h>
+#include <itkImageSeriesWriter.h>
+#include <itkMetaDataObject.h>
+#include <itkNumericSeriesFileNames.h>
+
+#include <fstream>
+
+using namespace sinew;
+using namespace sinew::testing;
+namespace fs = std::filesystem;
+
+namespace {
+
+Image3D obliqueImage() {
+  ImageGeometry g;
+  g.size = {12, 10, 7};
+  g.spacing = Eigen::Vector3d(1.37, 1.37, 5.0);  // the seed's anisotropic voxels
+  g.origin = Eigen::Vector3d(-20.5, 13.25, 7.0);
+  g.direction = Eigen::AngleAxisd(0.3, Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix();
+  Image3D im(g);
+  for (int k = 0; k < 7; ++k)
+    for (int j = 0; j < 10; ++j)
+      for (int i = 0; i < 12; ++i) im.at(i, j, k) = float(i + 20 * j + 300 * k);
+  return im;
+}
+
+void expectSameSpace(const Image3D& a, const Image3D& b) {
+  QCOMPARE(a.geometry().size, b.geometry().size);
+  QVERIFY((a.geometry().spacing - b.geometry().spacing).norm() < 1e-4);
+  QVERIFY((a.geometry().origin - b.geometry().origin).norm() < 1e-3);
+  QVERIFY((a.geometry().direction - b.geometry().direction).norm() < 1e-5);
+  // The same world point holds the same value.
+  const Vec3 world = a.indexToWorld(Vec3(3.25f, 4.5f, 2.75f));
+  QVERIFY(std::abs(a.sample(world) - b.sample(world)) < 1e-2f);
+}
+
+void expectRefusal(const ImageIODescriptor& io, const fs::path& p, const QString& needle) {
+  try {
+    io.readImage(p);
+    QFAIL(qPrintable("accepted " + QString::fromStdString(p.string())));
+  } catch (const InputError& e) {
+    const QString msg = e.what();
+    QVERIFY2(msg.contains(QString::fromStdString(p.string())) && msg.contains(needle), qPrintable(msg));
+  }
+}
+
+}  // namespace
+
+class TestImageIO : public QObject {
+  Q_OBJECT
+  QTemporaryDir dir_;
+  fs::path path(const char* name) { return fs::path(dir_.path().toStdString()) / name; }
+  const ImageIODescriptor& io() { return builtinRegistry().imageIOFor("x.nii.gz"); }
+
+private slots:
+  void roundTripsKeepPhysicalSpace_data() {
+    QTest::addColumn<QString>("name");
+    for (const char* n : {"a.nii", "a.nii.gz", "a.nrrd", "a.mha", "a.mhd"}) QTest::newRow(n) << QString(n);
+  }
+  void roundTripsKeepPhysicalSpace() {
+    QFETCH(QString, name);
+    const Image3D im = obliqueImage();
+    const fs::path p = path(name.toStdString().c_str());
+    io().writeImage(p, im);
+    expectSameSpace(im, io().readImage(p));
+  }
+
+  void niftiFilesStoreRas() {
+    // ITK works in LPS; NIfTI stores RAS. The file's qoffset must be (-x, -y, z) of the LPS origin.
+    ImageGeometry g;
+    g.size = {4, 4, 4};
+    g.origin = Eigen::Vector3d(10, 20, 30);
+    Image3D im(g, 1.0f);
+    const fs::path p = path("ras.nii");
+    io().writeImage(p, im);
+    std::ifstream f(p, std::ios::binary);
+    char header[348];
+    f.read(header, sizeof header);
+    float q[3];
+    std::memcpy(q, header + 268, sizeof q);  // qoffset_x, qoffset_y, qoffset_z
+    QCOMPARE(q[0], -10.0f);
+    QCOMPARE(q[1], -20.0f);
+    QCOMPARE(q[2], 30.0f);
+    QVERIFY((io().readImage(p).geometry().origin - g.origin).norm() < 1e-5);
+  }
+
+  void labelsRoundTrip() {
+    LabelVolume labels(obliqueImage().geometry(), 0);
+    labels.at(3, 4, 5) = 37;
+    labels.at(0, 0, 0) = 78;
+    const fs::path p = path("labels.nii.gz");
+    io().writeLabels(p, labels);
+    const LabelVolume back = io().readLabels(p);
+    QCOMPARE(back.voxels(), labels.voxels());
+    labels.at(1, 1, 1) = 70000;
+    QVERIFY_THROWS_EXCEPTION(InputError, io().writeLabels(path("big.nii.gz"), labels));
+    QVERIFY(!fs::exists(path("big.nii.gz")));
+  }
+
+  void readsDicomSeries() {
+    // A series written with ITK's GDCM writer, one file per slice, read back as one volume.
+    using Slice = itk::Image<std::int16_t, 2>;
+    using Volume = itk::Image<std::int16_t, 3>;
+    const Image3D im = obliqueImage();
+    auto volume = Volume::New();
+    Volume::SizeType size;
+    Volume::SpacingType spacing;
+    Volume::PointType origin;
+    for (int a = 0; a < 3; ++a) {
+      size[a] = im.geometry().size[a];
+      spacing[a] = im.geometry().spacing[a];
+      origin[a] = im.geometry().origin[a];
+    }
+    volume->SetRegions(Volume::RegionType(size));
+    volume->SetSpacing(spacing);
+    volume->SetOrigin(origin);
+    volume->Allocate();
+    for (size_t i = 0; i < im.voxels().size(); ++i) volume->GetBufferPointer()[i] = std::int16_t(im.voxels()[i]);
+    const fs::path series = path("dicom");
+    fs::create_directories(series);
+    auto names = itk::NumericSeriesFileNames::New();
+    names->SetSeriesFormat((series / "slice%03d.dcm").string());
+    names->SetStartIndex(0);
+    names->SetEndIndex(size[2] - 1);
+    names->SetIncrementIndex(1);
+    // Each slice carries its own position, as a scanner writes it.
+    std::vector<itk::MetaDataDictionary> tags(size[2]);
+    std::vector<itk::MetaDataDictionary*> tagPointers;
+    for (unsigned k = 0; k < size[2]; ++k) {
+      auto& d = tags[k];
+      std::ostringstream position, pixel;
+      position << origin[0] << "\\" << origin[1] << "\\" << origin[2] + k * spacing[2];
+      pixel << spacing[1] << "\\" << spacing[0];
+      itk::EncapsulateMetaData<std::string>(d, "0020|0032", position.str());
+      itk::EncapsulateMetaData<std::string>(d, "0020|0037", "1\\0\\0\\0\\1\\0");
+      itk::EncapsulateMetaData<std::string>(d, "0028|0030", pixel.str());
+      itk::EncapsulateMetaData<std::string>(d, "0018|0050", std::to_string(spacing[2]));
+      itk::EncapsulateMetaData<std::string>(d, "0020|0013", std::to_string(k + 1));
+      itk::EncapsulateMetaData<std::string>(d, "0008|0060", "MR");
+      itk::EncapsulateMetaData<std::string>(d, "0020|000e", "1.2.826.0.1.3680043.2.1125.1.99");
+      tagPointers.push_back(&d);
+    }
+    auto gdcm = itk::GDCMImageIO::New();
+    gdcm->KeepOriginalUIDOn();
+    auto writer = itk::ImageSeriesWriter<Volume, Slice>::New();
+    writer->SetInput(volume);
+    writer->SetImageIO(gdcm);
+    writer->SetFileNames(names->GetFileNames());
+    writer->SetMetaDataDictionaryArray(&tagPointers);
+    writer->Update();
+    const Image3D back = io().readImage(series);
+    QCOMPARE(back.geometry().size, im.geometry().size);
+    QVERIFY(std::abs(back.geometry().spacing[2] - 5.0) < 1e-3);
+    QCOMPARE(back.at(5, 6, 4), im.at(5, 6, 4));
+  }
+
+  void refusesBadFiles() {
+    expectRefusal(io(), path("missing.nii.gz"), "no such file");
+    // Truncated: half of a valid compressed file.
+    io().writeImage(path("whole.nii.gz"), ellipsoidImage({}));
+    const auto bytes = fs::file_size(path("whole.nii.gz"));
+    fs::copy_file(path("whole.nii.gz"), path("half.nii.gz"));
+    fs::resize_file(path("half.nii.gz"), bytes / 2);
+    expectRefusal(io(), path("half.nii.gz"), "");
+    // Corrupt: not an image at all.
+    std::ofstream(path("junk.nii")) << "this is not a NIfTI file, just text that is long enough to be read";
+    expectRefusal(io(), path("junk.nii"), "");
+    // A directory without DICOM files.
+    fs::create_directories(path("empty_dir"));
+    expectRefusal(io(), path("empty_dir"), "DICOM");
+  }
+
+  void refusesHugeHeadersBeforeAllocating() {
+    // A valid NIfTI header whose dimensions claim 64000^3 voxels: refused from the header alone.
+    io().writeImage(path("small.nii"), obliqueImage());
+    std::fstream f(path("small.nii"), std::ios::in | std::ios::out | std::ios::binary);
+    const std::int16_t dims[4] = {3, 32000, 32000, 32000};
+    f.seekp(40);  // dim[0..3]
+    f.write(reinterpret_cast<const char*>(dims), sizeof dims);
+    f.close();
+    expectRefusal(io(), path("small.nii"), "2^31");
+  }
+
+  void refusesTwoDimensionalImages() {
+    ImageGeometry g;
+    g.size = {8, 8, 1};
+    io().writeImage(path("flat.nii"), Image3D(g, 1.0f));
+    std::fstream f(path("flat.nii"), std::ios::in | std::ios::out | std::ios::binary);
+    const std::int16_t dim0 = 2;
+    f.seekp(40);
+    f.write(reinterpret_cast<const char*>(&dim0), sizeof dim0);
+    f.close();
+    expectRefusal(io(), path("flat.nii"), "2D");
+  }
+};
+
+QTEST_GUILESS_MAIN(TestImageIO)
+#include "tst_image_io.moc"

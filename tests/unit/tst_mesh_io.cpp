@@ -1,0 +1,95 @@
+// The VTK mesh IO plugin: every format round-trips, bad files are refused with the file named,
+// and label surfaces are closed, outward and in world millimetres.
+#include "synthetic.h"
+
+#include <QTemporaryDir>
+#include <QtTest>
+
+#include <fstream>
+
+using namespace sinew;
+using namespace sinew::testing;
+namespace fs = std::filesystem;
+
+class TestMeshIO : public QObject {
+  Q_OBJECT
+  QTemporaryDir dir_;
+  fs::path path(const std::string& name) { return fs::path(dir_.path().toStdString()) / name; }
+  const MeshIODescriptor& io() { return builtinRegistry().meshIOFor("x.vtp"); }
+
+private slots:
+  void everyFormatRoundTrips_data() {
+    QTest::addColumn<QString>("ext");
+    for (const char* e : {".vtk", ".vtp", ".stl", ".obj", ".ply"}) QTest::newRow(e) << QString(e);
+  }
+  void everyFormatRoundTrips() {
+    QFETCH(QString, ext);
+    const SimplexMesh s = SimplexMesh::sphere(2, 7.0f, Vec3(1, 2, 3));
+    const TriangleMesh m = tessellate(s.topology, s.positions);
+    const fs::path p = path("mesh" + ext.toStdString());
+    io().write(p, m);
+    const TriangleMesh back = io().read(p);
+    validateClosedManifold(back);  // STL's separate triangles are merged back into a closed mesh
+    QCOMPARE(back.triangles.size(), m.triangles.size());
+    QCOMPARE(back.points.size(), m.points.size());
+    QVERIFY(std::abs(back.volume() - m.volume()) < 1e-3 * m.volume());
+    QVERIFY(std::abs(back.area() - m.area()) < 1e-3 * m.area());
+  }
+
+  void refusesBadFiles() {
+    auto refused = [&](const fs::path& p, const QString& needle) {
+      try {
+        io().read(p);
+        QFAIL("accepted");
+      } catch (const InputError& e) {
+        QVERIFY2(QString(e.what()).contains(QString::fromStdString(p.string())) && QString(e.what()).contains(needle),
+                 e.what());
+      }
+    };
+    refused(path("missing.vtp"), "no such file");
+    std::ofstream(path("empty.stl")).close();
+    refused(path("empty.stl"), "empty");
+    std::ofstream(path("junk.vtp")) << "<VTKFile type=\"PolyData\"> truncated";
+    refused(path("junk.vtp"), "");
+    // Truncated legacy file.
+    const SimplexMesh s = SimplexMesh::sphere(2);
+    io().write(path("whole.vtk"), tessellate(s.topology, s.positions));
+    fs::copy_file(path("whole.vtk"), path("half.vtk"));
+    fs::resize_file(path("half.vtk"), fs::file_size(path("whole.vtk")) / 2);
+    refused(path("half.vtk"), "");
+  }
+
+  void refusesToWriteNaN() {
+    TriangleMesh m = icosphere(1);
+    m.points[3].x() = std::numeric_limits<float>::quiet_NaN();
+    QVERIFY_THROWS_EXCEPTION(InputError, io().write(path("nan.vtp"), m));
+    QVERIFY(!fs::exists(path("nan.vtp")));
+  }
+
+  void labelSurfaceIsClosedOutwardAndInWorldSpace() {
+    // A labelled ball of radius 6 mm in an anisotropic, translated grid.
+    ImageGeometry g;
+    g.size = {40, 40, 16};
+    g.spacing = Eigen::Vector3d(0.8, 0.8, 2.0);
+    g.origin = Eigen::Vector3d(100, -50, 20);
+    LabelVolume labels(g, 0);
+    const Vec3 centre = labels.indexToWorld(Vec3(20, 20, 8));
+    for (int k = 0; k < 16; ++k)
+      for (int j = 0; j < 40; ++j)
+        for (int i = 0; i < 40; ++i)
+          if ((labels.indexToWorld(Vec3(i, j, k)) - centre).norm() < 6.0f) labels.at(i, j, k) = 5;
+    const TriangleMesh s = io().labelSurface(labels, 5, {20, 300});
+    validateClosedManifold(s);
+    QVERIFY(s.volume() > 0);
+    QVERIFY(std::abs(s.volume() - 4.0 / 3.0 * M_PI * 216.0) < 0.2 * 4.0 / 3.0 * M_PI * 216.0);
+    Vec3 mean = Vec3::Zero();
+    for (const Vec3& p : s.points) mean += p;
+    mean /= float(s.points.size());
+    QVERIFY((mean - centre).norm() < 0.5f);
+    QVERIFY(s.triangles.size() <= 400);
+    QVERIFY_THROWS_EXCEPTION(InputError, io().labelSurface(labels, 9, {}));
+  }
+};
+
+QTEST_GUILESS_MAIN(TestMeshIO)
+#include "tst_mesh_io.moc"

@@ -1,0 +1,92 @@
+// Scene files: every error names the file and the JSON path.
+#include "sinew/core/scene.h"
+
+#include <QtTest>
+
+using namespace sinew;
+
+namespace {
+const char* kValid = R"({
+  "version": 1,
+  "images": {"target": "t.nii.gz"},
+  "structures": [
+    {"name": "a", "label": 3, "reference": {"label_map": "l.nii.gz", "label": 3},
+     "initial": {"rotation_axis": [0, 0, 1], "rotation_deg": 5, "translation_mm": [1, 2, 3], "scale": 1.05},
+     "forces": {"smoothing": {"weight": 0.5}}}
+  ],
+  "forces": {"smoothing": {"weight": 0.1}, "shape_prior": {}},
+  "integrator": {"name": "damped_verlet", "time_step": 0.4},
+  "schedule": [{"iterations": 10}, {"iterations": 5, "forces": {"smoothing": {"weight": 0.2}}}]
+})";
+
+QString errorOf(const std::string& text) {
+  try {
+    parseScene(text, "/data/scene.json");
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return {};
+}
+
+std::string replaced(std::string text, const std::string& from, const std::string& to) {
+  const auto at = text.find(from);
+  Q_ASSERT(at != std::string::npos);
+  return text.replace(at, from.size(), to);
+}
+}  // namespace
+
+class TestScene : public QObject {
+  Q_OBJECT
+private slots:
+  void parsesAValidScene() {
+    const SceneDesc s = parseScene(kValid, "/data/scene.json");
+    QCOMPARE(s.structures.size(), size_t(1));
+    QCOMPARE(s.targetImage, std::filesystem::path("/data/t.nii.gz"));  // relative to the scene
+    QCOMPARE(s.structures[0].reference.label->label, 3);
+    QCOMPARE(s.structures[0].initial.scale, 1.05);
+    QCOMPARE(s.forces.size(), size_t(2));
+    QCOMPARE(s.forces[0].first, std::string("smoothing"));  // file order kept
+    QCOMPARE(s.schedule.size(), size_t(2));
+    QCOMPARE(s.integratorParams.front().second, 0.4);
+  }
+
+  void errorsNameTheJsonPath_data() {
+    QTest::addColumn<QString>("from");
+    QTest::addColumn<QString>("to");
+    QTest::addColumn<QString>("expected");
+    QTest::newRow("unknown key") << R"("scale": 1.05)" << R"("scale": 1.05, "sclae": 2)"
+                                 << "/data/scene.json: /structures/0/initial/sclae: unknown key";
+    QTest::newRow("wrong type") << R"("iterations": 10)" << R"("iterations": "10")"
+                                << "/schedule/0/iterations: expected an integer, got a string";
+    QTest::newRow("missing key") << R"("images": {"target": "t.nii.gz"})" << R"("images": {})"
+                                 << "/images: missing required key 'target'";
+    QTest::newRow("version") << R"("version": 1)" << R"("version": 7)" << "/version: scene version 7 is not supported";
+    QTest::newRow("force not listed") << R"({"smoothing": {"weight": 0.5}})" << R"({"gradient": {"weight": 0.5}})"
+                                      << "/structures/0/forces/gradient: force 'gradient' is not listed";
+    QTest::newRow("parameter type") << R"("weight": 0.1)" << R"("weight": true)"
+                                    << "/forces/smoothing/weight: expected a number";
+    QTest::newRow("reference twice") << R"("label_map": "l.nii.gz", "label": 3})"
+                                     << R"("label_map": "l.nii.gz", "label": 3, "mesh": "m.vtp"})"
+                                     << "/structures/0/reference: give either";
+    QTest::newRow("not json") << R"("version": 1,)" << R"("version": 1,,)" << "/data/scene.json: not valid JSON";
+  }
+  void errorsNameTheJsonPath() {
+    QFETCH(QString, from);
+    QFETCH(QString, to);
+    QFETCH(QString, expected);
+    const QString msg = errorOf(replaced(kValid, from.toStdString(), to.toStdString()));
+    QVERIFY2(msg.contains(expected), qPrintable("got: " + msg));
+  }
+
+  void missingFileIsNamed() {
+    try {
+      readScene("/nonexistent/scene.json");
+      QFAIL("accepted");
+    } catch (const InputError& e) {
+      QVERIFY(QString(e.what()).contains("/nonexistent/scene.json"));
+    }
+  }
+};
+
+QTEST_APPLESS_MAIN(TestScene)
+#include "tst_scene.moc"

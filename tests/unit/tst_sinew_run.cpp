@@ -1,0 +1,278 @@
+// sinew-run end to end: outputs and report on a synthetic scene, ASSD checked against VTK's
+// distance filter, every bad input refused with the file named, the documented exit code and no
+// output left behind, and a reduced Colin27 demo on real MRI.
+#include "synthetic.h"
+
+#include <QJsonArray>
+#include <QJsonDocument>
+#include <QJsonObject>
+#include <QProcess>
+#include <QTemporaryDir>
+#include <QtTest>
+
+#include <vtkCellData.h>
+#include <vtkDistancePolyDataFilter.h>
+#include <vtkLinearSubdivisionFilter.h>
+#include <vtkNew.h>
+#include <vtkPointData.h>
+#include <vtkPoints.h>
+#include <vtkPolyData.h>
+#include <vtkCellArray.h>
+
+#include <fstream>
+
+using namespace sinew;
+using namespace sinew::testing;
+namespace fs = std::filesystem;
+
+namespace {
+
+struct Result {
+  int code = -1;
+  QString err, out;
+};
+
+Result runTool(const QString& program, const QStringList& args) {
+  QProcess p;
+  p.start(program, args);
+  p.waitForFinished(600000);
+  return {p.exitStatus() == QProcess::NormalExit ? p.exitCode() : -1, p.readAllStandardError(), p.readAllStandardOutput()};
+}
+
+Result sinewRun(const QStringList& args) { return runTool(SINEW_RUN, args); }
+
+vtkNew<vtkPolyData> toVtk(const TriangleMesh& m) {
+  vtkNew<vtkPoints> pts;
+  for (const Vec3& p : m.points) pts->InsertNextPoint(p.x(), p.y(), p.z());
+  vtkNew<vtkCellArray> cells;
+  for (const auto& t : m.triangles) {
+    const vtkIdType ids[3] = {t[0], t[1], t[2]};
+    cells->InsertNextCell(3, ids);
+  }
+  vtkNew<vtkPolyData> pd;
+  pd->SetPoints(pts);
+  pd->SetPolys(cells);
+  return pd;
+}
+
+// ASSD computed by VTK: both surfaces subdivided until their points are dense, point-to-surface
+// distances both ways with vtkDistancePolyDataFilter, averaged over all points.
+double vtkAssd(const TriangleMesh& a, const TriangleMesh& b) {
+  auto dense = [](const TriangleMesh& m, int levels) {
+    vtkNew<vtkLinearSubdivisionFilter> sub;
+    sub->SetInputData(toVtk(m));
+    sub->SetNumberOfSubdivisions(levels);
+    sub->Update();
+    vtkSmartPointer<vtkPolyData> out = sub->GetOutput();
+    return out;
+  };
+  vtkNew<vtkDistancePolyDataFilter> d;
+  d->SetInputData(0, dense(a, 3));
+  d->SetInputData(1, dense(b, 2));
+  d->SignedDistanceOff();
+  d->ComputeSecondDistanceOn();
+  d->Update();
+  double sum = 0;
+  long n = 0;
+  for (int port : {0, 1}) {
+    vtkDataArray* dist = port == 0 ? d->GetOutput()->GetPointData()->GetArray("Distance")
+                                   : d->GetSecondDistanceOutput()->GetPointData()->GetArray("Distance");
+    for (vtkIdType i = 0; i < dist->GetNumberOfTuples(); ++i) sum += std::abs(dist->GetTuple1(i));
+    n += dist->GetNumberOfTuples();
+  }
+  return sum / double(n);
+}
+
+QJsonObject readJson(const fs::path& p) {
+  QFile f(QString::fromStdString(p.string()));
+  f.open(QIODevice::ReadOnly);
+  return QJsonDocument::fromJson(f.readAll()).object();
+}
+
+bool emptyOrMissing(const fs::path& dir) { return !fs::exists(dir) || fs::is_empty(dir); }
+
+}  // namespace
+
+class TestSinewRun : public QObject {
+  Q_OBJECT
+  QTemporaryDir dir_;
+  fs::path root() { return dir_.path().toStdString(); }
+  fs::path path(const std::string& n) { return root() / n; }
+  EllipsoidImageSpec spec_;
+
+  // Scene text with one ellipsoid structure; `edit` lets a test break one thing.
+  fs::path writeScene(const std::string& name, const std::function<void(std::string&)>& edit = {}) {
+    std::string text = R"({
+  "version": 1,
+  "images": {"target": "image.nii.gz", "training": "training.nii.gz"},
+  "structures": [{
+    "name": "ellipsoid", "label": 7,
+    "reference": {"label_map": "labels.nii.gz", "label": 7},
+    "initial": {"rotation_axis": [0, 1, 0], "rotation_deg": 6, "translation_mm": [2.0, -1.5, 1.0], "scale": 0.93},
+    "ground_truth": {"label_map": "labels.nii.gz", "label": 7}
+  }],
+  "forces": {"smoothing": {"weight": 0.02}, "shape_prior": {"weight": 1.0}, "intensity_profile": {"weight": 0.2}},
+  "integrator": {"name": "damped_verlet", "time_step": 0.5, "damping": 0.6},
+  "schedule": [{"iterations": 80, "forces": {"intensity_profile": {"search_depth": 4}}},
+               {"iterations": 30, "forces": {"intensity_profile": {"search_depth": 2}}}],
+  "model": {"coarse_spacing_mm": 4.0},
+  "report": {"sample_interval": 10}
+})";
+    if (edit) edit(text);
+    std::ofstream(path(name)) << text;
+    return path(name);
+  }
+
+  static void replace(std::string& text, const std::string& from, const std::string& to) {
+    const auto at = text.find(from);
+    QVERIFY2(at != std::string::npos, from.c_str());
+    text.replace(at, from.size(), to);
+  }
+
+  void expectBadInput(const fs::path& scene, const QString& file, const QString& problem) {
+    const fs::path out = path("out_" + scene.stem().string());
+    const Result r = sinewRun({QString::fromStdString(scene.string()), "-q", "-o", QString::fromStdString(out.string())});
+    QCOMPARE(r.code, 3);
+    QVERIFY2(r.err.contains(file) && r.err.contains(problem), qPrintable(r.err));
+    QCOMPARE(r.err.trimmed().count('\n'), 0);  // one clear line
+    QVERIFY(emptyOrMissing(out));
+  }
+
+private slots:
+  void initTestCase() {
+    QVERIFY(dir_.isValid());
+    const auto& io = builtinRegistry().imageIOFor("x.nii.gz");
+    io.writeImage(path("image.nii.gz"), ellipsoidImage(spec_));
+    EllipsoidImageSpec training = spec_;
+    training.seed = 77;
+    io.writeImage(path("training.nii.gz"), ellipsoidImage(training));
+    const Image3D im = ellipsoidImage(spec_);
+    LabelVolume labels(im.geometry(), 0);
+    for (int k = 0; k < spec_.size; ++k)
+      for (int j = 0; j < spec_.size; ++j)
+        for (int i = 0; i < spec_.size; ++i)
+          if ((im.indexToWorld(Vec3(i, j, k)) - spec_.centre).cwiseQuotient(spec_.radii).norm() < 1.0f) labels.at(i, j, k) = 7;
+    io.writeLabels(path("labels.nii.gz"), labels);
+  }
+
+  void versionHelpAndUsage() {
+    Result r = sinewRun({"--version"});
+    QCOMPARE(r.code, 0);
+    QVERIFY(r.out.contains("sinew-run"));
+    r = sinewRun({"--help"});
+    QCOMPARE(r.code, 0);
+    QVERIFY(r.out.contains("Exit codes"));
+    QCOMPARE(sinewRun({"--no-such-flag"}).code, 2);
+    QCOMPARE(sinewRun({}).code, 2);
+    r = sinewRun({"--list-plugins"});
+    QCOMPARE(r.code, 0);
+    QVERIFY(r.out.contains("force intensity_profile") && r.out.contains("search_depth"));
+  }
+
+  void segmentsTheSyntheticScene() {
+    const fs::path out = path("out");
+    const Result r = sinewRun({QString::fromStdString(writeScene("scene.json").string()), "-o",
+                               QString::fromStdString(out.string())});
+    QVERIFY2(r.code == 0, qPrintable(r.err));
+    for (const char* f : {"ellipsoid.vtp", "segmentation.nii.gz", "report.json", "report.csv", "timeline.csv",
+                          "error_vs_time.png"})
+      QVERIFY2(fs::exists(out / f), f);
+    const QJsonObject report = readJson(out / "report.json");
+    for (const char* key : {"backend", "device", "total_seconds", "structures", "timeline"}) QVERIFY(report.contains(key));
+    const QJsonObject s = report["structures"].toArray()[0].toObject();
+    const double before = s["assd_mm"].toObject()["initial"].toDouble(), after = s["assd_mm"].toObject()["final"].toDouble();
+    qInfo("synthetic: ASSD %.3f -> %.3f mm, Dice %.3f -> %.3f", before, after, s["dice_initial"].toDouble(),
+          s["dice"].toDouble());
+    QVERIFY(before > 1.0);
+    QVERIFY(after < 0.6 * before);
+    QVERIFY(s["dice"].toDouble() > s["dice_initial"].toDouble());
+    QCOMPARE(s["vertices"].toInt() % 4, 0);
+    const QJsonArray timeline = report["timeline"].toArray();
+    QVERIFY(timeline.size() > 5);
+    for (const char* key : {"seconds", "iteration", "level", "structure", "assd_mm"})
+      QVERIFY(timeline[0].toObject().contains(key));
+
+    // The report's ASSD agrees with VTK's own distance computation.
+    const auto& meshIO = builtinRegistry().meshIOFor("x.vtp");
+    const TriangleMesh result = meshIO.read(out / "ellipsoid.vtp");
+    const TriangleMesh truth =
+        meshIO.labelSurface(builtinRegistry().imageIOFor("x.nii.gz").readLabels(path("labels.nii.gz")), 7, {0, 0});
+    const double independent = vtkAssd(result, truth);
+    qInfo("ASSD: report %.4f mm, VTK distance filter %.4f mm", after, independent);
+    QVERIFY(std::abs(independent - after) < 0.05);
+
+    // The label map holds the structure's label where the mesh is.
+    const LabelVolume seg = builtinRegistry().imageIOFor("x.nii.gz").readLabels(out / "segmentation.nii.gz");
+    QCOMPARE(seg.at(32, 32, 32), 7);
+    QCOMPARE(seg.at(2, 2, 2), 0);
+  }
+
+  void refusesBadInputs() {
+    expectBadInput(writeScene("missing_image.json", [](std::string& t) { replace(t, "image.nii.gz", "nothere.nii.gz"); }),
+                   "nothere.nii.gz", "no such file");
+    {
+      fs::copy_file(path("image.nii.gz"), path("truncated.nii.gz"));
+      fs::resize_file(path("truncated.nii.gz"), fs::file_size(path("image.nii.gz")) / 3);
+      expectBadInput(writeScene("truncated.json", [](std::string& t) { replace(t, "image.nii.gz", "truncated.nii.gz"); }),
+                     "truncated.nii.gz", "");
+    }
+    {
+      std::ofstream(path("corrupt.vtp")) << "<?xml version=\"1.0\"?><VTKFile type=\"PolyData\"><broken";
+      expectBadInput(writeScene("corrupt_mesh.json",
+                                [](std::string& t) {
+                                  replace(t, R"("label_map": "labels.nii.gz", "label": 7},)", R"("mesh": "corrupt.vtp"},)");
+                                }),
+                     "corrupt.vtp", "");
+    }
+    {
+      TriangleMesh open = icosphere(2, 10.0f, spec_.centre);
+      open.triangles.pop_back();
+      builtinRegistry().meshIOFor("x.vtp").write(path("open.vtp"), open);
+      expectBadInput(writeScene("open_mesh.json",
+                                [](std::string& t) {
+                                  replace(t, R"("label_map": "labels.nii.gz", "label": 7},)", R"("mesh": "open.vtp"},)");
+                                }),
+                     "open.vtp", "open");
+    }
+    expectBadInput(writeScene("outside.json", [](std::string& t) { replace(t, "[2.0, -1.5, 1.0]", "[500, 0, 0]"); }),
+                   "outside.json", "outside the target image");
+    expectBadInput(writeScene("absent_label.json",
+                              [](std::string& t) { replace(t, R"("labels.nii.gz", "label": 7},)", R"("labels.nii.gz", "label": 9},)"); }),
+                   "labels.nii.gz", "label 9 is absent");
+    expectBadInput(writeScene("scene_error.json", [](std::string& t) { replace(t, R"("scale": 0.93)", R"("scale": 0.93, "skale": 1)"); }),
+                   "scene_error.json", "/structures/0/initial/skale: unknown key");
+    expectBadInput(writeScene("bad_param.json", [](std::string& t) { replace(t, R"("weight": 1.0)", R"("weight": 3.0)"); }),
+                   "bad_param.json", "/forces/shape_prior/weight");
+    expectBadInput(writeScene("unknown_force.json", [](std::string& t) { replace(t, R"("smoothing": {"weight": 0.02})", R"("smoothin": {})"); }),
+                   "unknown_force.json", "unknown force 'smoothin'");
+  }
+
+  void reducedColin27Demo() {
+    const QString t = "/usr/share/mricron/templates/";
+    if (!QFile::exists(t + "aal.nii.gz")) QSKIP("Debian package mricron-data is not installed");
+    const fs::path scene = path("colin.json"), out = path("colin_out");
+    Result r = runTool(SINEW_MAKE_SCENE, {"--atlas", t + "aal.nii.gz", "--labels", t + "aal.nii.txt", "--training",
+                                          t + "ch2better.nii.gz", "--target", t + "ch2.nii.gz", "--structures",
+                                          "Hippocampus_L,Caudate_R,Putamen_L,Thalamus_R", "--iterations", "150,80",
+                                          "--seed", "3", "-o", QString::fromStdString(scene.string())});
+    QVERIFY2(r.code == 0, qPrintable(r.err));
+    r = sinewRun({QString::fromStdString(scene.string()), "-q", "-o", QString::fromStdString(out.string())});
+    QVERIFY2(r.code == 0, qPrintable(r.err));
+    qInfo("%s", qPrintable(r.out));
+    const QJsonArray structures = readJson(out / "report.json")["structures"].toArray();
+    QCOMPARE(structures.size(), 4);
+    double before = 0, after = 0;
+    for (const auto& v : structures) {
+      const QJsonObject s = v.toObject();
+      const double a0 = s["assd_mm"].toObject()["initial"].toDouble(), a1 = s["assd_mm"].toObject()["final"].toDouble();
+      QVERIFY2(a1 < a0, qPrintable(s["name"].toString()));
+      QVERIFY2(s["dice"].toDouble() >= s["dice_initial"].toDouble(), qPrintable(s["name"].toString()));
+      before += a0;
+      after += a1;
+    }
+    QVERIFY(after <= 0.7 * before);  // at least a 30 % drop of the mean
+  }
+};
+
+QTEST_GUILESS_MAIN(TestSinewRun)
+#include "tst_sinew_run.moc"
