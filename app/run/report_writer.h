@@ -14,5 +14,8 @@ void writeTimelineCsv(const std::filesystem::path& path, const RunReport& report
 // error_vs_time.png: ASSD (or mean displacement without ground truth) against simulation time,
 // one curve per structure, level changes marked.
 void writeErrorPlot(const std::filesystem::path& path, const RunReport& report, const SceneDesc& scene);
+// slices.png: three orthogonal slices through the structures with their label boundaries.
+void writeSliceOverlay(const std::filesystem::path& path, const Image3D& image, const LabelVolume& labels,
+                       const SceneDesc& scene);
 
 }  // namespace sinew

@@ -4,6 +4,10 @@
 #include "report_writer.h"
 #include "sinew/core/scene_runner.h"
 
+#ifdef SINEW_WITH_CUDA
+#include "sinew/cuda/cuda_engine.h"
+#endif
+
 #include <CLI/CLI.hpp>
 #include <QGuiApplication>
 
@@ -134,10 +138,14 @@ int main(int argc, char** argv) {
   std::string scenePath, outDir = "sinew-output";
   int threads = 0;
   bool quiet = false, list = false;
+  std::string backendChoice = "auto";
   cli.add_option("scene", scenePath, "scene file (JSON)");
   cli.add_option("-o,--out", outDir, "output directory (created if missing)")->capture_default_str();
   cli.add_option("-j,--threads", threads, "CPU threads (0 = all)")->check(CLI::NonNegativeNumber);
   cli.add_flag("-q,--quiet", quiet, "no progress output");
+  cli.add_option("--backend", backendChoice, "auto: CUDA when a usable GPU exists, else the CPU")
+      ->check(CLI::IsMember({"auto", "cuda", "cpu"}))
+      ->capture_default_str();
   cli.add_flag("--list-plugins", list, "list forces, integrators and IO plugins with their parameters");
   cli.set_version_flag("--version", std::string("sinew-run ") + SINEW_VERSION);
   try {
@@ -171,6 +179,30 @@ int main(int argc, char** argv) {
     ProgressPrinter progress(quiet);
     RunOptions options{threads, std::ref(progress), {}};
     if (!quiet) options.log = [](const std::string& m) { std::fprintf(stderr, "%s\n", m.c_str()); };
+    // Falling back to the CPU is always announced when the CUDA backend was asked for explicitly.
+    auto notice = [&](const std::string& m) {
+      if (!quiet || backendChoice == "cuda") std::fprintf(stderr, "%s\n", m.c_str());
+    };
+    options.backend = [&](Simulation& sim) -> std::unique_ptr<ExecutionBackend> {
+      if (backendChoice == "cpu") return nullptr;
+#ifdef SINEW_WITH_CUDA
+      const cuda::DeviceStatus st = cuda::probeDevice();
+      if (!st.usable) {
+        notice("CUDA backend unavailable (" + st.reason + "); running on the CPU");
+        return nullptr;
+      }
+      try {
+        return std::make_unique<cuda::CudaEngine>(sim);
+      } catch (const std::exception& e) {
+        notice(std::string("CUDA backend failed (") + e.what() + "); running on the CPU");
+        return nullptr;
+      }
+#else
+      (void)sim;
+      notice("this build has no CUDA backend; running on the CPU");
+      return nullptr;
+#endif
+    };
     SceneRunner runner(registry, scene, options);
     if (!quiet) std::fprintf(stderr, "loading %s\n", scenePath.c_str());
     runner.load();
@@ -185,7 +217,9 @@ int main(int argc, char** argv) {
         registry.meshIOFor(target).write(target, s.surface);
       }
     const fs::path labels = out.file(scene.labelMapName);
-    registry.imageIOFor(labels).writeLabels(labels, runner.labelMap(report));
+    const LabelVolume labelMap = runner.labelMap(report);
+    registry.imageIOFor(labels).writeLabels(labels, labelMap);
+    writeSliceOverlay(out.file("slices.png"), runner.simulation().scene().targetImage(), labelMap, scene);
     writeReportJson(out.file("report.json"), report, scene);
     writeReportCsv(out.file("report.csv"), report);
     writeTimelineCsv(out.file("timeline.csv"), report, scene);

@@ -255,6 +255,11 @@ RunReport SceneRunner::run() {
   std::vector<StructureResult> initial;
   for (Index i = 0; i < sim.structureCount(); ++i) initial.push_back(evaluate(i, true));
 
+  std::unique_ptr<ExecutionBackend> backend = options_.backend ? options_.backend(sim) : nullptr;
+  if (backend) {
+    report.backend = backend->name();
+    report.device = backend->device();
+  }
   const int levels = static_cast<int>(scene_.schedule.size());
   long total = 0, done = 0;
   for (const auto& l : scene_.schedule) total += l.iterations;
@@ -263,20 +268,26 @@ RunReport SceneRunner::run() {
   for (int level = 0; level < levels; ++level) {
     if (level > 0) {
       const auto t0 = Clock::now();
-      sim.advanceLevel();
+      sim.advanceLevel();  // on the host; the backend's state was downloaded at the last sample
+      if (backend) backend->reload();
       simSeconds += since(t0);
     }
     report.levelStartSeconds.push_back(simSeconds);
     const LevelDesc& lv = scene_.schedule[level];
     for (const auto& [name, values] : lv.forces)
       applyParams(scene_, sim.forceParams(name), values, -1, "/schedule/" + std::to_string(level) + "/forces/" + name);
-    for (int it = 0; it < lv.iterations; ++it) {
+    // Steps run in chunks that end on the sample points; only samples bring state to the host.
+    for (int it = 0; it < lv.iterations;) {
+      const int chunk = std::min(scene_.sampleInterval - it % scene_.sampleInterval, lv.iterations - it);
       const auto t0 = Clock::now();
-      sim.step();
+      if (backend) backend->run(chunk);
+      else sim.run(chunk);
       simSeconds += since(t0);
-      ++done;
-      if ((it + 1) % scene_.sampleInterval == 0 || it + 1 == lv.iterations) sample(report, simSeconds);
-      if (options_.progress) options_.progress({level, levels, it + 1, lv.iterations, done, total, simSeconds});
+      it += chunk;
+      done += chunk;
+      if (backend) backend->download();
+      sample(report, simSeconds);
+      if (options_.progress) options_.progress({level, levels, it, lv.iterations, done, total, simSeconds});
     }
   }
   report.simulationSeconds = simSeconds;

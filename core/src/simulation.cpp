@@ -43,6 +43,7 @@ ParamTable& Simulation::addForce(std::string_view name) {
 ParamTable& Simulation::setIntegrator(std::string_view name) {
   const IntegratorDescriptor& d = registry_.integrator(name);
   integrator_ = d.create();
+  integratorName_ = d.name;
   integratorParams_ = ParamTable(d.params, 1);
   return integratorParams_;
 }
@@ -58,6 +59,12 @@ const Simulation::ForceSlot& Simulation::slot(std::string_view name) const {
 }
 
 ParamTable& Simulation::forceParams(std::string_view name) { return slot(name).params; }
+
+std::vector<std::string> Simulation::forceNames() const {
+  std::vector<std::string> names;
+  for (const auto& s : forces_) names.push_back(s->name);
+  return names;
+}
 long Simulation::evaluations(std::string_view name) const { return slot(name).evaluations; }
 
 int Simulation::levelCount() const {

@@ -19,7 +19,7 @@ std::unique_ptr<Simulation> seedScene(int level, int threads) {
     spec.radii = Vec3(40, 30, 25);
     return std::make_shared<Image3D>(ellipsoidImage(spec));
   }();
-  auto sim = std::make_unique<Simulation>(builtinRegistry(), threads);
+  auto sim = std::make_unique<Simulation>(forceRegistry(), threads);
   const std::vector<std::pair<TriangleMesh, Vec3>> meshes = {
       {icosphere(3, 1.0f), Vec3(40, 64, 64)},
       {icosphere(3, 1.0f), Vec3(88, 64, 64)},

@@ -6,10 +6,10 @@
 
 namespace sinew::testing {
 
-const Registry& builtinRegistry() {
+const Registry& forceRegistry() {
   static const Registry registry = [] {
     Registry r;
-    registerBuiltinPlugins(r);
+    registerBuiltinForces(r);
     return r;
   }();
   return registry;

@@ -10,6 +10,9 @@
 
 namespace sinew::testing {
 
+// Built-in forces and integrators only (synthetic.cpp), and every built-in plugin, IO included
+// (builtin_registry.cpp, in sinew_test_support_io).
+const Registry& forceRegistry();
 const Registry& builtinRegistry();
 
 // Adds independent Gaussian noise (sigma per axis) with a fixed seed.

@@ -71,7 +71,7 @@ private slots:
   void smoothingRemovesNoiseWithoutShrinking() {
     StructureSpec s = sphereStructure("ball", 4, 20.0f, Vec3::Zero());
     s.initialPositions = withNoise(s.initialPositions, 0.3f, 11);
-    Simulation sim(builtinRegistry());
+    Simulation sim(forceRegistry());
     sim.addStructure(s);
     sim.addForce("smoothing");
     sim.setIntegrator("damped_verlet");
@@ -96,7 +96,7 @@ private slots:
     s.levels = LevelHierarchy::build(sphere.topology, 1);
     s.referencePositions = bumpyEllipsoid(sphere.positions);
     s.initialPositions = withNoise(s.referencePositions, 1.0f / std::sqrt(3.0f), 5);  // 1 mm RMS
-    Simulation sim(builtinRegistry());
+    Simulation sim(forceRegistry());
     sim.addStructure(s);
     sim.addForce("shape_prior");
     sim.setIntegrator("damped_verlet");
@@ -111,7 +111,7 @@ private slots:
 
   void gradientForceFindsTheEllipsoid() {
     EllipsoidCase c = ellipsoidCase(3);
-    Simulation sim(builtinRegistry());
+    Simulation sim(forceRegistry());
     sim.addStructure(c.start);
     sim.addForce("smoothing").setAll("weight", 0.3);
     sim.addForce("gradient").setAll("search_depth", 8.0);
@@ -131,7 +131,7 @@ private slots:
     c.start.referencePositions = c.referenceOnTruth;
     EllipsoidImageSpec training = c.image;
     training.seed = 99;  // another noise realisation
-    Simulation sim(builtinRegistry());
+    Simulation sim(forceRegistry());
     sim.addStructure(c.start);
     sim.addForce("smoothing").setAll("weight", 0.3);
     sim.addForce("intensity_profile").setAll("search_depth", 8.0);
@@ -148,7 +148,7 @@ private slots:
   }
 
   void attractionPointCapturesItsClosestVertex() {
-    Simulation sim(builtinRegistry());
+    Simulation sim(forceRegistry());
     sim.addStructure(sphereStructure("ball", 3, 10.0f, Vec3::Zero()));
     sim.addForce("smoothing").setAll("weight", 0.1);
     sim.addForce("attraction_points");
@@ -173,7 +173,7 @@ private slots:
     auto runWith = [](int threads) {
       EllipsoidCase c = ellipsoidCase(3);
       c.start.referencePositions = c.referenceOnTruth;
-      Simulation sim(builtinRegistry(), threads);
+      Simulation sim(forceRegistry(), threads);
       sim.addStructure(c.start);
       sim.addStructure(sphereStructure("second", 2, 6.0f, c.image.centre));
       sim.addForce("smoothing");

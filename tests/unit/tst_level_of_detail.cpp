@@ -74,7 +74,7 @@ private slots:
 
   void simulationCarriesPositionsAndVelocities() {
     StructureSpec spec = sphereStructure("ball", 1, 5.0f, Vec3::Zero(), 2);
-    Simulation sim(builtinRegistry(), 1);
+    Simulation sim(forceRegistry(), 1);
     sim.addStructure(spec);
     sim.addForce("smoothing");
     sim.setIntegrator("damped_verlet");

@@ -17,7 +17,7 @@ std::shared_ptr<Image3D> smallImage() {
 }
 
 std::unique_ptr<Simulation> twoSpheres(const std::vector<std::string>& forces) {
-  auto sim = std::make_unique<Simulation>(builtinRegistry(), 1);
+  auto sim = std::make_unique<Simulation>(forceRegistry(), 1);
   for (int i = 0; i < 2; ++i) {
     StructureSpec s = sphereStructure("s" + std::to_string(i), 2, 5.0f, Vec3(16 + i, 16, 16));
     s.referencePositions = s.initialPositions;
@@ -114,7 +114,7 @@ private slots:
   }
 
   void badParametersAndNamesAreRefused() {
-    Simulation sim(builtinRegistry(), 1);
+    Simulation sim(forceRegistry(), 1);
     sim.addStructure(sphereStructure("a", 1, 1.0f, Vec3::Zero()));
     QVERIFY_THROWS_EXCEPTION(InputError, sim.addForce("no_such_force"));
     ParamTable& p = sim.addForce("smoothing");
@@ -131,7 +131,7 @@ private slots:
   }
 
   void everyParameterIsDeclaredCompletely() {
-    for (const auto& f : builtinRegistry().forces()) {
+    for (const auto& f : forceRegistry().forces()) {
       QVERIFY(!f.summary.empty());
       QCOMPARE(f.params.front().name, std::string("weight"));
       for (const auto& d : f.params) {
@@ -139,7 +139,7 @@ private slots:
         QVERIFY(d.min <= d.defaultValue && d.defaultValue <= d.max);
       }
     }
-    QVERIFY(!builtinRegistry().integrators().empty());
+    QVERIFY(!forceRegistry().integrators().empty());
   }
 };
 

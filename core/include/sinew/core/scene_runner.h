@@ -3,6 +3,7 @@
 // to fine and measures error against run time.
 #pragma once
 
+#include "sinew/core/execution_backend.h"
 #include "sinew/core/io.h"
 #include "sinew/core/scene.h"
 #include "sinew/core/simulation.h"
@@ -60,6 +61,8 @@ struct RunOptions {
   int threads = 0;  // 0: all hardware threads
   std::function<void(const RunProgress&)> progress;
   std::function<void(const std::string&)> log;  // what is being loaded, for long set-ups
+  // Creates the backend that runs the steps (after load); null or returning null: the CPU.
+  std::function<std::unique_ptr<ExecutionBackend>(Simulation&)> backend;
 };
 
 class SceneRunner {

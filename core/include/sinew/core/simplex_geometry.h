@@ -85,9 +85,8 @@ SimplexParamsT<typename V::Scalar> simplexParams(const V& p, const V& p1, const 
 // continuous and makes the parameters an exact inverse for any configuration when hint is the
 // original elevation.
 template <class S>
-S elevationFromAngle(S r, S d2, S phi, S hint) {
+S elevationFromSinCos(S r, S d2, S s, S c, S hint) {
   const S k = r * r - d2;
-  const S s = std::sin(phi), c = std::cos(phi);
   const S root = std::sqrt(std::fmax(r * r * c * c + k * s * s, S(0)));
   const S den = root + r * c;
   S L = std::fabs(den) < S(1e-12) * (r + S(1e-30)) ? S(0) : k * s / den;
@@ -96,6 +95,11 @@ S elevationFromAngle(S r, S d2, S phi, S hint) {
     if (std::fabs(other - hint) < std::fabs(L - hint)) L = other;
   }
   return L;
+}
+
+template <class S>
+S elevationFromAngle(S r, S d2, S phi, S hint) {
+  return elevationFromSinCos(r, d2, S(std::sin(phi)), S(std::cos(phi)), hint);
 }
 
 // The position the parameters give over the neighbours' current triangle; `hint` is the vertex's

@@ -44,10 +44,15 @@ public:
   int level() const { return level_; }
   int levelCount() const;
   long iteration() const { return iteration_; }
+  // For backends that run this simulation's steps elsewhere (ExecutionBackend).
+  void countExternalSteps(long steps) { iteration_ += steps; }
   MeshStore& store() { return store_; }
   const StructureSpec& structure(Index i) const { return structures_[i]; }
   Index structureCount() const { return static_cast<Index>(structures_.size()); }
   ParamTable& forceParams(std::string_view name);
+  // The scene's forces in evaluation order (for backends that run them elsewhere).
+  std::vector<std::string> forceNames() const;
+  std::string integratorName() const { return integratorName_; }
   ParamTable& integratorParams() { return integratorParams_; }
   // How often each force was evaluated (a force weighted 0 everywhere is skipped).
   long evaluations(std::string_view forceName) const;
@@ -67,6 +72,7 @@ private:
   std::vector<std::unique_ptr<ForceSlot>> forces_;
   std::unique_ptr<Integrator> integrator_;
   ParamTable integratorParams_;
+  std::string integratorName_;
   MeshStore store_;
   int level_ = 0;
   long iteration_ = 0;

@@ -1,0 +1,22 @@
+// Somewhere other than the host that runs a simulation's steps (the CUDA backend). The host
+// Simulation stays the model: structures, parameters, levels of detail. A backend mirrors its
+// store, runs batches of steps, and hands the state back only when asked.
+#pragma once
+
+#include <string>
+
+namespace sinew {
+
+class ExecutionBackend {
+public:
+  virtual ~ExecutionBackend() = default;
+  virtual std::string name() const = 0;    // "cuda"
+  virtual std::string device() const = 0;  // e.g. the GPU's name
+  virtual void run(int iterations) = 0;
+  // Copies positions, previous positions and forces back into the host store.
+  virtual void download() = 0;
+  // Uploads the host store again after the host changed it (a level change).
+  virtual void reload() = 0;
+};
+
+}  // namespace sinew

@@ -1,0 +1,49 @@
+// The CUDA backend: the mesh store mirrored on the GPU (same structure-of-arrays layout), every
+// built-in force and damped Verlet as kernels. State stays on the device while it runs; only
+// parameters (and attraction points) go up before a batch, and positions come back on request.
+// Host-only header: no CUDA types, so the CLI and tests include it freely.
+#pragma once
+
+#include "sinew/core/execution_backend.h"
+#include "sinew/core/simulation.h"
+
+#include <memory>
+#include <string>
+
+namespace sinew::cuda {
+
+struct DeviceStatus {
+  bool usable = false;
+  std::string description;  // e.g. "NVIDIA H100 80GB HBM3 (sm_90, 79.1 GiB)"
+  std::string reason;       // why not usable
+};
+
+// Never throws: reports whether a CUDA device this build can use is present.
+DeviceStatus probeDevice();
+
+class CudaEngine final : public ExecutionBackend {
+public:
+  // Mirrors an initialised simulation on the device. Throws std::runtime_error when a force or the
+  // integrator has no CUDA implementation or the device runs out of memory.
+  explicit CudaEngine(Simulation& simulation);
+  ~CudaEngine() override;
+  CudaEngine(const CudaEngine&) = delete;
+  CudaEngine& operator=(const CudaEngine&) = delete;
+
+  // Runs iterations on the device (captured as CUDA Graph batches). Host state is not updated.
+  void run(int iterations) override;
+  // Copies positions, previous positions and forces back into the host store.
+  void download() override;
+  // Uploads the host store again (after a level change or a host-side edit).
+  void reload() override;
+
+  std::string name() const override { return "cuda"; }
+  std::string device() const override;
+  std::size_t deviceBytes() const;  // device memory the engine holds
+
+private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace sinew::cuda

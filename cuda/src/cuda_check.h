@@ -1,0 +1,63 @@
+// Host-only CUDA helpers: checked calls, RAII device arrays, launch geometry.
+#pragma once
+
+#include <cuda_runtime.h>
+
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace sinew::cuda {
+
+inline void check(cudaError_t e, const char* what) {
+  if (e != cudaSuccess) throw std::runtime_error(std::string("CUDA: ") + what + ": " + cudaGetErrorString(e));
+}
+#define SINEW_CUDA(call) ::sinew::cuda::check((call), #call)
+
+inline unsigned blocksFor(std::size_t n, unsigned threads) { return static_cast<unsigned>((n + threads - 1) / threads); }
+
+// Device memory owned by one object; copies only through upload/download.
+template <class T>
+class DeviceArray {
+public:
+  DeviceArray() = default;
+  explicit DeviceArray(std::size_t n) { resize(n); }
+  ~DeviceArray() { release(); }
+  DeviceArray(const DeviceArray&) = delete;
+  DeviceArray& operator=(const DeviceArray&) = delete;
+  DeviceArray(DeviceArray&& o) noexcept : ptr_(o.ptr_), size_(o.size_) { o.ptr_ = nullptr, o.size_ = 0; }
+  DeviceArray& operator=(DeviceArray&& o) noexcept {
+    std::swap(ptr_, o.ptr_);
+    std::swap(size_, o.size_);
+    return *this;
+  }
+
+  void resize(std::size_t n) {
+    if (n == size_) return;
+    release();
+    if (n) SINEW_CUDA(cudaMalloc(&ptr_, n * sizeof(T)));
+    size_ = n;
+  }
+  void upload(const T* host, std::size_t n, cudaStream_t s = 0) {
+    resize(n);
+    if (n) SINEW_CUDA(cudaMemcpyAsync(ptr_, host, n * sizeof(T), cudaMemcpyHostToDevice, s));
+  }
+  void upload(const std::vector<T>& host, cudaStream_t s = 0) { upload(host.data(), host.size(), s); }
+  void download(T* host, std::size_t n, cudaStream_t s = 0) const {
+    if (n) SINEW_CUDA(cudaMemcpyAsync(host, ptr_, n * sizeof(T), cudaMemcpyDeviceToHost, s));
+  }
+  T* get() const { return ptr_; }
+  std::size_t size() const { return size_; }
+  std::size_t bytes() const { return size_ * sizeof(T); }
+
+private:
+  void release() {
+    if (ptr_) cudaFree(ptr_);
+    ptr_ = nullptr;
+    size_ = 0;
+  }
+  T* ptr_ = nullptr;
+  std::size_t size_ = 0;
+};
+
+}  // namespace sinew::cuda

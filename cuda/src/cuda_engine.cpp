@@ -1,0 +1,321 @@
+// The CUDA engine: mirrors the host mesh store on the device and runs whole batches of steps there,
+// captured once as a CUDA Graph and replayed.
+#include "sinew/cuda/cuda_engine.h"
+
+#include "cuda_check.h"
+#include "kernels.h"
+
+#include <cmath>
+#include <map>
+#include <sstream>
+
+namespace sinew::cuda {
+
+DeviceStatus probeDevice() {
+  DeviceStatus st;
+  int count = 0;
+  const cudaError_t e = cudaGetDeviceCount(&count);
+  if (e != cudaSuccess) {
+    st.reason = std::string("no usable CUDA device (") + cudaGetErrorString(e) + ")";
+    return st;
+  }
+  if (count == 0) {
+    st.reason = "no CUDA device found";
+    return st;
+  }
+  cudaDeviceProp p{};
+  if (cudaGetDeviceProperties(&p, 0) != cudaSuccess) {
+    st.reason = "cannot query CUDA device 0";
+    return st;
+  }
+  std::ostringstream d;
+  d << p.name << " (sm_" << p.major << p.minor << ", " << std::fixed;
+  d.precision(1);
+  d << double(p.totalGlobalMem) / (1 << 30) << " GiB)";
+  st.description = d.str();
+  st.usable = true;
+  return st;
+}
+
+namespace {
+template <class T, class U>
+void uploadAs(DeviceArray<T>& dst, std::span<const U> src) {
+  static_assert(sizeof(T) == sizeof(U));
+  dst.upload(reinterpret_cast<const T*>(src.data()), src.size());
+}
+
+VolumeView viewOf(const ImageGeometry& g) {
+  VolumeView v{};
+  v.sx = g.size[0];
+  v.sy = g.size[1];
+  v.sz = g.size[2];
+  // Same float matrix as Volume<T>: the inverse in double, then cast.
+  const Eigen::Matrix3f m = g.indexToWorldMatrix().inverse().cast<float>();
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) v.m[r * 3 + c] = m(r, c);
+  const Vec3 o = g.origin.cast<float>();
+  v.origin = make_float3(o.x(), o.y(), o.z());
+  return v;
+}
+
+enum class Kind { Smoothing, ShapePrior, Gradient, Profile, Attraction };
+}  // namespace
+
+struct CudaEngine::Impl {
+  Simulation& sim;
+  cudaStream_t stream = nullptr;
+  std::string device;
+  struct ForceSlot {
+    std::string name;
+    Kind kind;
+    DeviceArray<float> params;
+    int count = 0;
+  };
+  std::vector<ForceSlot> forces;
+  // Mesh store mirror.
+  DeviceArray<int3> neighbours, vertexCells;
+  DeviceArray<int> cellOffsets, cellVertices, meshOf, meshBegin, meshEnd;
+  DeviceArray<float> density, elevation, area, mass;
+  DeviceArray<float3> x, prev, force, normal, centre;
+  DeviceArray<float4> reference;
+  // Image-derived data, only when a force needs it.
+  DeviceArray<float> image, profiles;
+  DeviceArray<float3> gradient;
+  VolumeView imageView{}, gradientView{};
+  // Attraction points.
+  DeviceArray<float3> points;
+  DeviceArray<int> pointMesh;
+  DeviceArray<unsigned long long> keys;
+  int pointCount = 0;
+  MeshView view;
+  cudaGraphExec_t graph = nullptr;
+  int graphBatch = 0;
+  std::vector<float> graphSignature;  // what the captured graph baked in
+
+  explicit Impl(Simulation& s) : sim(s) {}
+  ~Impl() {
+    if (graph) cudaGraphExecDestroy(graph);
+    if (stream) cudaStreamDestroy(stream);
+  }
+
+  void uploadParams() {
+    for (ForceSlot& f : forces) {
+      const ParamTable& t = sim.forceParams(f.name);
+      std::vector<float> v(static_cast<size_t>(t.rows()) * t.decls().size());
+      for (Index r = 0; r < t.rows(); ++r)
+        for (size_t p = 0; p < t.decls().size(); ++p) v[r * t.decls().size() + p] = t.getf(r, static_cast<int>(p));
+      f.count = static_cast<int>(t.decls().size());
+      f.params.upload(v, stream);
+    }
+    std::vector<float3> pts;
+    std::vector<int> owner;
+    const auto& ap = sim.scene().attractionPoints();
+    for (size_t m = 0; m < ap.size(); ++m)
+      for (const Vec3& c : ap[m]) {
+        pts.push_back(make_float3(c.x(), c.y(), c.z()));
+        owner.push_back(static_cast<int>(m));
+      }
+    if (static_cast<int>(pts.size()) != pointCount) invalidateGraph();
+    pointCount = static_cast<int>(pts.size());
+    const float3* oldPoints = points.get();
+    points.upload(pts, stream);
+    pointMesh.upload(owner, stream);
+    keys.resize(pts.size());
+    if (points.get() != oldPoints) invalidateGraph();
+  }
+
+  void invalidateGraph() {
+    if (graph) cudaGraphExecDestroy(graph);
+    graph = nullptr;
+    graphBatch = 0;
+  }
+
+  void upload() {
+    invalidateGraph();
+    MeshStore& s = sim.store();
+    s.refresh();  // reference parameters and trained profiles are computed on the host, once per level
+    uploadAs(neighbours, s.neighbours());
+    uploadAs(vertexCells, s.vertexCells());
+    uploadAs(cellOffsets, s.cellOffsets());
+    uploadAs(cellVertices, s.cellVertices());
+    uploadAs(meshOf, s.meshOfVertex());
+    std::vector<int> begin, end;
+    std::vector<float> dens;
+    for (Index m = 0; m < s.meshCount(); ++m) {
+      begin.push_back(s.range(m).vertexBegin);
+      end.push_back(s.range(m).vertexEnd);
+      dens.push_back(s.density(m));
+    }
+    meshBegin.upload(begin, stream);
+    meshEnd.upload(end, stream);
+    density.upload(dens, stream);
+    uploadAs(x, s.positions());
+    uploadAs(prev, std::span<const Vec3>(s.previousPositions()));
+    force.resize(s.vertexCount());
+    if (s.has(Attribute::Normal)) normal.resize(s.vertexCount());
+    if (s.has(Attribute::Elevation)) elevation.resize(s.vertexCount());
+    if (s.has(Attribute::Area)) {
+      area.resize(s.vertexCount());
+      centre.resize(s.cellCount());
+    }
+    if (s.has(Attribute::Mass)) mass.resize(s.vertexCount());
+    if (s.has(Attribute::ReferenceParams)) {
+      const auto rp = s.referenceParams();
+      std::vector<float4> r(rp.size());
+      for (size_t v = 0; v < rp.size(); ++v) r[v] = make_float4(rp[v].eps1, rp[v].eps2, std::sin(rp[v].phi), std::cos(rp[v].phi));
+      reference.upload(r, stream);
+    }
+    for (const ForceSlot& f : forces) {
+      if (f.kind == Kind::Profile) {
+        const Image3D& im = sim.scene().targetImage();
+        image.upload(im.voxels(), stream);
+        imageView = viewOf(im.geometry());
+        const auto ch = s.channel("intensity_profile.reference");
+        profiles.upload(ch.data(), ch.size(), stream);
+      }
+      if (f.kind == Kind::Gradient) {
+        const ParamTable& t = sim.forceParams(f.name);
+        const VectorVolume& g = sim.scene().targetGradient(t.getf(0, t.indexOf("sigma")));
+        gradient.upload(reinterpret_cast<const float3*>(g.voxels().data()), g.voxels().size(), stream);
+        gradientView = viewOf(g.geometry());
+      }
+    }
+    view = MeshView{};
+    view.vertices = s.vertexCount();
+    view.cells = s.cellCount();
+    view.neighbours = neighbours.get();
+    view.vertexCells = vertexCells.get();
+    view.cellOffsets = cellOffsets.get();
+    view.cellVertices = cellVertices.get();
+    view.meshOf = meshOf.get();
+    view.density = density.get();
+    view.x = x.get();
+    view.prev = prev.get();
+    view.force = force.get();
+    view.normal = s.has(Attribute::Normal) ? normal.get() : nullptr;
+    view.elevation = s.has(Attribute::Elevation) ? elevation.get() : nullptr;
+    view.area = s.has(Attribute::Area) ? area.get() : nullptr;
+    view.mass = s.has(Attribute::Mass) ? mass.get() : nullptr;
+    view.cellCentre = s.has(Attribute::Area) ? centre.get() : nullptr;
+    uploadParams();
+    SINEW_CUDA(cudaStreamSynchronize(stream));
+  }
+
+  // One step, as Simulation::step: geometry, forces with a positive weight somewhere, Verlet.
+  void enqueueStep() {
+    launchGeometry(view, stream);
+    launchZeroForces(view, stream);
+    for (const ForceSlot& f : forces) {
+      const ParamTable& t = sim.forceParams(f.name);
+      if (!t.anyPositive(0)) continue;
+      const ParamView p{f.params.get(), f.count};
+      switch (f.kind) {
+        case Kind::Smoothing: launchSmoothing(view, p, t.indexOf("elevation_term"), stream); break;
+        case Kind::ShapePrior: launchShapePrior(view, p, reference.get(), stream); break;
+        case Kind::Gradient:
+          launchGradient(view, p, t.indexOf("epsilon"), t.indexOf("search_depth"), t.indexOf("sample_spacing"),
+                         gradientView, gradient.get(), stream);
+          break;
+        case Kind::Profile:
+          launchProfile(view, p, t.indexOf("search_depth"), imageView, image.get(), profiles.get(),
+                        static_cast<int>(t.get(0, t.indexOf("inside_samples"))),
+                        static_cast<int>(t.get(0, t.indexOf("outside_samples"))), t.getf(0, t.indexOf("spacing")),
+                        stream);
+          break;
+        case Kind::Attraction:
+          launchAttraction(view, p, t.indexOf("ring"), points.get(), pointMesh.get(), meshBegin.get(), meshEnd.get(),
+                           pointCount, keys.get(), stream);
+          break;
+      }
+    }
+    const ParamTable& ip = sim.integratorParams();
+    launchVerlet(view, ip.getf(0, ip.indexOf("time_step")), 1.0f - ip.getf(0, ip.indexOf("damping")), stream);
+  }
+};
+
+CudaEngine::CudaEngine(Simulation& simulation) : impl_(std::make_unique<Impl>(simulation)) {
+  const DeviceStatus st = probeDevice();
+  if (!st.usable) throw std::runtime_error(st.reason);
+  impl_->device = st.description;
+  if (simulation.integratorName() != "damped_verlet")
+    throw std::runtime_error("integrator '" + simulation.integratorName() + "' has no CUDA implementation");
+  static const std::map<std::string, Kind> kinds = {{"smoothing", Kind::Smoothing},
+                                                    {"shape_prior", Kind::ShapePrior},
+                                                    {"gradient", Kind::Gradient},
+                                                    {"intensity_profile", Kind::Profile},
+                                                    {"attraction_points", Kind::Attraction}};
+  for (const std::string& name : simulation.forceNames()) {
+    auto it = kinds.find(name);
+    if (it == kinds.end()) throw std::runtime_error("force '" + name + "' has no CUDA implementation");
+    impl_->forces.push_back({name, it->second, {}, 0});
+  }
+  SINEW_CUDA(cudaStreamCreateWithFlags(&impl_->stream, cudaStreamNonBlocking));
+  impl_->upload();
+}
+
+CudaEngine::~CudaEngine() = default;
+
+void CudaEngine::run(int iterations) {
+  Impl& I = *impl_;
+  const int total = iterations;
+  I.uploadParams();
+  // Per-structure values are read from device memory, but which kernels run (a force weighted 0
+  // everywhere is skipped) and the values passed by value are baked into the captured graph: it is
+  // captured again when any of them changed.
+  std::vector<float> signature;
+  for (const auto& f : I.forces) {
+    const ParamTable& t = I.sim.forceParams(f.name);
+    signature.push_back(t.anyPositive(0) ? 1.0f : 0.0f);
+    for (size_t p = 0; p < t.decls().size(); ++p)
+      if (!t.decls()[p].perStructure) signature.push_back(t.getf(0, static_cast<int>(p)));
+  }
+  for (size_t p = 0; p < I.sim.integratorParams().decls().size(); ++p)
+    signature.push_back(I.sim.integratorParams().getf(0, static_cast<int>(p)));
+  if (signature != I.graphSignature) I.invalidateGraph();
+  I.graphSignature = signature;
+  constexpr int kBatch = 32;
+  while (iterations > 0) {
+    const int n = std::min(iterations, kBatch);
+    if (n == kBatch) {
+      if (!I.graph) {
+        cudaGraph_t g;
+        SINEW_CUDA(cudaStreamBeginCapture(I.stream, cudaStreamCaptureModeThreadLocal));
+        for (int i = 0; i < kBatch; ++i) I.enqueueStep();
+        SINEW_CUDA(cudaStreamEndCapture(I.stream, &g));
+        SINEW_CUDA(cudaGraphInstantiate(&I.graph, g, 0));
+        SINEW_CUDA(cudaGraphDestroy(g));
+      }
+      SINEW_CUDA(cudaGraphLaunch(I.graph, I.stream));
+    } else {
+      for (int i = 0; i < n; ++i) I.enqueueStep();
+    }
+    iterations -= n;
+  }
+  SINEW_CUDA(cudaStreamSynchronize(I.stream));
+  SINEW_CUDA(cudaGetLastError());
+  I.sim.countExternalSteps(total);
+}
+
+void CudaEngine::download() {
+  Impl& I = *impl_;
+  MeshStore& s = I.sim.store();
+  const size_t n = s.vertexCount();
+  I.x.download(reinterpret_cast<float3*>(s.positionsForWrite().data()), n, I.stream);
+  I.prev.download(reinterpret_cast<float3*>(s.previousPositions().data()), n, I.stream);
+  I.force.download(reinterpret_cast<float3*>(s.forces().data()), n, I.stream);
+  SINEW_CUDA(cudaStreamSynchronize(I.stream));
+}
+
+void CudaEngine::reload() { impl_->upload(); }
+
+std::string CudaEngine::device() const { return impl_->device; }
+
+std::size_t CudaEngine::deviceBytes() const {
+  const Impl& I = *impl_;
+  return I.neighbours.bytes() + I.vertexCells.bytes() + I.cellOffsets.bytes() + I.cellVertices.bytes() +
+         I.meshOf.bytes() + I.density.bytes() + I.elevation.bytes() + I.area.bytes() + I.mass.bytes() + I.x.bytes() +
+         I.prev.bytes() + I.force.bytes() + I.normal.bytes() + I.centre.bytes() + I.reference.bytes() +
+         I.image.bytes() + I.profiles.bytes() + I.gradient.bytes();
+}
+
+}  // namespace sinew::cuda

@@ -1,0 +1,87 @@
+// float3 arithmetic written in the same operation order as the Eigen expressions of the CPU
+// kernels (no fused multiply-add: the library is compiled with --fmad=false), so both backends
+// round identically.
+#pragma once
+
+#include "kernels.h"
+
+namespace sinew::cuda {
+
+__device__ __forceinline__ float3 operator+(float3 a, float3 b) { return make_float3(a.x + b.x, a.y + b.y, a.z + b.z); }
+__device__ __forceinline__ float3 operator-(float3 a, float3 b) { return make_float3(a.x - b.x, a.y - b.y, a.z - b.z); }
+__device__ __forceinline__ float3 operator*(float s, float3 a) { return make_float3(s * a.x, s * a.y, s * a.z); }
+__device__ __forceinline__ float3 operator/(float3 a, float s) { return make_float3(a.x / s, a.y / s, a.z / s); }
+// Eigen reduces a 3-vector as x0 + (x1 + x2) (its unroller halves the range).
+__device__ __forceinline__ float sum3(float a, float b, float c) { return a + (b + c); }
+__device__ __forceinline__ float dot(float3 a, float3 b) { return sum3(a.x * b.x, a.y * b.y, a.z * b.z); }
+__device__ __forceinline__ float squaredNorm(float3 a) { return sum3(a.x * a.x, a.y * a.y, a.z * a.z); }
+__device__ __forceinline__ float norm(float3 a) { return sqrtf(squaredNorm(a)); }
+__device__ __forceinline__ float3 cross(float3 a, float3 b) {
+  return make_float3(a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x);
+}
+__device__ __forceinline__ void addTo(float3& acc, float3 v) { acc = acc + v; }
+
+// sinew::neighbourFrame
+struct Frame {
+  float3 normal, centre;
+  float radius, twiceArea;
+};
+__device__ __forceinline__ Frame neighbourFrame(float3 p1, float3 p2, float3 p3) {
+  Frame f{make_float3(0, 0, 0), make_float3(0, 0, 0), 0.0f, 0.0f};
+  const float3 a = p1 - p3, b = p2 - p3;
+  const float3 axb = cross(a, b);
+  const float axb2 = squaredNorm(axb);
+  f.twiceArea = sqrtf(axb2);
+  if (!(f.twiceArea > 1e-20f)) {
+    f.twiceArea = 0.0f;
+    return f;
+  }
+  f.normal = axb / f.twiceArea;
+  f.centre = p3 + cross(squaredNorm(a) * b - squaredNorm(b) * a, axb) / (2.0f * axb2);
+  f.radius = norm(p1 - f.centre);
+  return f;
+}
+
+// sinew::elevationFromSinCos
+__device__ __forceinline__ float elevationFromSinCos(float r, float d2, float s, float c, float hint) {
+  const float k = r * r - d2;
+  const float root = sqrtf(fmaxf(r * r * c * c + k * s * s, 0.0f));
+  const float den = root + r * c;
+  float L = fabsf(den) < 1e-12f * (r + 1e-30f) ? 0.0f : k * s / den;
+  if (k < 0.0f && L != 0.0f) {
+    const float other = -k / L;
+    if (fabsf(other - hint) < fabsf(L - hint)) L = other;
+  }
+  return L;
+}
+
+__device__ __forceinline__ float param(const ParamView& p, int mesh, int k) { return p.values[mesh * p.count + k]; }
+
+// sinew::Volume<T>::sample with T = float or float3: border voxels extend outside.
+__device__ __forceinline__ float lerp(float a, float b, float t) { return a + (b - a) * t; }
+__device__ __forceinline__ float3 lerp(float3 a, float3 b, float t) { return a + t * (b - a); }
+
+template <class T>
+__device__ __forceinline__ T sampleVolume(const VolumeView& v, const T* __restrict__ data, float3 p) {
+  const float3 q = p - v.origin;
+  const float idx[3] = {sum3(v.m[0] * q.x, v.m[1] * q.y, v.m[2] * q.z), sum3(v.m[3] * q.x, v.m[4] * q.y, v.m[5] * q.z),
+                        sum3(v.m[6] * q.x, v.m[7] * q.y, v.m[8] * q.z)};
+  const int size[3] = {v.sx, v.sy, v.sz};
+  int i0[3], i1[3];
+  float f[3];
+#pragma unroll
+  for (int a = 0; a < 3; ++a) {
+    const float c = fminf(fmaxf(idx[a], 0.0f), static_cast<float>(size[a] - 1));
+    i0[a] = min(static_cast<int>(c), max(size[a] - 2, 0));
+    f[a] = c - static_cast<float>(i0[a]);
+    i1[a] = min(i0[a] + 1, size[a] - 1);
+  }
+  auto at = [&](int i, int j, int k) { return data[(static_cast<size_t>(k) * v.sy + j) * v.sx + i]; };
+  const T c00 = lerp(at(i0[0], i0[1], i0[2]), at(i1[0], i0[1], i0[2]), f[0]);
+  const T c10 = lerp(at(i0[0], i1[1], i0[2]), at(i1[0], i1[1], i0[2]), f[0]);
+  const T c01 = lerp(at(i0[0], i0[1], i1[2]), at(i1[0], i0[1], i1[2]), f[0]);
+  const T c11 = lerp(at(i0[0], i1[1], i1[2]), at(i1[0], i1[1], i1[2]), f[0]);
+  return lerp(lerp(c00, c10, f[1]), lerp(c01, c11, f[1]), f[2]);
+}
+
+}  // namespace sinew::cuda

@@ -1,0 +1,157 @@
+// Forces and the integrator on the device, one thread per vertex, each a line-for-line mirror of
+// its CPU plugin (plugins/forces/*, plugins/integrators/damped_verlet).
+#include "device_math.cuh"
+
+namespace sinew::cuda {
+
+namespace {
+constexpr unsigned kThreads = 256;
+unsigned blocks(int n) { return (n + kThreads - 1) / kThreads; }
+
+__global__ void zeroForces(MeshView m) {
+  const int v = blockIdx.x * blockDim.x + threadIdx.x;
+  if (v < m.vertices) m.force[v] = make_float3(0, 0, 0);
+}
+
+__global__ void smoothing(MeshView m, ParamView p, int kElevation) {
+  const int v = blockIdx.x * blockDim.x + threadIdx.x;
+  if (v >= m.vertices) return;
+  const int mesh = m.meshOf[v];
+  const float alpha = param(p, mesh, 0);
+  if (!(alpha > 0.0f)) return;
+  const int3 n = m.neighbours[v];
+  const float a0 = m.area[n.x], a1 = m.area[n.y], a2 = m.area[n.z];
+  const float total = a0 + a1 + a2;
+  const float3 x0 = m.x[n.x], x1 = m.x[n.y], x2 = m.x[n.z];
+  const float3 centre = total > 0.0f ? (a0 * x0 + a1 * x1 + a2 * x2) / total : (x0 + x1 + x2) / 3.0f;
+  const float lift = param(p, mesh, kElevation) * (m.elevation[n.x] + m.elevation[n.y] + m.elevation[n.z]) / 3.0f;
+  m.force[v] = m.force[v] + alpha * (centre + lift * m.normal[v] - m.x[v]);
+}
+
+__global__ void shapePrior(MeshView m, ParamView p, const float4* __restrict__ ref) {
+  const int v = blockIdx.x * blockDim.x + threadIdx.x;
+  if (v >= m.vertices) return;
+  const float alpha = param(p, m.meshOf[v], 0);
+  if (!(alpha > 0.0f)) return;
+  const int3 n = m.neighbours[v];
+  const float3 p1 = m.x[n.x], p2 = m.x[n.y], p3 = m.x[n.z], x = m.x[v];
+  const Frame f = neighbourFrame(p1, p2, p3);
+  const float4 r = ref[v];
+  const float eps3 = 1.0f - r.x - r.y;
+  const float3 foot = r.x * p1 + r.y * p2 + eps3 * p3;
+  float3 target = foot;
+  if (f.twiceArea > 0.0f) {
+    const float d2 = squaredNorm(foot - f.centre);
+    target = foot + elevationFromSinCos(f.radius, d2, r.z, r.w, dot(x - p1, f.normal)) * f.normal;
+  }
+  m.force[v] = m.force[v] + alpha * (target - x);
+}
+
+__global__ void gradient(MeshView m, ParamView p, int kEps, int kDepth, int kStep, VolumeView vol,
+                         const float3* __restrict__ grad) {
+  const int v = blockIdx.x * blockDim.x + threadIdx.x;
+  if (v >= m.vertices) return;
+  const int mesh = m.meshOf[v];
+  const float alpha = param(p, mesh, 0);
+  if (!(alpha > 0.0f)) return;
+  const float eps = param(p, mesh, kEps), step = param(p, mesh, kStep);
+  const int reach = static_cast<int>(floorf(param(p, mesh, kDepth) / step));
+  const float3 n = m.normal[v], x = m.x[v];
+  float best = 3.402823466e+38f;
+  int bestJ = 0;
+  for (int j = -reach; j <= reach; ++j) {
+    const float e = eps * dot(sampleVolume(vol, grad, x + (static_cast<float>(j) * step) * n), n);
+    if (e < best || (e == best && abs(j) < abs(bestJ))) {
+      best = e;
+      bestJ = j;
+    }
+  }
+  m.force[v] = m.force[v] + (alpha * (static_cast<float>(bestJ) * step)) * n;
+}
+
+// The search line is held in registers/local memory; its length is bounded by the parameter
+// ranges (200 + 200 samples + 2 * 50 mm / 0.05 mm would be too long, so longer lines are
+// evaluated in place from the image).
+constexpr int kMaxLine = 256;
+
+__global__ void profile(MeshView m, ParamView p, int kDepth, VolumeView vol, const float* __restrict__ image,
+                        const float* __restrict__ profiles, int inside, int length, float spacing) {
+  const int v = blockIdx.x * blockDim.x + threadIdx.x;
+  if (v >= m.vertices) return;
+  const int mesh = m.meshOf[v];
+  const float alpha = param(p, mesh, 0);
+  if (!(alpha > 0.0f)) return;
+  const float* ref = profiles + static_cast<size_t>(v) * length;
+  const int reach = static_cast<int>(floorf(param(p, mesh, kDepth) / spacing));
+  const float3 n = m.normal[v], x = m.x[v];
+  const int lineLength = length + 2 * reach;
+  float line[kMaxLine];
+  auto sampleAt = [&](int q) {
+    const float offset = (static_cast<float>(q - inside) + 0.5f) * spacing;
+    return sampleVolume(vol, image, x + (offset - static_cast<float>(reach) * spacing) * n);
+  };
+  const bool cached = lineLength <= kMaxLine;
+  if (cached)
+    for (int q = 0; q < lineLength; ++q) line[q] = sampleAt(q);
+  float best = -2.0f;
+  int bestJ = 0;
+  for (int j = -reach; j <= reach; ++j) {
+    float sum = 0.0f, sum2 = 0.0f, dotp = 0.0f;
+    for (int k = 0; k < length; ++k) {
+      const float w = cached ? line[j + reach + k] : sampleAt(j + reach + k);
+      sum += w;
+      sum2 += w * w;
+      dotp += w * ref[k];
+    }
+    const float var = sum2 - sum * sum / static_cast<float>(length);
+    const float ncc = var > 1e-12f ? dotp / sqrtf(var) : -1.0f;
+    if (ncc > best || (ncc == best && abs(j) < abs(bestJ))) {
+      best = ncc;
+      bestJ = j;
+    }
+  }
+  m.force[v] = m.force[v] + (alpha * (static_cast<float>(bestJ) * spacing)) * n;
+}
+
+__global__ void verlet(MeshView m, float dt, float keep) {
+  const int v = blockIdx.x * blockDim.x + threadIdx.x;
+  if (v >= m.vertices) return;
+  const float3 current = m.x[v];
+  m.x[v] = current + keep * (current - m.prev[v]) + (dt * dt / m.mass[v]) * m.force[v];
+  m.prev[v] = current;
+}
+
+__global__ void prolong(const int* __restrict__ rows, const int* __restrict__ index, const float* __restrict__ weight,
+                        int count, const float3* __restrict__ coarse, float3* __restrict__ fine) {
+  const int i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i >= count) return;
+  float3 sum = make_float3(0, 0, 0);
+  for (int k = rows[i]; k < rows[i + 1]; ++k) sum = sum + weight[k] * coarse[index[k]];
+  fine[i] = sum;
+}
+}  // namespace
+
+void launchZeroForces(const MeshView& m, cudaStream_t s) { zeroForces<<<blocks(m.vertices), kThreads, 0, s>>>(m); }
+void launchSmoothing(const MeshView& m, ParamView p, int kElevation, cudaStream_t s) {
+  smoothing<<<blocks(m.vertices), kThreads, 0, s>>>(m, p, kElevation);
+}
+void launchShapePrior(const MeshView& m, ParamView p, const float4* ref, cudaStream_t s) {
+  shapePrior<<<blocks(m.vertices), kThreads, 0, s>>>(m, p, ref);
+}
+void launchGradient(const MeshView& m, ParamView p, int kEps, int kDepth, int kStep, VolumeView vol,
+                    const float3* grad, cudaStream_t s) {
+  gradient<<<blocks(m.vertices), kThreads, 0, s>>>(m, p, kEps, kDepth, kStep, vol, grad);
+}
+void launchProfile(const MeshView& m, ParamView p, int kDepth, VolumeView vol, const float* image,
+                   const float* profiles, int inside, int outside, float spacing, cudaStream_t s) {
+  profile<<<blocks(m.vertices), kThreads, 0, s>>>(m, p, kDepth, vol, image, profiles, inside, inside + outside, spacing);
+}
+void launchVerlet(const MeshView& m, float dt, float keep, cudaStream_t s) {
+  verlet<<<blocks(m.vertices), kThreads, 0, s>>>(m, dt, keep);
+}
+void launchProlong(const int* rows, const int* index, const float* weight, int count, const float3* coarse,
+                   float3* fine, cudaStream_t s) {
+  prolong<<<blocks(count), kThreads, 0, s>>>(rows, index, weight, count, coarse, fine);
+}
+
+}  // namespace sinew::cuda

@@ -1,0 +1,59 @@
+// Launchers of the CUDA kernels (defined in the .cu files) and the plain structs they take; no
+// device code here, so host C++ (the engine) includes it.
+#pragma once
+
+#include <cuda_runtime.h>
+
+namespace sinew::cuda {
+
+// The device side of the mesh store: the host store's arrays, one to one.
+struct MeshView {
+  int vertices = 0, cells = 0;
+  const int3* neighbours = nullptr;
+  const int3* vertexCells = nullptr;
+  const int* cellOffsets = nullptr;
+  const int* cellVertices = nullptr;
+  const int* meshOf = nullptr;
+  const float* density = nullptr;
+  float3* x = nullptr;
+  float3* prev = nullptr;
+  float3* force = nullptr;
+  float3* normal = nullptr;
+  float* elevation = nullptr;
+  float* area = nullptr;
+  float* mass = nullptr;
+  float3* cellCentre = nullptr;
+};
+
+// Per-structure parameters of one force: params[mesh * count + p], p = 0 is the weight alpha.
+struct ParamView {
+  const float* values = nullptr;
+  int count = 0;
+};
+
+// A volume in linear device memory with the host Volume's world-to-index transform.
+struct VolumeView {
+  int sx, sy, sz;
+  float m[9];  // world -> continuous index, row-major
+  float3 origin;
+};
+
+void launchGeometry(const MeshView& m, cudaStream_t s);
+void launchZeroForces(const MeshView& m, cudaStream_t s);
+void launchSmoothing(const MeshView& m, ParamView p, int elevationTerm, cudaStream_t s);
+// reference: (eps1, eps2, sin phi, cos phi) per vertex.
+void launchShapePrior(const MeshView& m, ParamView p, const float4* reference, cudaStream_t s);
+void launchGradient(const MeshView& m, ParamView p, int kEps, int kDepth, int kStep, VolumeView volume,
+                    const float3* gradient, cudaStream_t s);
+void launchProfile(const MeshView& m, ParamView p, int kDepth, VolumeView volume, const float* image,
+                   const float* profiles, int inside, int outside, float spacing, cudaStream_t s);
+// points: all attraction points, pointMesh: the structure of each; scratch: one 64-bit key per point.
+void launchAttraction(const MeshView& m, ParamView p, int kRing, const float3* points, const int* pointMesh,
+                      const int* meshBegin, const int* meshEnd, int pointCount, unsigned long long* scratch,
+                      cudaStream_t s);
+void launchVerlet(const MeshView& m, float dt, float keep, cudaStream_t s);
+// fine[i] = sum_k weight[k] coarse[index[k]] (level change on the device).
+void launchProlong(const int* rowOffsets, const int* index, const float* weight, int rows, const float3* coarse,
+                   float3* fine, cudaStream_t s);
+
+}  // namespace sinew::cuda

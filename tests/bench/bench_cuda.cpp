@@ -1,0 +1,127 @@
+// CPU and CUDA backends side by side, per iteration, at the seed's sizes and beyond: four closed
+// meshes of 2,656 vertices refined 1-to-4 up to ~11 M vertices, on a 128^3 synthetic image.
+// Cases: (a) the seed's full set (smoothing, shape prior, intensity profile, damped Verlet);
+// (b) smoothing, shape prior, damped Verlet. Plain program (no Google Benchmark) so it runs on a
+// GPU machine with nothing but the CUDA driver.   bench_cuda [max_level=6] [cpu_max_level=3]
+#include "sinew/core/scene_runner.h"
+#include "sinew/cuda/cuda_engine.h"
+#include "synthetic.h"
+
+#include <cuda_runtime.h>
+
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+
+using namespace sinew;
+using namespace sinew::testing;
+using Clock = std::chrono::steady_clock;
+
+namespace {
+
+std::unique_ptr<Simulation> seedScene(const std::vector<StructureSpec>& specs, bool profile) {
+  static const auto image = [] {
+    EllipsoidImageSpec spec;
+    spec.size = 128;
+    spec.centre = Vec3(64, 64, 64);
+    spec.radii = Vec3(40, 30, 25);
+    return std::make_shared<Image3D>(ellipsoidImage(spec));
+  }();
+  auto sim = std::make_unique<Simulation>(forceRegistry(), 0);
+  for (const auto& s : specs) sim->addStructure(s);
+  sim->addForce("smoothing");
+  sim->addForce("shape_prior");
+  if (profile) sim->addForce("intensity_profile");
+  sim->setIntegrator("damped_verlet");
+  sim->scene().setTargetImage(image);
+  sim->initialize();
+  return sim;
+}
+
+std::vector<StructureSpec> seedStructures(int levels) {
+  const std::vector<std::pair<TriangleMesh, Vec3>> meshes = {{icosphere(3), Vec3(40, 64, 64)},
+                                                             {icosphere(3), Vec3(88, 64, 64)},
+                                                             {icosphere(1), Vec3(64, 40, 64)},
+                                                             {tetrasphere(1), Vec3(64, 88, 64)}};
+  std::vector<StructureSpec> out;
+  for (size_t i = 0; i < meshes.size(); ++i) {
+    const SimplexMesh m = SimplexMesh::fromSphereTriangles(meshes[i].first, 1.0f, Vec3::Zero());
+    StructureSpec s;
+    s.name = "structure" + std::to_string(i);
+    s.levels = LevelHierarchy::build(m.topology, levels);
+    for (const Vec3& p : m.positions) {
+      s.initialPositions.push_back(meshes[i].second + 14.0f * p);
+      s.referencePositions.push_back(meshes[i].second + 15.0f * p);
+    }
+    out.push_back(std::move(s));
+  }
+  return out;
+}
+
+double deviceCopyBandwidth() {
+  const size_t bytes = size_t(1) << 30;
+  void *a = nullptr, *b = nullptr;
+  if (cudaMalloc(&a, bytes) != cudaSuccess || cudaMalloc(&b, bytes) != cudaSuccess) return 0;
+  cudaMemcpy(b, a, bytes, cudaMemcpyDeviceToDevice);
+  cudaDeviceSynchronize();
+  const auto t0 = Clock::now();
+  for (int i = 0; i < 10; ++i) cudaMemcpy(b, a, bytes, cudaMemcpyDeviceToDevice);
+  cudaDeviceSynchronize();
+  const double s = std::chrono::duration<double>(Clock::now() - t0).count();
+  cudaFree(a);
+  cudaFree(b);
+  return 10.0 * 2.0 * bytes / s;  // read + write
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  const int maxLevel = argc > 1 ? std::atoi(argv[1]) : 6;
+  const int cpuMaxLevel = argc > 2 ? std::atoi(argv[2]) : 3;
+  const cuda::DeviceStatus st = cuda::probeDevice();
+  if (!st.usable) {
+    std::printf("no CUDA device: %s\n", st.reason.c_str());
+    return 0;
+  }
+  std::printf("device: %s; CPU: %s\n", st.description.c_str(), cpuDescription(Executor().threads()).c_str());
+  std::printf("device-to-device copy: %.0f GB/s (read + write)\n\n", deviceCopyBandwidth() / 1e9);
+  std::printf("| case | vertices | CUDA us/iter | CUDA G vertex-iter/s | CPU ms/iter | CPU M vertex-iter/s | CUDA/CPU |\n");
+  std::printf("| --- | ---: | ---: | ---: | ---: | ---: | ---: |\n");
+  const auto specs = seedStructures(maxLevel + 1);
+  for (bool profile : {true, false}) {
+    for (int level = 0; level <= maxLevel; ++level) {
+      auto sim = seedScene(specs, profile);
+      for (int l = 0; l < level; ++l) sim->advanceLevel();
+      const Index n = sim->store().vertexCount();
+      double cpuMs = 0;
+      if (level <= cpuMaxLevel) {
+        auto cpu = seedScene(specs, profile);
+        for (int l = 0; l < level; ++l) cpu->advanceLevel();
+        cpu->run(2);
+        const int iters = level < 2 ? 50 : 5;
+        const auto t0 = Clock::now();
+        cpu->run(iters);
+        cpuMs = 1e3 * std::chrono::duration<double>(Clock::now() - t0).count() / iters;
+      }
+      cuda::CudaEngine engine(*sim);
+      engine.run(64);  // warm-up, graph capture
+      int iters = 64;
+      double seconds = 0;
+      for (;;) {
+        const auto t0 = Clock::now();
+        engine.run(iters);
+        seconds = std::chrono::duration<double>(Clock::now() - t0).count();
+        if (seconds > 0.3 || iters >= (1 << 16)) break;
+        iters *= 4;
+      }
+      const double us = 1e6 * seconds / iters;
+      std::printf("| %s | %d | %.2f | %.2f | ", profile ? "(a) seed set" : "(b) smooth+prior", n, us, n / us * 1e-3);
+      if (cpuMs > 0)
+        std::printf("%.2f | %.2f | %.0fx |\n", cpuMs, n / cpuMs * 1e-3, cpuMs * 1e3 / us);
+      else
+        std::printf("- | - | - |\n");
+      std::fflush(stdout);
+    }
+  }
+  return 0;
+}
