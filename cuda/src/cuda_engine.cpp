@@ -201,11 +201,38 @@ struct CudaEngine::Impl {
     SINEW_CUDA(cudaStreamSynchronize(stream));
   }
 
-  // One step, as Simulation::step: geometry, forces with a positive weight somewhere, Verlet.
+  // One step, as Simulation::step: geometry, forces with a positive weight somewhere, Verlet. The
+  // leading per-vertex forces run fused in one kernel; the others follow in order.
   void enqueueStep() {
     launchGeometry(view, stream);
-    launchZeroForces(view, stream);
-    for (const ForceSlot& f : forces) {
+    FusedTerms fused;
+    fused.reference = reference.get();
+    fused.gradient = gradient.get();
+    fused.gradientVolume = gradientView;
+    size_t next = 0;
+    for (; next < forces.size() && fused.count < 4; ++next) {
+      const ForceSlot& f = forces[next];
+      const ParamTable& t = sim.forceParams(f.name);
+      if (f.kind == Kind::Profile || f.kind == Kind::Attraction) break;
+      if (!t.anyPositive(0)) continue;
+      FusedTerm term{};
+      term.params = ParamView{f.params.get(), f.count};
+      if (f.kind == Kind::Smoothing) {
+        term.kind = FusedTerm::Smoothing;
+        term.k0 = t.indexOf("elevation_term");
+      } else if (f.kind == Kind::ShapePrior) {
+        term.kind = FusedTerm::ShapePrior;
+      } else {
+        term.kind = FusedTerm::Gradient;
+        term.k0 = t.indexOf("epsilon");
+        term.k1 = t.indexOf("search_depth");
+        term.k2 = t.indexOf("sample_spacing");
+      }
+      fused.terms[fused.count++] = term;
+    }
+    launchFusedForces(view, fused, stream);
+    for (; next < forces.size(); ++next) {
+      const ForceSlot& f = forces[next];
       const ParamTable& t = sim.forceParams(f.name);
       if (!t.anyPositive(0)) continue;
       const ParamView p{f.params.get(), f.count};

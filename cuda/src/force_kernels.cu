@@ -8,31 +8,20 @@ namespace {
 constexpr unsigned kThreads = 256;
 unsigned blocks(int n) { return (n + kThreads - 1) / kThreads; }
 
-__global__ void zeroForces(MeshView m) {
-  const int v = blockIdx.x * blockDim.x + threadIdx.x;
-  if (v < m.vertices) m.force[v] = make_float3(0, 0, 0);
-}
-
-__global__ void smoothing(MeshView m, ParamView p, int kElevation) {
-  const int v = blockIdx.x * blockDim.x + threadIdx.x;
-  if (v >= m.vertices) return;
+// Per-vertex force terms; each returns what its CPU plugin adds to forces[v] (alpha included).
+__device__ __forceinline__ float3 smoothingTerm(const MeshView& m, const ParamView& p, int kElevation, int v,
+                                                float alpha) {
   const int mesh = m.meshOf[v];
-  const float alpha = param(p, mesh, 0);
-  if (!(alpha > 0.0f)) return;
   const int3 n = m.neighbours[v];
   const float a0 = m.area[n.x], a1 = m.area[n.y], a2 = m.area[n.z];
   const float total = a0 + a1 + a2;
   const float3 x0 = m.x[n.x], x1 = m.x[n.y], x2 = m.x[n.z];
   const float3 centre = total > 0.0f ? (a0 * x0 + a1 * x1 + a2 * x2) / total : (x0 + x1 + x2) / 3.0f;
   const float lift = param(p, mesh, kElevation) * (m.elevation[n.x] + m.elevation[n.y] + m.elevation[n.z]) / 3.0f;
-  m.force[v] = m.force[v] + alpha * (centre + lift * m.normal[v] - m.x[v]);
+  return alpha * (centre + lift * m.normal[v] - m.x[v]);
 }
 
-__global__ void shapePrior(MeshView m, ParamView p, const float4* __restrict__ ref) {
-  const int v = blockIdx.x * blockDim.x + threadIdx.x;
-  if (v >= m.vertices) return;
-  const float alpha = param(p, m.meshOf[v], 0);
-  if (!(alpha > 0.0f)) return;
+__device__ __forceinline__ float3 shapePriorTerm(const MeshView& m, const float4* __restrict__ ref, int v, float alpha) {
   const int3 n = m.neighbours[v];
   const float3 p1 = m.x[n.x], p2 = m.x[n.y], p3 = m.x[n.z], x = m.x[v];
   const Frame f = neighbourFrame(p1, p2, p3);
@@ -44,16 +33,13 @@ __global__ void shapePrior(MeshView m, ParamView p, const float4* __restrict__ r
     const float d2 = squaredNorm(foot - f.centre);
     target = foot + elevationFromSinCos(f.radius, d2, r.z, r.w, dot(x - p1, f.normal)) * f.normal;
   }
-  m.force[v] = m.force[v] + alpha * (target - x);
+  return alpha * (target - x);
 }
 
-__global__ void gradient(MeshView m, ParamView p, int kEps, int kDepth, int kStep, VolumeView vol,
-                         const float3* __restrict__ grad) {
-  const int v = blockIdx.x * blockDim.x + threadIdx.x;
-  if (v >= m.vertices) return;
+__device__ __forceinline__ float3 gradientTerm(const MeshView& m, const ParamView& p, int kEps, int kDepth, int kStep,
+                                               const VolumeView& vol, const float3* __restrict__ grad, int v,
+                                               float alpha) {
   const int mesh = m.meshOf[v];
-  const float alpha = param(p, mesh, 0);
-  if (!(alpha > 0.0f)) return;
   const float eps = param(p, mesh, kEps), step = param(p, mesh, kStep);
   const int reach = static_cast<int>(floorf(param(p, mesh, kDepth) / step));
   const float3 n = m.normal[v], x = m.x[v];
@@ -66,18 +52,70 @@ __global__ void gradient(MeshView m, ParamView p, int kEps, int kDepth, int kSte
       bestJ = j;
     }
   }
-  m.force[v] = m.force[v] + (alpha * (static_cast<float>(bestJ) * step)) * n;
+  return (alpha * (static_cast<float>(bestJ) * step)) * n;
 }
 
-// The search line is held in registers/local memory; its length is bounded by the parameter
-// ranges (200 + 200 samples + 2 * 50 mm / 0.05 mm would be too long, so longer lines are
-// evaluated in place from the image).
-constexpr int kMaxLine = 256;
-
-__global__ void profile(MeshView m, ParamView p, int kDepth, VolumeView vol, const float* __restrict__ image,
-                        const float* __restrict__ profiles, int inside, int length, float spacing) {
+__global__ void smoothing(MeshView m, ParamView p, int kElevation) {
   const int v = blockIdx.x * blockDim.x + threadIdx.x;
   if (v >= m.vertices) return;
+  const float alpha = param(p, m.meshOf[v], 0);
+  if (alpha > 0.0f) m.force[v] = m.force[v] + smoothingTerm(m, p, kElevation, v, alpha);
+}
+
+__global__ void shapePrior(MeshView m, ParamView p, const float4* __restrict__ ref) {
+  const int v = blockIdx.x * blockDim.x + threadIdx.x;
+  if (v >= m.vertices) return;
+  const float alpha = param(p, m.meshOf[v], 0);
+  if (alpha > 0.0f) m.force[v] = m.force[v] + shapePriorTerm(m, ref, v, alpha);
+}
+
+__global__ void gradient(MeshView m, ParamView p, int kEps, int kDepth, int kStep, VolumeView vol,
+                         const float3* __restrict__ grad) {
+  const int v = blockIdx.x * blockDim.x + threadIdx.x;
+  if (v >= m.vertices) return;
+  const float alpha = param(p, m.meshOf[v], 0);
+  if (alpha > 0.0f) m.force[v] = m.force[v] + gradientTerm(m, p, kEps, kDepth, kStep, vol, grad, v, alpha);
+}
+
+// Every per-vertex force of the step in one pass, in the scene's order: one read of each array
+// instead of one per kernel, and no separate zeroing. Sums are formed in the same order as force by
+// force, so the result is bit-identical to the separate kernels (and to the CPU).
+__global__ void fusedForces(MeshView m, FusedTerms t) {
+  const int v = blockIdx.x * blockDim.x + threadIdx.x;
+  if (v >= m.vertices) return;
+  const int mesh = m.meshOf[v];
+  float3 f = make_float3(0, 0, 0);
+  for (int i = 0; i < t.count; ++i) {
+    const FusedTerm& term = t.terms[i];
+    const float alpha = param(term.params, mesh, 0);
+    if (!(alpha > 0.0f)) continue;
+    switch (term.kind) {
+      case FusedTerm::Smoothing: f = f + smoothingTerm(m, term.params, term.k0, v, alpha); break;
+      case FusedTerm::ShapePrior: f = f + shapePriorTerm(m, t.reference, v, alpha); break;
+      case FusedTerm::Gradient:
+        f = f + gradientTerm(m, term.params, term.k0, term.k1, term.k2, t.gradientVolume, t.gradient, v, alpha);
+        break;
+    }
+  }
+  m.force[v] = f;
+}
+
+// Intensity profiles, one warp per vertex (paper 000 section 6.2 suggests parallelising the m
+// search positions): the lanes sample the search line into shared memory together, then each lane
+// scores some offsets; a warp reduction keeps the CPU's choice (highest NCC, then smallest |j|, then
+// the lower j).
+constexpr int kLineCapacity = 128;
+
+__device__ __forceinline__ bool better(float a, int ja, float b, int jb) {
+  return a > b || (a == b && (abs(ja) < abs(jb) || (abs(ja) == abs(jb) && ja < jb)));
+}
+
+__global__ void profileWarp(MeshView m, ParamView p, int kDepth, VolumeView vol, const float* __restrict__ image,
+                            const float* __restrict__ profiles, int inside, int length, float spacing) {
+  __shared__ float lines[8][kLineCapacity];
+  const int warp = threadIdx.x / 32, lane = threadIdx.x % 32;
+  const int v = blockIdx.x * (blockDim.x / 32) + warp;
+  if (v >= m.vertices) return;  // the whole warp leaves together
   const int mesh = m.meshOf[v];
   const float alpha = param(p, mesh, 0);
   if (!(alpha > 0.0f)) return;
@@ -85,32 +123,42 @@ __global__ void profile(MeshView m, ParamView p, int kDepth, VolumeView vol, con
   const int reach = static_cast<int>(floorf(param(p, mesh, kDepth) / spacing));
   const float3 n = m.normal[v], x = m.x[v];
   const int lineLength = length + 2 * reach;
-  float line[kMaxLine];
   auto sampleAt = [&](int q) {
     const float offset = (static_cast<float>(q - inside) + 0.5f) * spacing;
     return sampleVolume(vol, image, x + (offset - static_cast<float>(reach) * spacing) * n);
   };
-  const bool cached = lineLength <= kMaxLine;
+  float* line = lines[warp];
+  const bool cached = lineLength <= kLineCapacity;
   if (cached)
-    for (int q = 0; q < lineLength; ++q) line[q] = sampleAt(q);
+    for (int q = lane; q < lineLength; q += 32) line[q] = sampleAt(q);
+  __syncwarp();
   float best = -2.0f;
   int bestJ = 0;
-  for (int j = -reach; j <= reach; ++j) {
+  for (int jj = lane; jj <= 2 * reach; jj += 32) {
     float sum = 0.0f, sum2 = 0.0f, dotp = 0.0f;
     for (int k = 0; k < length; ++k) {
-      const float w = cached ? line[j + reach + k] : sampleAt(j + reach + k);
+      const float w = cached ? line[jj + k] : sampleAt(jj + k);
       sum += w;
       sum2 += w * w;
       dotp += w * ref[k];
     }
     const float var = sum2 - sum * sum / static_cast<float>(length);
     const float ncc = var > 1e-12f ? dotp / sqrtf(var) : -1.0f;
-    if (ncc > best || (ncc == best && abs(j) < abs(bestJ))) {
+    const int j = jj - reach;
+    if (better(ncc, j, best, bestJ)) {
       best = ncc;
       bestJ = j;
     }
   }
-  m.force[v] = m.force[v] + (alpha * (static_cast<float>(bestJ) * spacing)) * n;
+  for (int offset = 16; offset > 0; offset /= 2) {
+    const float otherBest = __shfl_down_sync(0xffffffffu, best, offset);
+    const int otherJ = __shfl_down_sync(0xffffffffu, bestJ, offset);
+    if (better(otherBest, otherJ, best, bestJ)) {
+      best = otherBest;
+      bestJ = otherJ;
+    }
+  }
+  if (lane == 0) m.force[v] = m.force[v] + (alpha * (static_cast<float>(bestJ) * spacing)) * n;
 }
 
 __global__ void verlet(MeshView m, float dt, float keep) {
@@ -131,7 +179,6 @@ __global__ void prolong(const int* __restrict__ rows, const int* __restrict__ in
 }
 }  // namespace
 
-void launchZeroForces(const MeshView& m, cudaStream_t s) { zeroForces<<<blocks(m.vertices), kThreads, 0, s>>>(m); }
 void launchSmoothing(const MeshView& m, ParamView p, int kElevation, cudaStream_t s) {
   smoothing<<<blocks(m.vertices), kThreads, 0, s>>>(m, p, kElevation);
 }
@@ -144,7 +191,12 @@ void launchGradient(const MeshView& m, ParamView p, int kEps, int kDepth, int kS
 }
 void launchProfile(const MeshView& m, ParamView p, int kDepth, VolumeView vol, const float* image,
                    const float* profiles, int inside, int outside, float spacing, cudaStream_t s) {
-  profile<<<blocks(m.vertices), kThreads, 0, s>>>(m, p, kDepth, vol, image, profiles, inside, inside + outside, spacing);
+  constexpr int warps = 8;  // lines[8][...] in the kernel
+  profileWarp<<<(m.vertices + warps - 1) / warps, warps * 32, 0, s>>>(m, p, kDepth, vol, image, profiles, inside,
+                                                                     inside + outside, spacing);
+}
+void launchFusedForces(const MeshView& m, const FusedTerms& t, cudaStream_t s) {
+  fusedForces<<<blocks(m.vertices), kThreads, 0, s>>>(m, t);
 }
 void launchVerlet(const MeshView& m, float dt, float keep, cudaStream_t s) {
   verlet<<<blocks(m.vertices), kThreads, 0, s>>>(m, dt, keep);

@@ -38,8 +38,25 @@ struct VolumeView {
   float3 origin;
 };
 
+// The per-vertex forces that run fused in one kernel (the prefix of the scene's force list made of
+// them); k0..k2 are parameter columns (smoothing: elevation_term; gradient: epsilon, search_depth,
+// sample_spacing).
+struct FusedTerm {
+  enum Kind { Smoothing, ShapePrior, Gradient } kind;
+  ParamView params;
+  int k0 = 0, k1 = 0, k2 = 0;
+};
+struct FusedTerms {
+  FusedTerm terms[4];
+  int count = 0;
+  const float4* reference = nullptr;
+  VolumeView gradientVolume{};
+  const float3* gradient = nullptr;
+};
+
 void launchGeometry(const MeshView& m, cudaStream_t s);
-void launchZeroForces(const MeshView& m, cudaStream_t s);
+// Writes (not adds) the fused terms' sum to m.force, zero when no term is active.
+void launchFusedForces(const MeshView& m, const FusedTerms& t, cudaStream_t s);
 void launchSmoothing(const MeshView& m, ParamView p, int elevationTerm, cudaStream_t s);
 // reference: (eps1, eps2, sin phi, cos phi) per vertex.
 void launchShapePrior(const MeshView& m, ParamView p, const float4* reference, cudaStream_t s);
