@@ -268,8 +268,8 @@ RunReport SceneRunner::run() {
   for (int level = 0; level < levels; ++level) {
     if (level > 0) {
       const auto t0 = Clock::now();
-      sim.advanceLevel();  // on the host; the backend's state was downloaded at the last sample
-      if (backend) backend->reload();
+      sim.advanceLevel();
+      if (backend) backend->levelChanged();
       simSeconds += since(t0);
     }
     report.levelStartSeconds.push_back(simSeconds);

@@ -130,7 +130,7 @@ struct CudaEngine::Impl {
     graphBatch = 0;
   }
 
-  void upload() {
+  void upload(bool state = true) {
     invalidateGraph();
     MeshStore& s = sim.store();
     s.refresh();  // reference parameters and trained profiles are computed on the host, once per level
@@ -149,8 +149,10 @@ struct CudaEngine::Impl {
     meshBegin.upload(begin, stream);
     meshEnd.upload(end, stream);
     density.upload(dens, stream);
-    uploadAs(x, s.positions());
-    uploadAs(prev, std::span<const Vec3>(s.previousPositions()));
+    if (state) {
+      uploadAs(x, s.positions());
+      uploadAs(prev, std::span<const Vec3>(s.previousPositions()));
+    }
     force.resize(s.vertexCount());
     if (s.has(Attribute::Normal)) normal.resize(s.vertexCount());
     if (s.has(Attribute::Elevation)) elevation.resize(s.vertexCount());
@@ -334,6 +336,42 @@ void CudaEngine::download() {
 }
 
 void CudaEngine::reload() { impl_->upload(); }
+
+void CudaEngine::levelChanged() {
+  Impl& I = *impl_;
+  const Simulation& sim = I.sim;
+  const MeshStore& fine = I.sim.store();
+  // One prolongation for the whole store: global fine rows, global coarse indices. The coarse
+  // ranges are still on the device side (meshBegin) from the previous level.
+  std::vector<int> coarseBegin(I.meshBegin.size());
+  I.meshBegin.download(coarseBegin.data(), coarseBegin.size(), I.stream);
+  SINEW_CUDA(cudaStreamSynchronize(I.stream));
+  std::vector<int> rows{0}, index;
+  std::vector<float> weight;
+  for (Index m = 0; m < fine.meshCount(); ++m) {
+    const Prolongation& p = sim.structure(m).levels.prolongations[sim.level() - 1];
+    for (Index r = 0; r < p.fineCount(); ++r) {
+      for (Index k = p.rowOffsets[r]; k < p.rowOffsets[r + 1]; ++k) {
+        index.push_back(coarseBegin[m] + p.coarseIndex[k]);
+        weight.push_back(p.weight[k]);
+      }
+      rows.push_back(static_cast<int>(index.size()));
+    }
+  }
+  DeviceArray<int> dRows, dIndex;
+  DeviceArray<float> dWeight;
+  dRows.upload(rows, I.stream);
+  dIndex.upload(index, I.stream);
+  dWeight.upload(weight, I.stream);
+  DeviceArray<float3> x(fine.vertexCount()), prev(fine.vertexCount());
+  const int n = static_cast<int>(fine.vertexCount());
+  launchProlong(dRows.get(), dIndex.get(), dWeight.get(), n, I.x.get(), x.get(), I.stream);
+  launchProlong(dRows.get(), dIndex.get(), dWeight.get(), n, I.prev.get(), prev.get(), I.stream);
+  SINEW_CUDA(cudaStreamSynchronize(I.stream));
+  I.x = std::move(x);
+  I.prev = std::move(prev);
+  I.upload(false);
+}
 
 std::string CudaEngine::device() const { return impl_->device; }
 

@@ -2,7 +2,7 @@
 // meshes of 2,656 vertices refined 1-to-4 up to ~11 M vertices, on a 128^3 synthetic image.
 // Cases: (a) the seed's full set (smoothing, shape prior, intensity profile, damped Verlet);
 // (b) smoothing, shape prior, damped Verlet. Plain program (no Google Benchmark) so it runs on a
-// GPU machine with nothing but the CUDA driver.   bench_cuda [max_level=6] [cpu_max_level=3]
+// GPU machine with nothing but the CUDA driver.   bench_cuda [max_level=6] [cpu_max_level=3] [min_level=0]
 #include "sinew/core/scene_runner.h"
 #include "sinew/cuda/cuda_engine.h"
 #include "synthetic.h"
@@ -78,6 +78,7 @@ double deviceCopyBandwidth() {
 int main(int argc, char** argv) {
   const int maxLevel = argc > 1 ? std::atoi(argv[1]) : 6;
   const int cpuMaxLevel = argc > 2 ? std::atoi(argv[2]) : 3;
+  const int minLevel = argc > 3 ? std::atoi(argv[3]) : 0;  // e.g. to profile only the large sizes
   const cuda::DeviceStatus st = cuda::probeDevice();
   if (!st.usable) {
     std::printf("no CUDA device: %s\n", st.reason.c_str());
@@ -89,7 +90,7 @@ int main(int argc, char** argv) {
   std::printf("| --- | ---: | ---: | ---: | ---: | ---: | ---: |\n");
   const auto specs = seedStructures(maxLevel + 1);
   for (bool profile : {true, false}) {
-    for (int level = 0; level <= maxLevel; ++level) {
+    for (int level = minLevel; level <= maxLevel; ++level) {
       auto sim = seedScene(specs, profile);
       for (int l = 0; l < level; ++l) sim->advanceLevel();
       const Index n = sim->store().vertexCount();

@@ -92,9 +92,12 @@ private slots:
     cpu->run(30);
     engine.run(30);
     engine.download();
+    // The host copy of the GPU run's velocities is spoiled on purpose: the level change must carry
+    // the device's own state, not upload the host's.
+    for (Vec3& p : gpu->store().previousPositions()) p += Vec3(1, 0, 0);
     cpu->advanceLevel();
     gpu->advanceLevel();
-    engine.reload();
+    engine.levelChanged();
     cpu->run(30);
     engine.run(30);
     engine.download();

@@ -15,8 +15,11 @@ public:
   virtual void run(int iterations) = 0;
   // Copies positions, previous positions and forces back into the host store.
   virtual void download() = 0;
-  // Uploads the host store again after the host changed it (a level change).
+  // Uploads the host store again after the host changed it (an edit).
   virtual void reload() = 0;
+  // After Simulation::advanceLevel(): carry the backend's own state to the new level (the host's
+  // copy may be older); by default the host's state is uploaded.
+  virtual void levelChanged() { reload(); }
 };
 
 }  // namespace sinew

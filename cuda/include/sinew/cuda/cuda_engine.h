@@ -34,8 +34,11 @@ public:
   void run(int iterations) override;
   // Copies positions, previous positions and forces back into the host store.
   void download() override;
-  // Uploads the host store again (after a level change or a host-side edit).
+  // Uploads the host store again (after a host-side edit).
   void reload() override;
+  // After Simulation::advanceLevel(): positions and previous positions are prolongated on the
+  // device (the state never visits the host); topology, reference and profiles come from the host.
+  void levelChanged() override;
 
   std::string name() const override { return "cuda"; }
   std::string device() const override;

@@ -1,0 +1,60 @@
+// The Colin27 demo (reduced: four structures, two levels) on both backends through sinew-run
+// (label gpu): the same ASSD within 0.01 mm per structure. Skips without a GPU or mricron-data.
+#include "sinew/cuda/cuda_engine.h"
+
+#include <QJsonArray>
+#include <QJsonDocument>
+#include <QJsonObject>
+#include <QProcess>
+#include <QTemporaryDir>
+#include <QtTest>
+
+namespace {
+int run(const QString& program, const QStringList& args, QString* err = nullptr) {
+  QProcess p;
+  p.start(program, args);
+  p.waitForFinished(600000);
+  if (err) *err = p.readAllStandardError();
+  return p.exitStatus() == QProcess::NormalExit ? p.exitCode() : -1;
+}
+
+QJsonArray structures(const QString& report) {
+  QFile f(report);
+  f.open(QIODevice::ReadOnly);
+  return QJsonDocument::fromJson(f.readAll()).object()["structures"].toArray();
+}
+}  // namespace
+
+class TestBackendDemo : public QObject {
+  Q_OBJECT
+private slots:
+  void sameAssdOnBothBackends() {
+    const auto st = sinew::cuda::probeDevice();
+    if (!st.usable) QSKIP(qPrintable("needs an NVIDIA GPU: " + QString::fromStdString(st.reason)));
+    const QString t = "/usr/share/mricron/templates/";
+    if (!QFile::exists(t + "aal.nii.gz")) QSKIP("Debian package mricron-data is not installed");
+    QTemporaryDir dir;
+    const QString scene = dir.filePath("scene.json");
+    QString err;
+    QCOMPARE(run(SINEW_MAKE_SCENE, {"--atlas", t + "aal.nii.gz", "--labels", t + "aal.nii.txt", "--training",
+                                    t + "ch2better.nii.gz", "--target", t + "ch2.nii.gz", "--structures",
+                                    "Hippocampus_L,Caudate_R,Putamen_L,Thalamus_R", "--iterations", "150,80", "-o", scene}),
+             0);
+    for (const char* backend : {"cpu", "cuda"}) {
+      QCOMPARE(run(SINEW_RUN, {scene, "-q", "--backend", backend, "-o", dir.filePath(backend)}, &err), 0);
+      QVERIFY2(err.isEmpty(), qPrintable(err));  // no fallback notice
+    }
+    const QJsonArray cpu = structures(dir.filePath("cpu/report.json")), gpu = structures(dir.filePath("cuda/report.json"));
+    QCOMPARE(cpu.size(), 4);
+    QCOMPARE(gpu.size(), 4);
+    for (int i = 0; i < 4; ++i) {
+      const double a = cpu[i].toObject()["assd_mm"].toObject()["final"].toDouble();
+      const double b = gpu[i].toObject()["assd_mm"].toObject()["final"].toDouble();
+      qInfo("%s: ASSD cpu %.4f mm, cuda %.4f mm", qPrintable(cpu[i].toObject()["name"].toString()), a, b);
+      QVERIFY(std::abs(a - b) <= 0.01);
+    }
+  }
+};
+
+QTEST_GUILESS_MAIN(TestBackendDemo)
+#include "tst_backend_demo.moc"
