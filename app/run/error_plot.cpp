@@ -1,5 +1,6 @@
 // Drawn with QPainter on a QImage: needs a QGuiApplication (for fonts), which sinew-run creates on
 // the offscreen platform, so no display is needed.
+#include "pictures.h"
 #include "report_writer.h"
 
 #include <QColor>
@@ -62,7 +63,7 @@ void writeErrorPlot(const std::filesystem::path& path, const RunReport& r, const
              QString("Error against run time (%1, %2)").arg(QString::fromStdString(r.backend)).arg(QString::fromStdString(r.device)));
 
   for (size_t s = 0; s < scene.structures.size(); ++s) {
-    const QColor c = QColor::fromHsv(int(360.0 * s / scene.structures.size()), 200, 200);
+    const QColor c = structureColour(s, scene.structures.size());
     QPainterPath line;
     bool started = false;
     for (const TimelineSample& t : r.timeline) {
@@ -80,10 +81,7 @@ void writeErrorPlot(const std::filesystem::path& path, const RunReport& r, const
     p.drawText(QPointF(W - right + 46, y + 5), QString::fromStdString(scene.structures[s].name));
   }
   p.end();
-  AtomicOutput out(path);
-  if (!image.save(QString::fromStdString(out.tempPath().string()), "PNG"))
-    throw InputError(path.string() + ": cannot write the plot");
-  out.commit();
+  savePng(image, path);
 }
 
 }  // namespace sinew

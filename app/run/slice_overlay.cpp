@@ -1,6 +1,7 @@
 // slices.png: axial, coronal and sagittal slices of the target image through the centre of the
 // segmented structures, each structure's label-map boundary drawn in its colour. A quick look at a
 // result without the workstation.
+#include "pictures.h"
 #include "report_writer.h"
 
 #include <QColor>
@@ -11,10 +12,6 @@
 #include <map>
 
 namespace sinew {
-
-namespace {
-QColor structureColour(size_t s, size_t n) { return QColor::fromHsv(int(360.0 * s / std::max<size_t>(n, 1)), 220, 255); }
-}  // namespace
 
 void writeSliceOverlay(const std::filesystem::path& path, const Image3D& image, const LabelVolume& labels,
                        const SceneDesc& scene) {
@@ -91,10 +88,7 @@ void writeSliceOverlay(const std::filesystem::path& path, const Image3D& image, 
     x += p.fontMetrics().horizontalAdvance(name) + 14;
   }
   p.end();
-  AtomicOutput file(path);
-  if (!out.save(QString::fromStdString(file.tempPath().string()), "PNG"))
-    throw InputError(path.string() + ": cannot write the slice picture");
-  file.commit();
+  savePng(out, path);
 }
 
 }  // namespace sinew

@@ -20,42 +20,15 @@ using Clock = std::chrono::steady_clock;
 namespace {
 
 std::unique_ptr<Simulation> seedScene(const std::vector<StructureSpec>& specs, bool profile) {
-  static const auto image = [] {
-    EllipsoidImageSpec spec;
-    spec.size = 128;
-    spec.centre = Vec3(64, 64, 64);
-    spec.radii = Vec3(40, 30, 25);
-    return std::make_shared<Image3D>(ellipsoidImage(spec));
-  }();
   auto sim = std::make_unique<Simulation>(forceRegistry(), 0);
   for (const auto& s : specs) sim->addStructure(s);
   sim->addForce("smoothing");
   sim->addForce("shape_prior");
   if (profile) sim->addForce("intensity_profile");
   sim->setIntegrator("damped_verlet");
-  sim->scene().setTargetImage(image);
+  sim->scene().setTargetImage(seedImage());
   sim->initialize();
   return sim;
-}
-
-std::vector<StructureSpec> seedStructures(int levels) {
-  const std::vector<std::pair<TriangleMesh, Vec3>> meshes = {{icosphere(3), Vec3(40, 64, 64)},
-                                                             {icosphere(3), Vec3(88, 64, 64)},
-                                                             {icosphere(1), Vec3(64, 40, 64)},
-                                                             {tetrasphere(1), Vec3(64, 88, 64)}};
-  std::vector<StructureSpec> out;
-  for (size_t i = 0; i < meshes.size(); ++i) {
-    const SimplexMesh m = SimplexMesh::fromSphereTriangles(meshes[i].first, 1.0f, Vec3::Zero());
-    StructureSpec s;
-    s.name = "structure" + std::to_string(i);
-    s.levels = LevelHierarchy::build(m.topology, levels);
-    for (const Vec3& p : m.positions) {
-      s.initialPositions.push_back(meshes[i].second + 14.0f * p);
-      s.referencePositions.push_back(meshes[i].second + 15.0f * p);
-    }
-    out.push_back(std::move(s));
-  }
-  return out;
 }
 
 double deviceCopyBandwidth() {
@@ -88,7 +61,7 @@ int main(int argc, char** argv) {
   std::printf("device-to-device copy: %.0f GB/s (read + write)\n\n", deviceCopyBandwidth() / 1e9);
   std::printf("| case | vertices | CUDA us/iter | CUDA G vertex-iter/s | CPU ms/iter | CPU M vertex-iter/s | CUDA/CPU |\n");
   std::printf("| --- | ---: | ---: | ---: | ---: | ---: | ---: |\n");
-  const auto specs = seedStructures(maxLevel + 1);
+  const auto specs = seedStructures(maxLevel + 1).structures;
   for (bool profile : {true, false}) {
     for (int level = minLevel; level <= maxLevel; ++level) {
       auto sim = seedScene(specs, profile);

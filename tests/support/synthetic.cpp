@@ -85,6 +85,38 @@ SphereFit fitSphere(std::span<const Vec3> points) {
   return fit;
 }
 
+SeedScene seedStructures(int levels) {
+  const std::vector<std::pair<TriangleMesh, Vec3>> meshes = {{icosphere(3), Vec3(40, 64, 64)},
+                                                             {icosphere(3), Vec3(88, 64, 64)},
+                                                             {icosphere(1), Vec3(64, 40, 64)},
+                                                             {tetrasphere(1), Vec3(64, 88, 64)}};
+  SeedScene out;
+  for (size_t i = 0; i < meshes.size(); ++i) {
+    const SimplexMesh m = SimplexMesh::fromSphereTriangles(meshes[i].first, 1.0f, Vec3::Zero());
+    StructureSpec s;
+    s.name = "structure" + std::to_string(i);
+    s.levels = LevelHierarchy::build(m.topology, levels);
+    for (const Vec3& p : m.positions) {
+      s.initialPositions.push_back(meshes[i].second + 14.0f * p);
+      s.referencePositions.push_back(meshes[i].second + 15.0f * p);
+    }
+    out.structures.push_back(std::move(s));
+    out.centres.push_back(meshes[i].second);
+  }
+  return out;
+}
+
+std::shared_ptr<const Image3D> seedImage() {
+  static const auto image = [] {
+    EllipsoidImageSpec spec;
+    spec.size = 128;
+    spec.centre = Vec3(64, 64, 64);
+    spec.radii = Vec3(40, 30, 25);
+    return std::make_shared<const Image3D>(ellipsoidImage(spec));
+  }();
+  return image;
+}
+
 TriangleMesh tessellationOf(MeshStore& store, Index mesh) {
   const auto x = store.mesh(store.positions(), mesh);
   return tessellate(store.topologyOf(mesh), std::vector<Vec3>(x.begin(), x.end()));

@@ -49,6 +49,16 @@ struct SphereFit {
 };
 SphereFit fitSphere(std::span<const Vec3> points);
 
+// The benchmarks' stand-in for the seed's four bones: closed meshes of 1,280 + 1,280 + 80 + 16 =
+// 2,656 vertices at level 0 (so levels 1 and 2 have the seed's 10,624 and 42,496), spheres of
+// radius 14 mm with a reference of radius 15 mm, placed in seedImage() (128^3 voxels).
+struct SeedScene {
+  std::vector<StructureSpec> structures;
+  std::vector<Vec3> centres;
+};
+SeedScene seedStructures(int levels);
+std::shared_ptr<const Image3D> seedImage();
+
 // Fig. 1b tessellation of one structure of the store.
 TriangleMesh tessellationOf(MeshStore& store, Index mesh);
 
