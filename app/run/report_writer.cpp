@@ -18,6 +18,7 @@ void writeText(const std::filesystem::path& path, const std::string& text) {
   {
     std::ofstream f(out.tempPath());
     f << text;
+    f.close();  // a failed flush (full disk) shows only here
     if (!f) throw InputError(path.string() + ": cannot write the file");
   }
   out.commit();

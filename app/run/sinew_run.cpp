@@ -104,6 +104,9 @@ public:
     return dir_ / name;
   }
   void commit() {
+    // Anything that would stop a rename is found before the first file moves.
+    for (const auto& n : names_)
+      if (fs::is_directory(out_ / n)) throw InputError((out_ / n).string() + ": a directory is in the way of an output");
     for (const auto& n : names_) fs::rename(dir_ / n, out_ / n);
     committed_ = true;
   }

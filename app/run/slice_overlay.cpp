@@ -9,6 +9,7 @@
 #include <QPainter>
 
 #include <algorithm>
+#include <cmath>
 #include <map>
 
 namespace sinew {
@@ -27,7 +28,11 @@ void writeSliceOverlay(const std::filesystem::path& path, const Image3D& image, 
           ++count;
         }
   centre = count ? Eigen::Vector3d(centre / double(count)) : Eigen::Vector3d(g.size[0] / 2.0, g.size[1] / 2.0, g.size[2] / 2.0);
-  std::vector<float> sorted(image.voxels());
+  std::vector<float> sorted;
+  sorted.reserve(image.voxels().size());
+  for (float v : image.voxels())
+    if (std::isfinite(v)) sorted.push_back(v);
+  if (sorted.empty()) sorted.push_back(0.0f);
   std::sort(sorted.begin(), sorted.end());
   const float lo = sorted[sorted.size() / 100], hi = std::max(sorted[sorted.size() * 99 / 100], lo + 1e-6f);
   std::map<int, QColor> colour;
@@ -54,7 +59,8 @@ void writeSliceOverlay(const std::filesystem::path& path, const Image3D& image, 
       for (int u = 0; u < nu; ++u) {
         idx[v[0]] = u;
         idx[v[1]] = w;
-        const int grey = std::clamp(int(255.0f * (image.at(idx[0], idx[1], idx[2]) - lo) / (hi - lo)), 0, 255);
+        const float value = image.at(idx[0], idx[1], idx[2]);
+        const int grey = std::isfinite(value) ? std::clamp(int(255.0f * (value - lo) / (hi - lo)), 0, 255) : 0;
         QRgb rgb = qRgb(grey, grey, grey);
         const int l = label(u, w);
         if (l && (label(u - 1, w) != l || label(u + 1, w) != l || label(u, w - 1) != l || label(u, w + 1) != l))

@@ -10,8 +10,8 @@
 namespace sinew {
 
 namespace {
-void relax(const SimplexTopology& t, std::vector<Vec3>& x, const SurfaceDistanceQuery& surface, int iterations) {
-  const Executor executor;
+void relax(const SimplexTopology& t, std::vector<Vec3>& x, const SurfaceDistanceQuery& surface, int iterations,
+           const Executor& executor) {
   std::vector<Vec3> next(x.size());
   for (int it = 0; it < iterations; ++it) {
     // Tangential smoothing only, then back onto the surface: moving along the normal could carry
@@ -27,7 +27,8 @@ void relax(const SimplexTopology& t, std::vector<Vec3>& x, const SurfaceDistance
 }
 }  // namespace
 
-BuiltModel buildModel(const TriangleMesh& coarse, const TriangleMesh& surface, int levelCount, int relaxIterations) {
+BuiltModel buildModel(const TriangleMesh& coarse, const TriangleMesh& surface, int levelCount,
+                      const Executor& executor, int relaxIterations) {
   BuiltModel m;
   const SimplexMesh dual = SimplexMesh::dualOf(coarse);
   m.levels = LevelHierarchy::build(dual.topology, levelCount);
@@ -35,7 +36,7 @@ BuiltModel buildModel(const TriangleMesh& coarse, const TriangleMesh& surface, i
   std::vector<Vec3> x = dual.positions;
   for (int l = 0; l < levelCount; ++l) {
     if (l > 0) x = m.levels.prolongations[l - 1].apply(x);
-    relax(m.levels.levels[l], x, query, relaxIterations);
+    relax(m.levels.levels[l], x, query, relaxIterations, executor);
     m.positions.push_back(x);
   }
   return m;

@@ -2,6 +2,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include <cctype>
 #include <fstream>
 #include <set>
 #include <sstream>
@@ -89,6 +90,14 @@ private:
   const fs::path& file_;
 };
 
+// Output names must stay inside the output directory.
+bool plainFileName(const std::string& name) {
+  if (name.empty() || name == "." || name == "..") return false;
+  for (char c : name)
+    if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '-' || c == '.')) return false;
+  return true;
+}
+
 LabelRef readLabelRef(const Node& n) {
   n.expectObject({"label_map", "label"});
   return {n.at("label_map").path(), n.at("label").integer()};
@@ -110,7 +119,7 @@ StructureDesc readStructure(const Node& n) {
   n.expectObject({"name", "label", "reference", "initial", "forces", "density", "ground_truth"});
   StructureDesc s;
   s.name = n.at("name").string();
-  if (s.name.empty()) n.at("name").fail("the name is empty");
+  if (!plainFileName(s.name)) n.at("name").fail("the name names an output file: use letters, digits, '_', '-', '.' only");
   s.label = n.at("label").integer();
   if (s.label < 1 || s.label > 32767) n.at("label").fail("label values run from 1 to 32767");
   const Node ref = n.at("reference");
@@ -234,6 +243,7 @@ SceneDesc parseScene(const std::string& text, const fs::path& file) {
     if (o.has("mesh_format")) s.meshFormat = o.at("mesh_format").string();
     if (o.has("meshes")) s.writeMeshes = o.at("meshes").boolean();
     if (o.has("label_map")) s.labelMapName = o.at("label_map").string();
+    if (!plainFileName(s.labelMapName)) o.at("label_map").fail("expected a file name such as \"segmentation.nii.gz\"");
     if (s.meshFormat.empty() || s.meshFormat[0] != '.') o.at("mesh_format").fail("expected an extension such as \".vtp\"");
   }
   return s;

@@ -31,6 +31,8 @@ void applyParams(const SceneDesc& scene, ParamTable& table, const std::vector<st
                  Index row, const std::string& where) {
   for (const auto& [name, value] : values) {
     try {
+      if (row >= 0 && !table.decls()[table.indexOf(name)].perStructure)
+        throw InputError("'" + name + "' is shared by all structures; set it in the scene's /forces or /schedule");
       if (row < 0) table.setAll(name, value);
       else table.set(row, name, value);
     } catch (const InputError& e) {
@@ -80,6 +82,26 @@ void SceneRunner::load() {
   } catch (const InputError& e) {
     sceneError(scene_, "/integrator/name", e.what());
   }
+  try {
+    registry_.meshIOFor("mesh" + scene_.meshFormat);
+  } catch (const InputError& e) {
+    sceneError(scene_, "/outputs/mesh_format", e.what());
+  }
+  try {
+    registry_.imageIOFor(scene_.labelMapName);
+  } catch (const InputError& e) {
+    sceneError(scene_, "/outputs/label_map", e.what());
+  }
+  for (size_t l = 0; l < scene_.schedule.size(); ++l)
+    for (const auto& [force, values] : scene_.schedule[l].forces) {
+      bool listed = false;
+      for (const auto& f : scene_.forces) listed |= f.first == force;
+      if (!listed)
+        sceneError(scene_, "/schedule/" + std::to_string(l) + "/forces/" + force,
+                   "force '" + force + "' is not listed in the scene's /forces");
+      ParamTable probe(registry_.force(force).params, 1);  // names and ranges, checked now
+      applyParams(scene_, probe, values, -1, "/schedule/" + std::to_string(l) + "/forces/" + force);
+    }
 
   auto log = [&](const std::string& m) {
     if (options_.log) options_.log(m + " (" + std::to_string(since(L.created)).substr(0, 5) + " s)");
@@ -121,7 +143,7 @@ void SceneRunner::load() {
       }
     }
     log("structure '" + d.name + "': relaxing " + std::to_string(levels) + " levels of detail");
-    BuiltModel model = buildModel(coarse, surface, levels);
+    BuiltModel model = buildModel(coarse, surface, levels, L.sim->executor());
 
     StructureSpec spec;
     spec.name = d.name;
@@ -131,7 +153,13 @@ void SceneRunner::load() {
     spec.density = static_cast<float>(d.density);
     if (d.initial.mesh) {
       const fs::path& p = *d.initial.mesh;
-      const SimplexMesh init = SimplexMesh::dualOf(registry_.meshIOFor(p).read(p));
+      SimplexMesh init;
+      try {
+        init = SimplexMesh::dualOf(registry_.meshIOFor(p).read(p));
+      } catch (const InputError& e) {
+        const std::string what = e.what();
+        throw InputError(what.rfind(p.string(), 0) == 0 ? what : p.string() + ": " + what);
+      }
       if (init.topology.neighbours != spec.levels.levels[0].neighbours)
         throw InputError(p.string() + ": the initial mesh does not have the topology of structure '" + d.name +
                          "' at level 0");
@@ -188,6 +216,9 @@ void SceneRunner::load() {
         if (force == name)
           applyParams(scene_, table, own, static_cast<Index>(i), "/structures/" + std::to_string(i) + "/forces/" + name);
   }
+  // Level 0's schedule values apply before anything is trained or allocated.
+  for (const auto& [name, values] : scene_.schedule[0].forces)
+    applyParams(scene_, L.sim->forceParams(name), values, -1, "/schedule/0/forces/" + name);
   ParamTable& integ = L.sim->setIntegrator(scene_.integrator);
   applyParams(scene_, integ, scene_.integratorParams, -1, "/integrator");
   L.sim->scene().setTargetImage(L.target);
@@ -210,7 +241,7 @@ StructureResult SceneRunner::evaluate(Index i, bool final) {
   const auto x = store.mesh(store.positions(), i);
   r.surface = tessellate(store.topologyOf(i), std::vector<Vec3>(x.begin(), x.end()));
   if (L.truth[i]) {
-    const SurfaceDistanceStats st = L.truth[i]->compare(r.surface);
+    const SurfaceDistanceStats st = L.truth[i]->compare(r.surface, L.sim->executor());
     r.assdFinalMm = st.assd;
     r.hd95Mm = st.hd95;
     if (final) r.dice = dice(voxelize(r.surface, *L.truthGrid[i]), L.truthMask[i]);
@@ -260,32 +291,49 @@ RunReport SceneRunner::run() {
     report.backend = backend->name();
     report.device = backend->device();
   }
+  // A backend that fails mid-run (device memory, a lost device) hands over to the CPU, which goes on
+  // from the last state the backend downloaded.
+  auto onBackend = [&](const std::function<void(ExecutionBackend&)>& work) {
+    if (!backend) return false;
+    try {
+      work(*backend);
+      return true;
+    } catch (const std::runtime_error& e) {
+      if (options_.log) options_.log(backend->name() + " backend failed (" + e.what() + "); continuing on the CPU");
+      backend.reset();
+      report.backend += "+cpu";
+      return false;
+    }
+  };
   const int levels = static_cast<int>(scene_.schedule.size());
   long total = 0, done = 0;
   for (const auto& l : scene_.schedule) total += l.iterations;
   double simSeconds = 0.0;
   sample(report, 0.0);
   for (int level = 0; level < levels; ++level) {
+    const LevelDesc& lv = scene_.schedule[level];
     if (level > 0) {
+      // The level's values first: profile training and the like read them on entering the level.
+      for (const auto& [name, values] : lv.forces)
+        applyParams(scene_, sim.forceParams(name), values, -1, "/schedule/" + std::to_string(level) + "/forces/" + name);
       const auto t0 = Clock::now();
       sim.advanceLevel();
-      if (backend) backend->levelChanged();
+      onBackend([](ExecutionBackend& b) { b.levelChanged(); });
       simSeconds += since(t0);
     }
     report.levelStartSeconds.push_back(simSeconds);
-    const LevelDesc& lv = scene_.schedule[level];
-    for (const auto& [name, values] : lv.forces)
-      applyParams(scene_, sim.forceParams(name), values, -1, "/schedule/" + std::to_string(level) + "/forces/" + name);
     // Steps run in chunks that end on the sample points; only samples bring state to the host.
     for (int it = 0; it < lv.iterations;) {
       const int chunk = std::min(scene_.sampleInterval - it % scene_.sampleInterval, lv.iterations - it);
       const auto t0 = Clock::now();
-      if (backend) backend->run(chunk);
-      else sim.run(chunk);
+      if (!onBackend([&](ExecutionBackend& b) {
+            b.run(chunk);
+            b.download();
+          }))
+        sim.run(chunk);
       simSeconds += since(t0);
       it += chunk;
       done += chunk;
-      if (backend) backend->download();
       sample(report, simSeconds);
       if (options_.progress) options_.progress({level, levels, it, lv.iterations, done, total, simSeconds});
     }

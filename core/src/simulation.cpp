@@ -81,13 +81,12 @@ void Simulation::initialize() {
   store_ = MeshStore(topologies);
   store_.setExecutor(&executor_);
 
-  std::vector<Requirements> reqs;
-  for (const auto& s : forces_) reqs.push_back(s->force->requirements());
-  reqs.push_back(integrator_->requirements());
   store_.require(Attribute::Force);
-  for (size_t f = 0; f < reqs.size(); ++f) {
-    for (Attribute a : reqs[f].attributes) store_.require(a);
-    if (!reqs[f].referenceShape) continue;
+  for (Attribute a : integrator_->requirements().attributes) store_.require(a);
+  for (size_t f = 0; f < forces_.size(); ++f) {
+    const Requirements req = forces_[f]->force->requirements();
+    for (Attribute a : req.attributes) store_.require(a);
+    if (!req.referenceShape) continue;
     store_.require(Attribute::ReferencePosition);
     for (Index m = 0; m < structureCount(); ++m)
       if (structures_[m].referencePositions.empty() && forces_[f]->params.get(m, 0) > 0.0)

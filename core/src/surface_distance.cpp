@@ -171,8 +171,7 @@ SurfaceDistanceStats combine(std::vector<Weighted>& all, double sumAB, double ar
 // Distances from samples of one surface to another, accumulated with their areas.
 // Distances are computed in parallel and summed in order, so the result does not depend on threads.
 void accumulate(const std::vector<SurfaceSample>& samples, const SurfaceDistanceQuery& to,
-                std::vector<Weighted>& all, double& sum, double& area) {
-  static const Executor executor;
+                std::vector<Weighted>& all, double& sum, double& area, const Executor& executor) {
   const size_t first = all.size();
   all.resize(first + samples.size());
   executor.forEach(static_cast<Index>(samples.size()), [&](Index i) {
@@ -185,19 +184,20 @@ void accumulate(const std::vector<SurfaceSample>& samples, const SurfaceDistance
 }
 }  // namespace
 
-SurfaceDistanceStats surfaceDistance(const TriangleMesh& a, const TriangleMesh& b, float spacing) {
-  return ReferenceSurface(b, spacing).compare(a);
+SurfaceDistanceStats surfaceDistance(const TriangleMesh& a, const TriangleMesh& b, float spacing,
+                                     const Executor& executor) {
+  return ReferenceSurface(b, spacing).compare(a, executor);
 }
 
 ReferenceSurface::ReferenceSurface(TriangleMesh surface, float spacing)
     : surface_(std::move(surface)), spacing_(spacing), query_(surface_), samples_(sampleSurface(surface_, spacing)) {}
 
-SurfaceDistanceStats ReferenceSurface::compare(const TriangleMesh& other) const {
+SurfaceDistanceStats ReferenceSurface::compare(const TriangleMesh& other, const Executor& executor) const {
   const SurfaceDistanceQuery otherQuery(other);
   std::vector<Weighted> all;
   double sumAB = 0, areaA = 0, sumBA = 0, areaB = 0;
-  accumulate(sampleSurface(other, spacing_), query_, all, sumAB, areaA);
-  accumulate(samples_, otherQuery, all, sumBA, areaB);
+  accumulate(sampleSurface(other, spacing_), query_, all, sumAB, areaA, executor);
+  accumulate(samples_, otherQuery, all, sumBA, areaB, executor);
   return combine(all, sumAB, areaA, sumBA, areaB);
 }
 

@@ -33,15 +33,19 @@ DeviceStatus probeDevice() {
   d.precision(1);
   d << double(p.totalGlobalMem) / (1 << 30) << " GiB)";
   st.description = d.str();
+  if (p.major < 9) {
+    st.reason = st.description + " is older than this build's target (sm_90: Hopper)";
+    return st;
+  }
   st.usable = true;
   return st;
 }
 
 namespace {
 template <class T, class U>
-void uploadAs(DeviceArray<T>& dst, std::span<const U> src) {
+void uploadAs(DeviceArray<T>& dst, std::span<const U> src, cudaStream_t stream) {
   static_assert(sizeof(T) == sizeof(U));
-  dst.upload(reinterpret_cast<const T*>(src.data()), src.size());
+  dst.upload(reinterpret_cast<const T*>(src.data()), src.size(), stream);
 }
 
 VolumeView viewOf(const ImageGeometry& g) {
@@ -82,19 +86,23 @@ struct CudaEngine::Impl {
   DeviceArray<float> image, profiles;
   DeviceArray<float3> gradient;
   VolumeView imageView{}, gradientView{};
+  float gradientSigma = -1.0f;
+  // The profile layout the profiles were trained with (read at upload, after training), as the CPU
+  // force keeps it from its prepare().
+  int profileInside = 0, profileOutside = 0;
+  float profileSpacing = 0.0f;
   // Attraction points.
   DeviceArray<float3> points;
   DeviceArray<int> pointMesh;
   DeviceArray<unsigned long long> keys;
   int pointCount = 0;
   MeshView view;
-  cudaGraphExec_t graph = nullptr;
-  int graphBatch = 0;
-  std::vector<float> graphSignature;  // what the captured graph baked in
+  std::map<int, cudaGraphExec_t> graphs;  // one per batch length
+  std::vector<float> graphSignature;       // what the captured graphs baked in
 
   explicit Impl(Simulation& s) : sim(s) {}
   ~Impl() {
-    if (graph) cudaGraphExecDestroy(graph);
+    invalidateGraph();
     if (stream) cudaStreamDestroy(stream);
   }
 
@@ -122,23 +130,37 @@ struct CudaEngine::Impl {
     pointMesh.upload(owner, stream);
     keys.resize(pts.size());
     if (points.get() != oldPoints) invalidateGraph();
+    for (const ForceSlot& f : forces)
+      if (f.kind == Kind::Gradient) uploadGradient(f);
   }
 
   void invalidateGraph() {
-    if (graph) cudaGraphExecDestroy(graph);
-    graph = nullptr;
-    graphBatch = 0;
+    for (auto& [n, g] : graphs) cudaGraphExecDestroy(g);
+    graphs.clear();
+  }
+
+  // The gradient volume depends on the shared sigma; the CPU rebuilds it when sigma changes, so
+  // does the engine.
+  void uploadGradient(const ForceSlot& f) {
+    const ParamTable& t = sim.forceParams(f.name);
+    const float sigma = t.getf(0, t.indexOf("sigma"));
+    if (sigma == gradientSigma && gradient.size()) return;
+    const VectorVolume& g = sim.scene().targetGradient(sigma);
+    gradient.upload(reinterpret_cast<const float3*>(g.voxels().data()), g.voxels().size(), stream);
+    gradientView = viewOf(g.geometry());
+    gradientSigma = sigma;
+    invalidateGraph();
   }
 
   void upload(bool state = true) {
     invalidateGraph();
     MeshStore& s = sim.store();
     s.refresh();  // reference parameters and trained profiles are computed on the host, once per level
-    uploadAs(neighbours, s.neighbours());
-    uploadAs(vertexCells, s.vertexCells());
-    uploadAs(cellOffsets, s.cellOffsets());
-    uploadAs(cellVertices, s.cellVertices());
-    uploadAs(meshOf, s.meshOfVertex());
+    uploadAs(neighbours, s.neighbours(), stream);
+    uploadAs(vertexCells, s.vertexCells(), stream);
+    uploadAs(cellOffsets, s.cellOffsets(), stream);
+    uploadAs(cellVertices, s.cellVertices(), stream);
+    uploadAs(meshOf, s.meshOfVertex(), stream);
     std::vector<int> begin, end;
     std::vector<float> dens;
     for (Index m = 0; m < s.meshCount(); ++m) {
@@ -150,8 +172,8 @@ struct CudaEngine::Impl {
     meshEnd.upload(end, stream);
     density.upload(dens, stream);
     if (state) {
-      uploadAs(x, s.positions());
-      uploadAs(prev, std::span<const Vec3>(s.previousPositions()));
+      uploadAs(x, s.positions(), stream);
+      uploadAs(prev, std::span<const Vec3>(s.previousPositions()), stream);
     }
     force.resize(s.vertexCount());
     if (s.has(Attribute::Normal)) normal.resize(s.vertexCount());
@@ -174,12 +196,14 @@ struct CudaEngine::Impl {
         imageView = viewOf(im.geometry());
         const auto ch = s.channel("intensity_profile.reference");
         profiles.upload(ch.data(), ch.size(), stream);
+        const ParamTable& t = sim.forceParams(f.name);
+        profileInside = static_cast<int>(t.get(0, t.indexOf("inside_samples")));
+        profileOutside = static_cast<int>(t.get(0, t.indexOf("outside_samples")));
+        profileSpacing = t.getf(0, t.indexOf("spacing"));
       }
       if (f.kind == Kind::Gradient) {
-        const ParamTable& t = sim.forceParams(f.name);
-        const VectorVolume& g = sim.scene().targetGradient(t.getf(0, t.indexOf("sigma")));
-        gradient.upload(reinterpret_cast<const float3*>(g.voxels().data()), g.voxels().size(), stream);
-        gradientView = viewOf(g.geometry());
+        gradientSigma = -1.0f;
+        uploadGradient(f);
       }
     }
     view = MeshView{};
@@ -246,10 +270,8 @@ struct CudaEngine::Impl {
                          gradientView, gradient.get(), stream);
           break;
         case Kind::Profile:
-          launchProfile(view, p, t.indexOf("search_depth"), imageView, image.get(), profiles.get(),
-                        static_cast<int>(t.get(0, t.indexOf("inside_samples"))),
-                        static_cast<int>(t.get(0, t.indexOf("outside_samples"))), t.getf(0, t.indexOf("spacing")),
-                        stream);
+          launchProfile(view, p, t.indexOf("search_depth"), imageView, image.get(), profiles.get(), profileInside,
+                        profileOutside, profileSpacing, stream);
           break;
         case Kind::Attraction:
           launchAttraction(view, p, t.indexOf("ring"), points.get(), pointMesh.get(), meshBegin.get(), meshEnd.get(),
@@ -302,22 +324,23 @@ void CudaEngine::run(int iterations) {
     signature.push_back(I.sim.integratorParams().getf(0, static_cast<int>(p)));
   if (signature != I.graphSignature) I.invalidateGraph();
   I.graphSignature = signature;
+  // Batches of up to 32 steps, each length captured once as a CUDA Graph and replayed (a report
+  // interval of 10 replays a 10-step graph).
   constexpr int kBatch = 32;
   while (iterations > 0) {
     const int n = std::min(iterations, kBatch);
-    if (n == kBatch) {
-      if (!I.graph) {
-        cudaGraph_t g;
-        SINEW_CUDA(cudaStreamBeginCapture(I.stream, cudaStreamCaptureModeThreadLocal));
-        for (int i = 0; i < kBatch; ++i) I.enqueueStep();
-        SINEW_CUDA(cudaStreamEndCapture(I.stream, &g));
-        SINEW_CUDA(cudaGraphInstantiate(&I.graph, g, 0));
-        SINEW_CUDA(cudaGraphDestroy(g));
-      }
-      SINEW_CUDA(cudaGraphLaunch(I.graph, I.stream));
-    } else {
+    auto it = I.graphs.find(n);
+    if (it == I.graphs.end()) {
+      cudaGraph_t g;
+      cudaGraphExec_t exec;
+      SINEW_CUDA(cudaStreamBeginCapture(I.stream, cudaStreamCaptureModeThreadLocal));
       for (int i = 0; i < n; ++i) I.enqueueStep();
+      SINEW_CUDA(cudaStreamEndCapture(I.stream, &g));
+      SINEW_CUDA(cudaGraphInstantiate(&exec, g, 0));
+      SINEW_CUDA(cudaGraphDestroy(g));
+      it = I.graphs.emplace(n, exec).first;
     }
+    SINEW_CUDA(cudaGraphLaunch(it->second, I.stream));
     iterations -= n;
   }
   SINEW_CUDA(cudaStreamSynchronize(I.stream));

@@ -175,13 +175,14 @@ TriangleMesh labelSurface(const LabelVolume& labels, std::int32_t label, const L
   mask->SetOrigin(-1, -1, -1);
   mask->AllocateScalars(VTK_UNSIGNED_CHAR, 1);
   auto* buffer = static_cast<unsigned char*>(mask->GetScalarPointer());
-  std::fill(buffer, buffer + (g.size[0] + 2) * (g.size[1] + 2) * (g.size[2] + 2), 0);
+  const std::size_t px = g.size[0] + 2, py = g.size[1] + 2, pz = g.size[2] + 2;
+  std::fill(buffer, buffer + px * py * pz, 0);
   std::size_t count = 0;
   for (int k = 0; k < g.size[2]; ++k)
     for (int j = 0; j < g.size[1]; ++j)
       for (int i = 0; i < g.size[0]; ++i)
         if (labels.at(i, j, k) == label) {
-          buffer[((k + 1) * (g.size[1] + 2) + (j + 1)) * (g.size[0] + 2) + (i + 1)] = 1;
+          buffer[((k + 1) * py + (j + 1)) * px + (i + 1)] = 1;
           ++count;
         }
   if (count == 0) throw InputError("label " + std::to_string(label) + " is absent from the label map");

@@ -1,5 +1,6 @@
 // The Colin27 demo (reduced: four structures, two levels) on both backends through sinew-run
-// (label gpu): the same ASSD within 0.01 mm per structure. Skips without a GPU or mricron-data.
+// (label gpu): the same ASSD within 0.01 mm per structure, and the same mesh files. Skips without a
+// GPU or mricron-data.
 #include "sinew/cuda/cuda_engine.h"
 
 #include <QJsonArray>
@@ -50,8 +51,13 @@ private slots:
     for (int i = 0; i < 4; ++i) {
       const double a = cpu[i].toObject()["assd_mm"].toObject()["final"].toDouble();
       const double b = gpu[i].toObject()["assd_mm"].toObject()["final"].toDouble();
-      qInfo("%s: ASSD cpu %.4f mm, cuda %.4f mm", qPrintable(cpu[i].toObject()["name"].toString()), a, b);
+      const QString name = cpu[i].toObject()["name"].toString();
+      qInfo("%s: ASSD cpu %.4f mm, cuda %.4f mm", qPrintable(name), a, b);
       QVERIFY(std::abs(a - b) <= 0.01);
+      // Stronger: the written meshes are the same bytes.
+      QFile fa(dir.filePath("cpu/" + name + ".vtp")), fb(dir.filePath("cuda/" + name + ".vtp"));
+      QVERIFY(fa.open(QIODevice::ReadOnly) && fb.open(QIODevice::ReadOnly));
+      QVERIFY2(fa.readAll() == fb.readAll(), qPrintable(name + ": meshes differ"));
     }
   }
 };

@@ -30,7 +30,7 @@ QString errorOf(const std::string& text) {
 
 std::string replaced(std::string text, const std::string& from, const std::string& to) {
   const auto at = text.find(from);
-  Q_ASSERT(at != std::string::npos);
+  if (at == std::string::npos) throw std::logic_error("test text not found: " + from);
   return text.replace(at, from.size(), to);
 }
 }  // namespace

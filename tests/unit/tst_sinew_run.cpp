@@ -175,7 +175,7 @@ private slots:
                                QString::fromStdString(out.string())});
     QVERIFY2(r.code == 0, qPrintable(r.err));
     for (const char* f : {"ellipsoid.vtp", "segmentation.nii.gz", "report.json", "report.csv", "timeline.csv",
-                          "error_vs_time.png"})
+                          "error_vs_time.png", "slices.png"})
       QVERIFY2(fs::exists(out / f), f);
     const QJsonObject report = readJson(out / "report.json");
     for (const char* key : {"backend", "device", "total_seconds", "structures", "timeline"}) QVERIFY(report.contains(key));
@@ -243,6 +243,27 @@ private slots:
                    "scene_error.json", "/structures/0/initial/skale: unknown key");
     expectBadInput(writeScene("bad_param.json", [](std::string& t) { replace(t, R"("weight": 1.0)", R"("weight": 3.0)"); }),
                    "bad_param.json", "/forces/shape_prior/weight");
+    expectBadInput(writeScene("shared_param.json",
+                              [](std::string& t) {
+                                replace(t, R"("ground_truth")", R"("forces": {"intensity_profile": {"spacing": 1.0}}, "ground_truth")");
+                              }),
+                   "shared_param.json", "/structures/0/forces/intensity_profile/spacing");
+    expectBadInput(writeScene("schedule_force.json",
+                              [](std::string& t) { replace(t, R"({"iterations": 30, "forces": {"intensity_profile")", R"({"iterations": 30, "forces": {"gradient")"); }),
+                   "schedule_force.json", "/schedule/1/forces/gradient");
+    expectBadInput(writeScene("bad_name.json", [](std::string& t) { replace(t, R"("name": "ellipsoid")", R"("name": "../escape")"); }),
+                   "bad_name.json", "/structures/0/name");
+    {
+      TriangleMesh open = icosphere(2, 10.0f, spec_.centre);
+      open.triangles.pop_back();
+      builtinRegistry().meshIOFor("x.vtp").write(path("open_initial.vtp"), open);
+      expectBadInput(writeScene("open_initial.json",
+                                [](std::string& t) {
+                                  replace(t, R"("initial": {"rotation_axis": [0, 1, 0], "rotation_deg": 6, "translation_mm": [2.0, -1.5, 1.0], "scale": 0.93})",
+                                          R"("initial": {"mesh": "open_initial.vtp"})");
+                                }),
+                     "open_initial.vtp", "open");
+    }
     expectBadInput(writeScene("unknown_force.json", [](std::string& t) { replace(t, R"("smoothing": {"weight": 0.02})", R"("smoothin": {})"); }),
                    "unknown_force.json", "unknown force 'smoothin'");
   }

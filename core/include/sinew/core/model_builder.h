@@ -3,6 +3,7 @@
 // followed by projection onto the surface), so every level is quasi-regular and lies on the shape.
 #pragma once
 
+#include "sinew/core/executor.h"
 #include "sinew/core/level_of_detail.h"
 
 namespace sinew {
@@ -14,7 +15,7 @@ struct BuiltModel {
 
 // coarse: the closed triangle mesh whose dual is level 0; surface: where vertices must lie.
 BuiltModel buildModel(const TriangleMesh& coarse, const TriangleMesh& surface, int levelCount,
-                      int relaxIterations = 10);
+                      const Executor& executor, int relaxIterations = 10);
 
 // Number of dual triangles that gives about `spacing` between simplex vertices on this surface.
 int trianglesForSpacing(const TriangleMesh& surface, double spacingMm);

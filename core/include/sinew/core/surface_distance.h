@@ -2,6 +2,7 @@
 // 95th percentile Hausdorff distance, point-to-surface both ways over area-weighted samples.
 #pragma once
 
+#include "sinew/core/executor.h"
 #include "sinew/core/triangle_mesh.h"
 
 #include <memory>
@@ -38,14 +39,15 @@ struct SurfaceDistanceStats {
   double meanBtoA = 0.0;
 };
 
-SurfaceDistanceStats surfaceDistance(const TriangleMesh& a, const TriangleMesh& b, float spacing);
+SurfaceDistanceStats surfaceDistance(const TriangleMesh& a, const TriangleMesh& b, float spacing,
+                                     const Executor& executor = Executor());
 
 // A fixed surface (e.g. a ground truth) compared with many others: its query structure and
 // samples are built once.
 class ReferenceSurface {
 public:
   ReferenceSurface(TriangleMesh surface, float spacing);
-  SurfaceDistanceStats compare(const TriangleMesh& other) const;
+  SurfaceDistanceStats compare(const TriangleMesh& other, const Executor& executor = Executor()) const;
   const TriangleMesh& surface() const { return surface_; }
 
 private:
