@@ -19,7 +19,6 @@ __device__ __forceinline__ float norm(float3 a) { return sqrtf(squaredNorm(a)); 
 __device__ __forceinline__ float3 cross(float3 a, float3 b) {
   return make_float3(a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x);
 }
-__device__ __forceinline__ void addTo(float3& acc, float3 v) { acc = acc + v; }
 
 // sinew::neighbourFrame
 struct Frame {
