@@ -79,6 +79,7 @@ struct CudaEngine::Impl {
   // Mesh store mirror.
   DeviceArray<int3> neighbours, vertexCells;
   DeviceArray<int> cellOffsets, cellVertices, meshOf, meshBegin, meshEnd;
+  std::vector<int> hostMeshBegin;  // the current level's vertex ranges, for the next level change
   DeviceArray<float> density, elevation, area, mass;
   DeviceArray<float3> x, prev, force, normal, centre;
   DeviceArray<float4> reference;
@@ -169,6 +170,7 @@ struct CudaEngine::Impl {
       dens.push_back(s.density(m));
     }
     meshBegin.upload(begin, stream);
+    hostMeshBegin = begin;
     meshEnd.upload(end, stream);
     density.upload(dens, stream);
     if (state) {
@@ -364,11 +366,9 @@ void CudaEngine::levelChanged() {
   Impl& I = *impl_;
   const Simulation& sim = I.sim;
   const MeshStore& fine = I.sim.store();
-  // One prolongation for the whole store: global fine rows, global coarse indices. The coarse
-  // ranges are still on the device side (meshBegin) from the previous level.
-  std::vector<int> coarseBegin(I.meshBegin.size());
-  I.meshBegin.download(coarseBegin.data(), coarseBegin.size(), I.stream);
-  SINEW_CUDA(cudaStreamSynchronize(I.stream));
+  // One prolongation for the whole store: global fine rows, global coarse indices (the coarse
+  // ranges are those of the last upload).
+  const std::vector<int> coarseBegin = I.hostMeshBegin;
   std::vector<int> rows{0}, index;
   std::vector<float> weight;
   for (Index m = 0; m < fine.meshCount(); ++m) {

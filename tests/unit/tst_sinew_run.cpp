@@ -225,6 +225,7 @@ private slots:
                      "corrupt.vtp", "");
     }
     {
+      // One open mesh, used as a reference and (below) as an initial mesh.
       TriangleMesh open = icosphere(2, 10.0f, spec_.centre);
       open.triangles.pop_back();
       builtinRegistry().meshIOFor("x.vtp").write(path("open.vtp"), open);
@@ -253,17 +254,12 @@ private slots:
                    "schedule_force.json", "/schedule/1/forces/gradient");
     expectBadInput(writeScene("bad_name.json", [](std::string& t) { replace(t, R"("name": "ellipsoid")", R"("name": "../escape")"); }),
                    "bad_name.json", "/structures/0/name");
-    {
-      TriangleMesh open = icosphere(2, 10.0f, spec_.centre);
-      open.triangles.pop_back();
-      builtinRegistry().meshIOFor("x.vtp").write(path("open_initial.vtp"), open);
-      expectBadInput(writeScene("open_initial.json",
-                                [](std::string& t) {
-                                  replace(t, R"("initial": {"rotation_axis": [0, 1, 0], "rotation_deg": 6, "translation_mm": [2.0, -1.5, 1.0], "scale": 0.93})",
-                                          R"("initial": {"mesh": "open_initial.vtp"})");
-                                }),
-                     "open_initial.vtp", "open");
-    }
+    expectBadInput(writeScene("open_initial.json",
+                              [](std::string& t) {
+                                replace(t, R"("initial": {"rotation_axis": [0, 1, 0], "rotation_deg": 6, "translation_mm": [2.0, -1.5, 1.0], "scale": 0.93})",
+                                        R"("initial": {"mesh": "open.vtp"})");
+                              }),
+                   "open.vtp", "open");
     expectBadInput(writeScene("unknown_force.json", [](std::string& t) { replace(t, R"("smoothing": {"weight": 0.02})", R"("smoothin": {})"); }),
                    "unknown_force.json", "unknown force 'smoothin'");
   }
