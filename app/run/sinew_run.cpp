@@ -1,12 +1,9 @@
 // sinew-run: the headless engine. One scene (one subject) per run; machine-readable report;
 // documented exit codes (see --help and docs/sinew-run.md).
+#include "backend_choice.h"
 #include "builtin_plugins.h"
 #include "report_writer.h"
 #include "sinew/core/scene_runner.h"
-
-#ifdef SINEW_WITH_CUDA
-#include "sinew/cuda/cuda_engine.h"
-#endif
 
 #include <CLI/CLI.hpp>
 #include <QGuiApplication>
@@ -180,32 +177,13 @@ int main(int argc, char** argv) {
   try {
     SceneDesc scene = readScene(scenePath);
     ProgressPrinter progress(quiet);
-    RunOptions options{threads, std::ref(progress), {}};
+    RunOptions options{threads, std::ref(progress), {}, {}};
     if (!quiet) options.log = [](const std::string& m) { std::fprintf(stderr, "%s\n", m.c_str()); };
     // Falling back to the CPU is always announced when the CUDA backend was asked for explicitly.
     auto notice = [&](const std::string& m) {
       if (!quiet || backendChoice == "cuda") std::fprintf(stderr, "%s\n", m.c_str());
     };
-    options.backend = [&](Simulation& sim) -> std::unique_ptr<ExecutionBackend> {
-      if (backendChoice == "cpu") return nullptr;
-#ifdef SINEW_WITH_CUDA
-      const cuda::DeviceStatus st = cuda::probeDevice();
-      if (!st.usable) {
-        notice("CUDA backend unavailable (" + st.reason + "); running on the CPU");
-        return nullptr;
-      }
-      try {
-        return std::make_unique<cuda::CudaEngine>(sim);
-      } catch (const std::exception& e) {
-        notice(std::string("CUDA backend failed (") + e.what() + "); running on the CPU");
-        return nullptr;
-      }
-#else
-      (void)sim;
-      notice("this build has no CUDA backend; running on the CPU");
-      return nullptr;
-#endif
-    };
+    options.backend = [&](Simulation& sim) { return makeBackend(backendChoice, sim, notice); };
     SceneRunner runner(registry, scene, options);
     if (!quiet) std::fprintf(stderr, "loading %s\n", scenePath.c_str());
     runner.load();

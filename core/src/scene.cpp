@@ -2,7 +2,10 @@
 
 #include <nlohmann/json.hpp>
 
+#include "sinew/core/io.h"
+
 #include <cctype>
+#include <cmath>
 #include <fstream>
 #include <set>
 #include <sstream>
@@ -116,7 +119,7 @@ ForceSettings readForces(const Node& n) {
 }
 
 StructureDesc readStructure(const Node& n) {
-  n.expectObject({"name", "label", "reference", "initial", "forces", "density", "ground_truth"});
+  n.expectObject({"name", "label", "reference", "initial", "forces", "density", "ground_truth", "attraction_points_mm"});
   StructureDesc s;
   s.name = n.at("name").string();
   if (!plainFileName(s.name)) n.at("name").fail("the name names an output file: use letters, digits, '_', '-', '.' only");
@@ -158,6 +161,12 @@ StructureDesc readStructure(const Node& n) {
     if (s.density < 0.0) n.at("density").fail("the density must be >= 0 (0 = automatic)");
   }
   if (n.has("ground_truth")) s.groundTruth = readLabelRef(n.at("ground_truth"));
+  if (n.has("attraction_points_mm"))
+    for (const Node& p : n.at("attraction_points_mm").elements()) {
+      s.attractionPointsMm.push_back(p.numbers<3>());
+      for (double v : s.attractionPointsMm.back())
+        if (!std::isfinite(v)) p.fail("coordinates must be finite");
+    }
   return s;
 }
 }  // namespace
@@ -247,6 +256,72 @@ SceneDesc parseScene(const std::string& text, const fs::path& file) {
     if (s.meshFormat.empty() || s.meshFormat[0] != '.') o.at("mesh_format").fail("expected an extension such as \".vtp\"");
   }
   return s;
+}
+
+namespace {
+Json forcesJson(const ForceSettings& forces) {
+  Json out = Json::object();
+  for (const auto& [force, values] : forces) {
+    Json params = Json::object();
+    for (const auto& [name, value] : values) params[name] = value;
+    out[force] = params;
+  }
+  return out;
+}
+Json labelRefJson(const LabelRef& r) { return {{"label_map", fs::absolute(r.labelMap).string()}, {"label", r.label}}; }
+}  // namespace
+
+std::string sceneToJson(const SceneDesc& s) {
+  Json j;
+  j["version"] = s.version;
+  if (!s.description.empty()) j["description"] = s.description;
+  j["images"]["target"] = fs::absolute(s.targetImage).string();
+  if (s.trainingImage) j["images"]["training"] = fs::absolute(*s.trainingImage).string();
+  Json structures = Json::array();
+  for (const StructureDesc& d : s.structures) {
+    Json o;
+    o["name"] = d.name;
+    o["label"] = d.label;
+    if (d.reference.mesh) o["reference"]["mesh"] = fs::absolute(*d.reference.mesh).string();
+    else o["reference"] = labelRefJson(*d.reference.label);
+    const Placement& p = d.initial;
+    if (p.mesh) o["initial"]["mesh"] = fs::absolute(*p.mesh).string();
+    else if (p.matrix) o["initial"]["matrix"] = *p.matrix;
+    else
+      o["initial"] = {{"rotation_axis", p.rotationAxis}, {"rotation_deg", p.rotationDeg},
+                      {"translation_mm", p.translationMm}, {"scale", p.scale}};
+    if (!d.forces.empty()) o["forces"] = forcesJson(d.forces);
+    if (d.density != 0.0) o["density"] = d.density;
+    if (d.groundTruth) o["ground_truth"] = labelRefJson(*d.groundTruth);
+    if (!d.attractionPointsMm.empty()) o["attraction_points_mm"] = d.attractionPointsMm;
+    structures.push_back(o);
+  }
+  j["structures"] = structures;
+  j["forces"] = forcesJson(s.forces);
+  j["integrator"]["name"] = s.integrator;
+  for (const auto& [name, value] : s.integratorParams) j["integrator"][name] = value;
+  Json schedule = Json::array();
+  for (const LevelDesc& l : s.schedule) {
+    Json o{{"iterations", l.iterations}};
+    if (!l.forces.empty()) o["forces"] = forcesJson(l.forces);
+    schedule.push_back(o);
+  }
+  j["schedule"] = schedule;
+  j["model"]["coarse_spacing_mm"] = s.coarseSpacingMm;
+  j["report"] = {{"sample_interval", s.sampleInterval}, {"surface_sample_spacing_mm", s.surfaceSampleSpacingMm}};
+  j["outputs"] = {{"mesh_format", s.meshFormat}, {"meshes", s.writeMeshes}, {"label_map", s.labelMapName}};
+  return j.dump(2) + "\n";
+}
+
+void writeScene(const SceneDesc& scene, const fs::path& file) {
+  const std::string text = sceneToJson(scene);
+  AtomicOutput out(file);
+  {
+    std::ofstream f(out.tempPath());
+    f << text;
+    if (!f.flush()) throw InputError(file.string() + ": cannot write the scene file");
+  }
+  out.commit();
 }
 
 SceneDesc readScene(const fs::path& file) {

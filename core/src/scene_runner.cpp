@@ -222,6 +222,9 @@ void SceneRunner::load() {
   ParamTable& integ = L.sim->setIntegrator(scene_.integrator);
   applyParams(scene_, integ, scene_.integratorParams, -1, "/integrator");
   L.sim->scene().setTargetImage(L.target);
+  for (size_t i = 0; i < scene_.structures.size(); ++i)
+    for (const auto& p : scene_.structures[i].attractionPointsMm)
+      L.sim->scene().attractionPoints()[i].push_back(Vec3(float(p[0]), float(p[1]), float(p[2])));
   if (scene_.trainingImage) log("reading " + scene_.trainingImage->string());
   if (scene_.trainingImage)
     L.sim->scene().setTrainingImage(
@@ -313,11 +316,8 @@ RunReport SceneRunner::run() {
   for (int level = 0; level < levels; ++level) {
     const LevelDesc& lv = scene_.schedule[level];
     if (level > 0) {
-      // The level's values first: profile training and the like read them on entering the level.
-      for (const auto& [name, values] : lv.forces)
-        applyParams(scene_, sim.forceParams(name), values, -1, "/schedule/" + std::to_string(level) + "/forces/" + name);
       const auto t0 = Clock::now();
-      sim.advanceLevel();
+      enterNextLevel();
       onBackend([](ExecutionBackend& b) { b.levelChanged(); });
       simSeconds += since(t0);
     }
@@ -349,6 +349,18 @@ RunReport SceneRunner::run() {
   report.totalSeconds = since(L.created);
   return report;
 }
+
+bool SceneRunner::enterNextLevel() {
+  Simulation& sim = *loaded_->sim;
+  const int next = sim.level() + 1;
+  if (next >= sim.levelCount()) return false;
+  // The level's values first: profile training and the like read them on entering the level.
+  for (const auto& [name, values] : scene_.schedule[next].forces)
+    applyParams(scene_, sim.forceParams(name), values, -1, "/schedule/" + std::to_string(next) + "/forces/" + name);
+  return sim.advanceLevel();
+}
+
+bool SceneRunner::hasGroundTruth(Index structure) const { return loaded_->truth[structure] != nullptr; }
 
 LabelVolume SceneRunner::labelMap(const RunReport& report) const {
   LabelVolume out(loaded_->target->geometry(), 0);

@@ -48,6 +48,7 @@ struct StructureDesc {
   ForceSettings forces;
   double density = 0.0;
   std::optional<LabelRef> groundTruth;
+  std::vector<std::array<double, 3>> attractionPointsMm;  // placed by the user (paper 000 section 4.5)
 };
 
 struct LevelDesc {
@@ -78,5 +79,9 @@ struct SceneDesc {
 SceneDesc readScene(const std::filesystem::path& file);
 // Parses a scene from text (file is used for messages and relative paths).
 SceneDesc parseScene(const std::string& text, const std::filesystem::path& file);
+// The scene as JSON text (paths absolute), readable by parseScene.
+std::string sceneToJson(const SceneDesc& scene);
+// Writes the scene through a temporary file and a rename; throws InputError naming the file.
+void writeScene(const SceneDesc& scene, const std::filesystem::path& file);
 
 }  // namespace sinew

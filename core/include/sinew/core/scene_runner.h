@@ -80,10 +80,17 @@ public:
   Simulation& simulation();
   const SceneDesc& scene() const { return scene_; }
 
+  // For interactive use (the workstation), step by step instead of run():
+  // Applies the next level's schedule values and refines every structure; false at the finest.
+  bool enterNextLevel();
+  // The structure's current surface from the host store, with ASSD/HD95 against its ground truth
+  // (NaN without one) and, when final, Dice.
+  StructureResult evaluate(Index structure, bool final);
+  bool hasGroundTruth(Index structure) const;
+
 private:
   struct Loaded;
   void sample(RunReport& report, double seconds);
-  StructureResult evaluate(Index structure, bool final);
 
   const Registry& registry_;
   SceneDesc scene_;

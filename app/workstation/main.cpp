@@ -1,0 +1,117 @@
+// sinew: the desktop workstation. Opens a scene (or an image), shows it in four views and segments
+// it live; see docs/workstation.md.
+#include "builtin_plugins.h"
+#include "interaction_tool.h"
+#include "main_window.h"
+#include "slice_view.h"
+#include "volume_view.h"
+
+#include <CLI/CLI.hpp>
+#include <QApplication>
+#include <QElapsedTimer>
+#include <QSurfaceFormat>
+#include <QTimer>
+
+#include <algorithm>
+#include <cstdio>
+
+int main(int argc, char** argv) {
+  CLI::App cli{"sinew: the Sinew workstation (segment by looking and clicking)."};
+  std::string scene, image;
+  sinew::WorkstationOptions options;
+  double measureSeconds = 0.0;
+  std::string screenshot;
+  double budgetMs = 0.0;
+  int level = 0;
+  cli.add_option("scene", scene, "scene file to open");
+  cli.add_option("--image", image, "an image to view (without a scene)");
+  cli.add_option("--backend", options.backend, "auto: CUDA when a usable GPU exists, else the CPU")
+      ->check(CLI::IsMember({"auto", "cuda", "cpu"}))
+      ->capture_default_str();
+  cli.add_option("--drawing", options.drawing, "how the 3D view gets the meshes: interop (CUDA-OpenGL), host, auto")
+      ->check(CLI::IsMember({"auto", "interop", "host"}))
+      ->capture_default_str();
+  cli.add_option("-j,--threads", options.threads, "CPU threads (0 = all)")->check(CLI::NonNegativeNumber);
+  cli.add_option("--measure-fps", measureSeconds,
+                 "benchmark: run the scene for this many seconds (after 2 s of warm-up), print frames/s as JSON, exit");
+  cli.add_option("--level", level, "with --measure-fps: level of detail to measure at")->check(CLI::NonNegativeNumber);
+  cli.add_option("--budget-ms", budgetMs, "simulation time budget per frame (default: the saved setting, 30 ms)")
+      ->check(CLI::Range(1.0, 1000.0));
+  cli.add_option("--screenshot", screenshot, "with --measure-fps: save the window as a PNG at the end");
+  cli.set_version_flag("--version", std::string("sinew ") + SINEW_VERSION);
+  try {
+    cli.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return cli.exit(e) == 0 ? 0 : 2;
+  }
+
+  // VTK's GLEW needs GLX (EGL breaks it); contexts are shared so a view can move between windows.
+  if (qEnvironmentVariableIsEmpty("QT_XCB_GL_INTEGRATION")) qputenv("QT_XCB_GL_INTEGRATION", "xcb_glx");
+  QApplication::setAttribute(Qt::AA_ShareOpenGLContexts);
+  QSurfaceFormat format;
+  format.setRenderableType(QSurfaceFormat::OpenGL);
+  format.setVersion(3, 2);
+  format.setProfile(QSurfaceFormat::CoreProfile);
+  format.setDepthBufferSize(24);
+  format.setStencilBufferSize(8);
+  format.setSwapInterval(measureSeconds > 0 ? 0 : 1);
+  QSurfaceFormat::setDefaultFormat(format);
+  QApplication app(argc, argv);
+  QApplication::setApplicationName("Sinew");
+  QApplication::setOrganizationName("Sinew");
+  QApplication::setApplicationVersion(SINEW_VERSION);
+
+  sinew::Registry registry;
+  sinew::registerBuiltinPlugins(registry);
+  sinew::ToolRegistry tools;
+  sinew::registerBuiltinTools(tools);
+  if (measureSeconds > 0) options.persistSettings = false;
+  sinew::MainWindow window(registry, tools, options);
+  window.resize(1400, 900);
+  if (budgetMs > 0) window.setFrameBudgetMs(budgetMs);
+  window.show();
+  if (!image.empty() && !window.openImage(QString::fromStdString(image))) return 3;
+  if (!scene.empty() && !window.openScene(QString::fromStdString(scene))) return 3;
+  if (measureSeconds <= 0) return app.exec();
+
+  // Benchmark mode: the same frame loop as a user's Run, measured after a warm-up.
+  if (scene.empty()) {
+    std::fprintf(stderr, "sinew: --measure-fps needs a scene\n");
+    return 2;
+  }
+  while (window.session().level() < level && window.session().nextLevel()) {
+  }
+  window.refreshViews();
+  window.setFollowSchedule(false);
+  window.setRunning(true);
+  QElapsedTimer clock;
+  clock.start();
+  long frames0 = 0, iterations0 = 0, paints0 = 0;
+  bool measuring = false;
+  QTimer poll;
+  QObject::connect(&poll, &QTimer::timeout, [&] {
+    const double t = clock.elapsed() * 1e-3;
+    if (!measuring && t >= 2.0) {
+      measuring = true;
+      frames0 = window.framesDrawn();
+      paints0 = window.volumeView()->framesRendered();
+      iterations0 = window.session().simulation().iteration();
+      clock.restart();
+    } else if (measuring && t >= measureSeconds) {
+      // A frame counts when it was both simulated and painted (paints can coalesce).
+      const double frames = double(std::min(window.framesDrawn() - frames0, window.volumeView()->framesRendered() - paints0));
+      const double its = double(window.session().simulation().iteration() - iterations0);
+      std::printf("{\"frames_per_second\": %.2f, \"iterations_per_second\": %.1f, \"vertices\": %ld, "
+                  "\"level\": %d, \"drawing\": \"%s\", \"backend\": \"%s\", \"device\": \"%s\", \"seconds\": %.2f}\n",
+                  frames / t, its / t, long(window.session().simulation().store().vertexCount()),
+                  window.session().level(), window.drawingPath().c_str(), window.session().backendName().c_str(),
+                  window.session().deviceName().c_str(), t);
+      std::fflush(stdout);
+      window.setRunning(false);
+      if (!screenshot.empty()) window.grab().save(QString::fromStdString(screenshot));
+      app.quit();
+    }
+  });
+  poll.start(50);
+  return app.exec();
+}

@@ -1,0 +1,362 @@
+#include "segmentation_session.h"
+
+#include "backend_choice.h"
+
+#include <chrono>
+#include <cmath>
+
+namespace sinew {
+
+namespace {
+namespace fs = std::filesystem;
+using Clock = std::chrono::steady_clock;
+constexpr const char* kAttraction = "attraction_points";
+}  // namespace
+
+SegmentationSession::SegmentationSession(const Registry& registry) : registry_(registry) {}
+SegmentationSession::~SegmentationSession() = default;
+
+void SegmentationSession::open(const fs::path& sceneFile, const SessionOpenOptions& options) {
+  SceneDesc scene = readScene(sceneFile);
+  bool hasAttraction = false;
+  for (const auto& f : scene.forces) hasAttraction |= f.first == kAttraction;
+  if (!hasAttraction) scene.forces.emplace_back(kAttraction, std::vector<std::pair<std::string, double>>{});
+  RunOptions run;
+  run.threads = options.threads;
+  run.log = options.log;
+  auto runner = std::make_unique<SceneRunner>(registry_, std::move(scene), run);
+  runner->load();  // throws before anything of the previous session is touched
+  auto notice = options.log ? options.log : [](const std::string&) {};
+  backend_.reset();
+  backend_ = makeBackend(options.backend, runner->simulation(), notice);
+  runner_ = std::move(runner);
+  log_ = options.log;
+  hostCurrent_ = true;
+  levelDone_ = 0;
+  simSeconds_ = secondsPerStep_ = 0.0;
+  timeline_.clear();
+  undo_.clear();
+  redo_.clear();
+  lastEdit_.clear();
+  sample();
+  changed();
+}
+
+void SegmentationSession::close() {
+  backend_.reset();  // before the simulation it mirrors
+  runner_.reset();
+  timeline_.clear();
+  undo_.clear();
+  redo_.clear();
+  changed();
+}
+
+const SceneDesc& SegmentationSession::scene() const { return runner_->scene(); }
+Simulation& SegmentationSession::simulation() { return runner_->simulation(); }
+const Image3D& SegmentationSession::image() { return simulation().scene().targetImage(); }
+Index SegmentationSession::structureCount() { return simulation().structureCount(); }
+std::string SegmentationSession::backendName() const { return backend_ ? backend_->name() : "cpu"; }
+std::string SegmentationSession::deviceName() const {
+  return backend_ ? backend_->device() : cpuDescription(runner_->simulation().executor().threads());
+}
+int SegmentationSession::level() { return simulation().level(); }
+int SegmentationSession::levelCount() { return simulation().levelCount(); }
+int SegmentationSession::levelIterationsPlanned() const {
+  return runner_->scene().schedule[runner_->simulation().level()].iterations;
+}
+
+int SegmentationSession::step(int iterations) {
+  if (iterations <= 0) return 0;
+  const auto t0 = Clock::now();
+  bool done = false;
+  if (backend_) {
+    try {
+      backend_->run(iterations);
+      hostCurrent_ = false;
+      done = true;
+    } catch (const std::runtime_error& e) {
+      // Continue on the CPU from the last state the host has (the interrupted batch is lost).
+      if (log_) log_(backend_->name() + " backend failed (" + e.what() + "); continuing on the CPU");
+      backend_.reset();
+      hostCurrent_ = true;
+    }
+  }
+  if (!done) simulation().run(iterations);
+  const double seconds = std::chrono::duration<double>(Clock::now() - t0).count();
+  simSeconds_ += seconds;
+  const double perStep = seconds / iterations;
+  secondsPerStep_ = secondsPerStep_ == 0.0 ? perStep : 0.7 * secondsPerStep_ + 0.3 * perStep;
+  levelDone_ += iterations;
+  lastEdit_.clear();  // a drag after steps is a new edit
+  changed();
+  return iterations;
+}
+
+int SegmentationSession::stepFor(double budgetSeconds, bool followSchedule) {
+  int done = 0;
+  const auto t0 = Clock::now();
+  do {
+    int n = secondsPerStep_ > 0.0 ? static_cast<int>((budgetSeconds - std::chrono::duration<double>(Clock::now() - t0).count()) /
+                                                     secondsPerStep_)
+                                  : 1;
+    n = std::clamp(n, 1, 1000);
+    if (followSchedule) n = std::min(n, levelIterationsPlanned() - levelDone_);
+    if (n <= 0) break;
+    done += step(n);
+  } while (std::chrono::duration<double>(Clock::now() - t0).count() < budgetSeconds * 0.8);
+  return done;
+}
+
+bool SegmentationSession::nextLevel() {
+  syncHost();
+  if (!runner_->enterNextLevel()) return false;
+  if (backend_) backend_->levelChanged();
+  levelDone_ = 0;
+  undo_.clear();
+  redo_.clear();
+  lastEdit_.clear();
+  changed();
+  return true;
+}
+
+void SegmentationSession::syncHost() {
+  if (hostCurrent_) return;
+  if (backend_) backend_->download();
+  hostCurrent_ = true;
+}
+
+const SessionSample& SegmentationSession::sample() {
+  syncHost();
+  Simulation& sim = simulation();
+  MeshStore& store = sim.store();
+  SessionSample s;
+  s.seconds = simSeconds_;
+  s.iteration = sim.iteration();
+  s.level = sim.level();
+  const auto x = store.positions();
+  const auto prev = store.previousPositions();
+  double disp = 0.0;
+  for (Index v = 0; v < store.vertexCount(); ++v) disp += (x[v] - prev[v]).norm();
+  s.displacementMm = disp / std::max<Index>(store.vertexCount(), 1);
+  double assd = 0.0;
+  int withTruth = 0;
+  for (Index i = 0; i < sim.structureCount(); ++i)
+    if (runner_->hasGroundTruth(i)) {
+      assd += runner_->evaluate(i, false).assdFinalMm;
+      ++withTruth;
+    }
+  s.assdMm = withTruth ? assd / withTruth : std::nan("");
+  timeline_.push_back(s);
+  return timeline_.back();
+}
+
+bool SegmentationSession::hasGroundTruth() {
+  for (Index i = 0; i < structureCount(); ++i)
+    if (runner_->hasGroundTruth(i)) return true;
+  return false;
+}
+
+// --- edits and history ---------------------------------------------------------------------------
+
+std::size_t SegmentationSession::Snapshot::bytes() const {
+  std::size_t b = sizeof(Snapshot) + label.size() + (positions.size() + previous.size()) * sizeof(Vec3);
+  for (const auto& p : points) b += p.size() * sizeof(Vec3);
+  for (const auto& t : forceParams) b += t.decls().size() * (sizeof(ParamDecl) + sizeof(double) * t.rows());
+  return b;
+}
+
+SegmentationSession::Snapshot SegmentationSession::capture(std::string label) {
+  syncHost();
+  Simulation& sim = simulation();
+  Snapshot s;
+  s.label = std::move(label);
+  s.level = sim.level();
+  const auto x = sim.store().positions();
+  const auto prev = sim.store().previousPositions();
+  s.positions.assign(x.begin(), x.end());
+  s.previous.assign(prev.begin(), prev.end());
+  s.points = sim.scene().attractionPoints();
+  for (const std::string& f : sim.forceNames()) s.forceParams.push_back(sim.forceParams(f));
+  s.forceParams.push_back(sim.integratorParams());
+  return s;
+}
+
+void SegmentationSession::restore(const Snapshot& s) {
+  Simulation& sim = simulation();
+  syncHost();
+  auto x = sim.store().positionsForWrite();
+  auto prev = sim.store().previousPositions();
+  std::copy(s.positions.begin(), s.positions.end(), x.begin());
+  std::copy(s.previous.begin(), s.previous.end(), prev.begin());
+  sim.scene().attractionPoints() = s.points;
+  const auto names = sim.forceNames();
+  for (size_t f = 0; f < names.size(); ++f) sim.forceParams(names[f]) = s.forceParams[f];
+  sim.integratorParams() = s.forceParams.back();
+  if (backend_) backend_->reload();
+  lastEdit_.clear();
+  changed();
+}
+
+void SegmentationSession::beginEdit(const std::string& label, bool continuing) {
+  if (continuing && !undo_.empty() && lastEdit_ == label) return;  // the drag goes on: one undo step
+  undo_.push_back(capture(label));
+  redo_.clear();
+  lastEdit_ = label;
+  trimHistory();
+}
+
+void SegmentationSession::trimHistory() {
+  while (undo_.size() > 1 && historyBytes() > historyLimit_) undo_.pop_front();
+}
+
+void SegmentationSession::setHistoryLimit(std::size_t bytes) {
+  historyLimit_ = bytes;
+  trimHistory();
+}
+
+std::size_t SegmentationSession::historyBytes() const {
+  std::size_t b = 0;
+  for (const auto& s : undo_) b += s.bytes();
+  for (const auto& s : redo_) b += s.bytes();
+  return b;
+}
+
+bool SegmentationSession::undo() {
+  if (undo_.empty()) return false;
+  Snapshot before = std::move(undo_.back());
+  undo_.pop_back();
+  redo_.push_back(capture(before.label));
+  restore(before);
+  return true;
+}
+
+bool SegmentationSession::redo() {
+  if (redo_.empty()) return false;
+  Snapshot after = std::move(redo_.back());
+  redo_.pop_back();
+  undo_.push_back(capture(after.label));
+  restore(after);
+  return true;
+}
+
+const std::vector<Vec3>& SegmentationSession::attractionPoints(Index structure) {
+  return simulation().scene().attractionPoints()[structure];
+}
+
+void SegmentationSession::addAttractionPoint(Index structure, const Vec3& point) {
+  if (!point.allFinite()) throw InputError("an attraction point needs finite coordinates");
+  beginEdit("Add attraction point", false);
+  simulation().scene().attractionPoints()[structure].push_back(point);
+  lastEdit_.clear();
+  changed();
+}
+
+void SegmentationSession::moveAttractionPoint(Index structure, int index, const Vec3& point, bool continuing) {
+  if (!point.allFinite()) throw InputError("an attraction point needs finite coordinates");
+  auto& points = simulation().scene().attractionPoints()[structure];
+  if (index < 0 || index >= static_cast<int>(points.size())) throw InputError("no such attraction point");
+  beginEdit("Move attraction point " + std::to_string(structure) + "/" + std::to_string(index), continuing);
+  points[index] = point;
+  changed();
+}
+
+void SegmentationSession::removeAttractionPoint(Index structure, int index) {
+  auto& points = simulation().scene().attractionPoints()[structure];
+  if (index < 0 || index >= static_cast<int>(points.size())) throw InputError("no such attraction point");
+  beginEdit("Delete attraction point", false);
+  simulation().scene().attractionPoints()[structure].erase(
+      simulation().scene().attractionPoints()[structure].begin() + index);
+  lastEdit_.clear();
+  changed();
+}
+
+ParamTable& SegmentationSession::params(const std::string& owner) {
+  Simulation& sim = simulation();
+  return owner == sim.integratorName() ? sim.integratorParams() : sim.forceParams(owner);
+}
+
+void SegmentationSession::setParameter(const std::string& force, Index structure, const std::string& param,
+                                       double value, bool continuing) {
+  ParamTable& table = params(force);
+  const int p = table.indexOf(param);
+  const ParamDecl& decl = table.decls()[p];
+  if (!(value >= decl.min && value <= decl.max))
+    throw InputError(force + "." + param + " = " + std::to_string(value) + " is outside [" + std::to_string(decl.min) +
+                     ", " + std::to_string(decl.max) + "]");
+  beginEdit("Set " + force + "." + param + (structure >= 0 ? " of " + scene().structures[structure].name : ""),
+            continuing);
+  if (structure < 0 || !decl.perStructure) table.setAll(param, value);
+  else table.set(structure, p, value);
+  changed();
+}
+
+double SegmentationSession::parameter(const std::string& force, Index structure, const std::string& param) {
+  ParamTable& table = params(force);
+  return table.get(std::max<Index>(structure, 0), table.indexOf(param));
+}
+
+// --- outputs -------------------------------------------------------------------------------------
+
+SceneDesc SegmentationSession::currentScene() {
+  SceneDesc s = scene();
+  Simulation& sim = simulation();
+  // Shared values go to /forces; a structure's own value only where it differs from structure 0's.
+  for (auto& [force, values] : s.forces) {
+    const ParamTable& t = sim.forceParams(force);
+    values.clear();
+    for (size_t p = 0; p < t.decls().size(); ++p) values.emplace_back(t.decls()[p].name, t.get(0, int(p)));
+  }
+  for (size_t i = 0; i < s.structures.size(); ++i) {
+    StructureDesc& d = s.structures[i];
+    d.forces.clear();
+    for (const auto& [force, shared] : s.forces) {
+      const ParamTable& t = sim.forceParams(force);
+      std::vector<std::pair<std::string, double>> own;
+      for (size_t p = 0; p < t.decls().size(); ++p)
+        if (t.decls()[p].perStructure && t.get(Index(i), int(p)) != t.get(0, int(p)))
+          own.emplace_back(t.decls()[p].name, t.get(Index(i), int(p)));
+      if (!own.empty()) d.forces.emplace_back(force, std::move(own));
+    }
+    d.attractionPointsMm.clear();
+    for (const Vec3& p : sim.scene().attractionPoints()[i]) d.attractionPointsMm.push_back({p.x(), p.y(), p.z()});
+  }
+  s.integratorParams.clear();
+  const ParamTable& integ = sim.integratorParams();
+  for (size_t p = 0; p < integ.decls().size(); ++p) s.integratorParams.emplace_back(integ.decls()[p].name, integ.get(0, int(p)));
+  // The schedule would overwrite the values above on entering its levels from the start again.
+  for (auto& l : s.schedule) l.forces.clear();
+  return s;
+}
+
+void SegmentationSession::saveScene(const fs::path& file) { writeScene(currentScene(), file); }
+
+std::vector<fs::path> SegmentationSession::saveMeshes(const fs::path& dir, const std::string& ext) {
+  syncHost();
+  std::vector<StructureResult> results;
+  for (Index i = 0; i < structureCount(); ++i) {
+    results.push_back(runner_->evaluate(i, false));
+    for (const Vec3& p : results.back().surface.points)
+      if (!p.allFinite())
+        throw NumericalError("structure '" + results.back().name + "' has a non-finite vertex; no mesh was written");
+  }
+  std::vector<fs::path> written;
+  for (const auto& r : results) {
+    const fs::path file = dir / (r.name + ext);
+    registry_.meshIOFor(file).write(file, r.surface);
+    written.push_back(file);
+  }
+  return written;
+}
+
+void SegmentationSession::exportLabelMap(const fs::path& file) {
+  syncHost();
+  RunReport report;
+  for (Index i = 0; i < structureCount(); ++i) {
+    report.structures.push_back(runner_->evaluate(i, false));
+    for (const Vec3& p : report.structures.back().surface.points)
+      if (!p.allFinite()) throw NumericalError("structure '" + report.structures.back().name + "' has a non-finite vertex");
+  }
+  registry_.imageIOFor(file).writeLabels(file, runner_->labelMap(report));
+}
+
+}  // namespace sinew

@@ -1,0 +1,134 @@
+// The workstation's model of one segmentation session (no Qt, no VTK): a loaded scene stepped
+// under a time budget, the user's edits with bounded undo/redo, the timeline of error (or
+// displacement) against time, and the exports. Widgets observe it; it knows nothing of them.
+#pragma once
+
+#include "sinew/core/scene_runner.h"
+
+#include <deque>
+#include <filesystem>
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace sinew {
+
+struct SessionSample {
+  double seconds = 0.0;  // simulation time
+  long iteration = 0;
+  int level = 0;
+  double assdMm = 0.0;           // mean over structures with ground truth; NaN without any
+  double displacementMm = 0.0;   // mean |x - x_prev| of the last step over all vertices
+};
+
+struct SessionOpenOptions {
+  int threads = 0;              // 0: all hardware threads
+  std::string backend = "auto";  // auto | cuda | cpu
+  std::function<void(const std::string&)> log;
+};
+
+class SegmentationSession {
+public:
+  explicit SegmentationSession(const Registry& registry);
+  ~SegmentationSession();
+
+  // Loads a scene; the attraction-point force is added (weight 1) when the scene lacks it, so the
+  // attraction tool always works. Throws InputError naming the file and problem.
+  void open(const std::filesystem::path& sceneFile, const SessionOpenOptions& options = {});
+  bool isOpen() const { return runner_ != nullptr; }
+  void close();
+  const SceneDesc& scene() const;
+  Simulation& simulation();
+  const Image3D& image();
+  Index structureCount();
+  std::string backendName() const;
+  std::string deviceName() const;
+  ExecutionBackend* backend() const { return backend_.get(); }
+
+  // The schedule: levels coarse to fine, each with its planned iterations.
+  int level();
+  int levelCount();
+  int levelIterationsDone() const { return levelDone_; }
+  int levelIterationsPlanned() const;
+  bool levelScheduleDone() const { return levelDone_ >= levelIterationsPlanned(); }
+
+  // Steps until budgetSeconds of simulation time are spent (at least one step). Following the
+  // schedule, it stops at the end of the level's iterations (returns 0 once there).
+  int stepFor(double budgetSeconds, bool followSchedule = true);
+  int step(int iterations);
+  // Enters the next level (with its schedule values); clears the undo history, whose snapshots
+  // belong to the coarser level. False at the finest level.
+  bool nextLevel();
+  double simulationSeconds() const { return simSeconds_; }
+  double secondsPerStep() const { return secondsPerStep_; }
+
+  // Makes the host store current (downloads from the backend when it ran since).
+  void syncHost();
+  // Appends a timeline sample (syncs the host; evaluates ASSD when ground truth exists).
+  const SessionSample& sample();
+  const std::vector<SessionSample>& timeline() const { return timeline_; }
+  bool hasGroundTruth();
+  // Changes on every edit, undo, redo, step and level change: views redraw when it moved.
+  std::uint64_t revision() const { return revision_; }
+
+  // Edits. Each is undoable; its snapshot holds the mesh state too, so undo restores exactly the
+  // state before the edit, however far the simulation moved since. A continuing edit (a drag, a
+  // slider being moved) extends the previous one instead of adding a new undo step.
+  const std::vector<Vec3>& attractionPoints(Index structure);
+  void addAttractionPoint(Index structure, const Vec3& point);
+  void moveAttractionPoint(Index structure, int index, const Vec3& point, bool continuing);
+  void removeAttractionPoint(Index structure, int index);
+  // force: a force's name, or the integrator's name for its parameters. structure -1: every
+  // structure (shared parameters are always set on all).
+  void setParameter(const std::string& force, Index structure, const std::string& param, double value,
+                    bool continuing = false);
+  double parameter(const std::string& force, Index structure, const std::string& param);
+  bool canUndo() const { return !undo_.empty(); }
+  bool canRedo() const { return !redo_.empty(); }
+  std::string undoLabel() const { return undo_.empty() ? "" : undo_.back().label; }
+  std::string redoLabel() const { return redo_.empty() ? "" : redo_.back().label; }
+  bool undo();
+  bool redo();
+  // Oldest undo steps are dropped beyond this many bytes of snapshots (default 256 MiB).
+  void setHistoryLimit(std::size_t bytes);
+  std::size_t historyBytes() const;
+
+  // The scene as it stands: current parameter values and attraction points.
+  SceneDesc currentScene();
+  void saveScene(const std::filesystem::path& file);
+  // One mesh per structure ("<name><ext>", ext e.g. ".vtp"); returns the files written.
+  std::vector<std::filesystem::path> saveMeshes(const std::filesystem::path& dir, const std::string& ext);
+  void exportLabelMap(const std::filesystem::path& file);
+
+private:
+  struct Snapshot {
+    std::string label;
+    int level = 0;
+    std::vector<Vec3> positions, previous;
+    std::vector<std::vector<Vec3>> points;
+    std::vector<ParamTable> forceParams;  // the forces', then the integrator's
+    std::size_t bytes() const;
+  };
+  ParamTable& params(const std::string& owner);
+  Snapshot capture(std::string label);
+  void restore(const Snapshot& s);
+  void beginEdit(const std::string& label, bool continuing);
+  void trimHistory();
+  void changed() { ++revision_; }
+
+  const Registry& registry_;
+  std::unique_ptr<SceneRunner> runner_;
+  std::unique_ptr<ExecutionBackend> backend_;
+  std::function<void(const std::string&)> log_;
+  bool hostCurrent_ = true;
+  int levelDone_ = 0;
+  double simSeconds_ = 0.0, secondsPerStep_ = 0.0;
+  std::vector<SessionSample> timeline_;
+  std::deque<Snapshot> undo_, redo_;
+  std::size_t historyLimit_ = std::size_t(256) << 20;
+  std::string lastEdit_;  // label of the edit a continuing edit may extend
+  std::uint64_t revision_ = 1;
+};
+
+}  // namespace sinew

@@ -1,0 +1,125 @@
+// The workstation's main window: four views (axial, coronal, sagittal, 3D) in a 2x2 layout with
+// one-view maximise, the scene / parameters / schedule / plot panels, Run / Pause / Step / Next
+// level, file operations, recent files and settings. The simulation runs in the GUI thread under a
+// per-frame time budget (paper 000 section 4.4): edits happen between steps, never during one.
+#pragma once
+
+#include "display_scene.h"
+#include "interaction_tool.h"
+#include "segmentation_session.h"
+
+#include <QElapsedTimer>
+#include <QMainWindow>
+#include <QTimer>
+
+#include <array>
+#include <memory>
+
+class QAction;
+class QActionGroup;
+class QLabel;
+class QMenu;
+
+namespace sinew {
+
+class ParametersPanel;
+class PlotWidget;
+class ScenePanel;
+class SchedulePanel;
+class SliceView;
+class SurfaceDrawing;
+class VolumeView;
+
+struct WorkstationOptions {
+  std::string backend = "auto";  // auto | cuda | cpu
+  std::string drawing = "auto";  // auto | interop | host: how the 3D view gets the surfaces
+  int threads = 0;
+  bool persistSettings = true;   // tests run with false
+};
+
+class MainWindow : public QMainWindow {
+  Q_OBJECT
+public:
+  MainWindow(const Registry& registry, const ToolRegistry& tools, WorkstationOptions options = {},
+             QWidget* parent = nullptr);
+  ~MainWindow() override;
+
+  // Opens a scene; on failure shows the error (and returns false) and keeps the current state.
+  bool openScene(const QString& file);
+  bool openImage(const QString& file);
+
+  SegmentationSession& session() { return session_; }
+  DisplayScene& display() { return display_; }
+  SliceView* sliceView(int axis) const { return slices_[axis]; }
+  VolumeView* volumeView() const { return volume_; }
+  void setRunning(bool running);
+  bool isRunning() const { return timer_.isActive(); }
+  void stepOnce();
+  // Off: Run keeps stepping past the schedule's iterations (benchmarks); on by default.
+  void setFollowSchedule(bool follow) { followSchedule_ = follow; }
+  void setFrameBudgetMs(double ms);
+  void selectTool(const std::string& name);
+  // Brings every view up to date with the session now (the frame loop does it while running).
+  void refreshViews();
+  double framesPerSecond() const { return fps_; }
+  // Frames of the run loop so far: each stepped the simulation and repainted every visible view.
+  long framesDrawn() const { return framesDrawn_; }
+  std::string drawingPath() const;
+  // Maximises one view (0..2 slices by axis, 3 the 3D view), or restores the 2x2 layout (-1).
+  void maximiseView(int view);
+
+protected:
+  void closeEvent(QCloseEvent* e) override;
+  void keyPressEvent(QKeyEvent* e) override;
+
+private:
+  void buildViews();
+  void buildActions();
+  void buildPanels();
+  void tick();
+  void sessionChanged();  // after open, undo, level change
+  void afterEdit();
+  void updateActions();
+  void updateStatus();
+  void addRecent(const QString& file);
+  void rebuildRecentMenu();
+  void showError(const QString& what, const QString& message);
+  void saveScene(bool askName);
+  void saveMeshes();
+  void exportLabelMap();
+  void nextLevel();
+  ToolContext toolContext();
+
+  const Registry& registry_;
+  const ToolRegistry& tools_;
+  WorkstationOptions options_;
+  SegmentationSession session_;
+  DisplayScene display_;
+  std::shared_ptr<Image3D> imageOnly_;
+  std::unique_ptr<SurfaceDrawing> drawing_;
+  std::unique_ptr<InteractionTool> tool_;
+  std::array<SliceView*, 3> slices_{};
+  VolumeView* volume_ = nullptr;
+  std::array<QWidget*, 4> frames_{};
+  int maximised_ = -1;
+  ScenePanel* scenePanel_ = nullptr;
+  ParametersPanel* paramsPanel_ = nullptr;
+  SchedulePanel* schedulePanel_ = nullptr;
+  PlotWidget* plot_ = nullptr;
+  QLabel* statusRate_ = nullptr;
+  QLabel* statusBackend_ = nullptr;
+  QTimer timer_;
+  QElapsedTimer fpsClock_, sampleClock_;
+  long fpsFrames_ = 0, framesDrawn_ = 0;
+  double fps_ = 0.0, itPerSecond_ = 0.0, sampleCost_ = 0.0, budgetCredit_ = 0.0;
+  long fpsIterations_ = 0;
+  std::uint64_t shownRevision_ = 0;
+  bool followSchedule_ = true;
+  QString sceneFile_;
+  QAction *openScene_, *openImage_, *saveScene_, *saveSceneAs_, *saveMeshes_, *exportLabels_, *quit_;
+  QAction *undo_, *redo_, *deletePoint_, *run_, *step_, *nextLevel_, *resetViews_, *maximise_;
+  QMenu* recentMenu_ = nullptr;
+  QActionGroup* toolGroup_ = nullptr;
+};
+
+}  // namespace sinew

@@ -1,0 +1,253 @@
+// The workstation on the real Colin27 data, under Xvfb (Mesa): it starts, renders every view,
+// matches baseline images, adds an attraction point where the user clicked, pulls the mesh toward
+// it, undoes exactly, and closes cleanly while running.
+#include "builtin_plugins.h"
+#include "display_scene.h"
+#include "interaction_tool.h"
+#include "main_window.h"
+#include "slice_view.h"
+#include "volume_view.h"
+
+#include <QApplication>
+#include <QDir>
+#include <QFile>
+#include <QImage>
+#include <QProcess>
+#include <QSurfaceFormat>
+#include <QTemporaryDir>
+#include <QtTest>
+
+#include <cmath>
+#include <memory>
+
+using namespace sinew;
+
+namespace {
+const QString kTemplates = "/usr/share/mricron/templates/";
+
+// Distance from p to the nearest vertex of structure s (host store).
+double nearestVertexDistance(SegmentationSession& session, Index s, const Vec3& p) {
+  session.syncHost();
+  MeshStore& store = session.simulation().store();
+  const auto x = store.mesh(store.positions(), s);
+  double best = 1e30;
+  for (const Vec3& v : x) best = std::min(best, double((v - p).norm()));
+  return best;
+}
+
+std::vector<Vec3> positions(SegmentationSession& session) {
+  session.syncHost();
+  const auto x = session.simulation().store().positions();
+  return {x.begin(), x.end()};
+}
+
+// Fraction of pixels that differ from the view's background colour (top-left pixel).
+double nonBackground(const QImage& img) {
+  const QRgb bg = img.pixel(0, 0);
+  long n = 0;
+  for (int y = 0; y < img.height(); ++y)
+    for (int x = 0; x < img.width(); ++x) n += img.pixel(x, y) != bg;
+  return double(n) / (img.width() * img.height());
+}
+}  // namespace
+
+class TestWorkstation : public QObject {
+  Q_OBJECT
+
+private Q_SLOTS:
+  void initTestCase() {
+    if (!QFile::exists(kTemplates + "aal.nii.gz")) QSKIP("Debian package mricron-data is not installed");
+    // A small scene: four structures, two levels.
+    QCOMPARE(QProcess::execute(SINEW_MAKE_SCENE,
+                               {"--atlas", kTemplates + "aal.nii.gz", "--labels", kTemplates + "aal.nii.txt",
+                                "--training", kTemplates + "ch2.nii.gz", "--target", kTemplates + "ch2better.nii.gz",
+                                "--structures", "Hippocampus_L,Caudate_R,Putamen_L,Thalamus_R", "--iterations", "60,30",
+                                "-o", dir_.filePath("scene.json")}),
+             0);
+    registerBuiltinPlugins(registry_);
+    registerBuiltinTools(tools_);
+  }
+
+  void init() {
+    WorkstationOptions o;
+    o.backend = "cpu";
+    o.persistSettings = false;
+    window_ = std::make_unique<MainWindow>(registry_, tools_, o);
+    window_->resize(1200, 800);
+    window_->show();
+    QVERIFY(QTest::qWaitForWindowExposed(window_.get()));
+    QVERIFY(window_->openScene(dir_.filePath("scene.json")));
+    QApplication::processEvents();
+    QTest::qWait(100);
+  }
+
+  void cleanup() { window_.reset(); }
+
+  void startsAndRendersEveryView() {
+    QCOMPARE(window_->session().structureCount(), Index(4));
+    QCOMPARE(window_->drawingPath(), std::string("host"));
+    for (int a = 0; a < 3; ++a) {
+      const QImage img = window_->sliceView(a)->grabFramebuffer();
+      QVERIFY2(nonBackground(img) > 0.1, qPrintable(QString("slice view %1 is blank").arg(a)));
+      // The contours are drawn in the structures' colours: some saturated pixels exist.
+      long saturated = 0;
+      for (int y = 0; y < img.height(); ++y)
+        for (int x = 0; x < img.width(); ++x) saturated += QColor(img.pixel(x, y)).hsvSaturation() > 150;
+      QVERIFY2(saturated > 50, qPrintable(QString("no contour in slice view %1").arg(a)));
+    }
+    const QImage vol = window_->volumeView()->grabFramebuffer();
+    QVERIFY(nonBackground(vol) > 0.2);
+  }
+
+  void viewsMatchBaselines() {
+    // Fixed view sizes so the pictures are comparable.
+    window_->maximiseView(-1);
+    const char* names[4] = {"sagittal", "coronal", "axial", "3d"};
+    const bool update = qEnvironmentVariableIsSet("SINEW_UPDATE_BASELINES");
+    for (int v = 0; v < 4; ++v) {
+      VtkViewWidget* view = v < 3 ? static_cast<VtkViewWidget*>(window_->sliceView(v)) : window_->volumeView();
+      view->setFixedSize(400, 320);
+      QApplication::processEvents();
+      if (v < 3) window_->sliceView(v)->resetCamera();
+      else window_->volumeView()->resetCamera();
+      const QImage img = view->grabFramebuffer().convertToFormat(QImage::Format_RGB32);
+      const QString file = QString(SINEW_BASELINES) + "/" + names[v] + ".png";
+      if (update) {
+        QVERIFY(img.save(file));
+        continue;
+      }
+      QImage base(file);
+      QVERIFY2(!base.isNull(), qPrintable("missing baseline " + file + " (run with SINEW_UPDATE_BASELINES=1)"));
+      base = base.convertToFormat(QImage::Format_RGB32);
+      QCOMPARE(img.size(), base.size());
+      // Threshold: at most 0.5 % of the pixels differ by more than 48 in any channel.
+      long off = 0;
+      for (int y = 0; y < img.height(); ++y)
+        for (int x = 0; x < img.width(); ++x) {
+          const QRgb a = img.pixel(x, y), b = base.pixel(x, y);
+          off += std::abs(qRed(a) - qRed(b)) > 48 || std::abs(qGreen(a) - qGreen(b)) > 48 ||
+                 std::abs(qBlue(a) - qBlue(b)) > 48;
+        }
+      const double fraction = double(off) / (img.width() * img.height());
+      if (fraction > 0.005) img.save(QDir::temp().filePath(QString("sinew-%1-actual.png").arg(names[v])));
+      QVERIFY2(fraction <= 0.005, qPrintable(QString("%1 view differs from its baseline in %2 % of pixels")
+                                                .arg(names[v])
+                                                .arg(100 * fraction, 0, 'f', 2)));
+    }
+  }
+
+  // Click 4 mm outside the selected structure in the axial view: a point appears there (within a
+  // voxel), the mesh moves toward it, and undo restores the state before the click exactly.
+  void clickPlacesAttractionPointAndUndoRestores() {
+    SegmentationSession& session = window_->session();
+    DisplayScene& display = window_->display();
+    session.step(20);
+    window_->refreshViews();
+    const Index s = 0;
+    display.selected = s;
+    // The vertex furthest along display +x, and a target 4 mm beyond it in the same slice.
+    session.syncHost();
+    MeshStore& store = session.simulation().store();
+    Vec3 extreme = Vec3::Zero();
+    float best = -1e30f;
+    for (const Vec3& w : store.mesh(store.positions(), s)) {
+      const Vec3 d = display.toDisplay(w);
+      if (d.x() > best) best = d.x(), extreme = d;
+    }
+    display.cursor[2] = display.snapToSlice(2, extreme.z());
+    Vec3 target = extreme + Vec3(4, 0, 0);
+    target.z() = float(display.cursor[2]);
+    SliceView* axial = window_->sliceView(2);
+    axial->invalidate();
+    QApplication::processEvents();
+    QTest::qWait(50);
+    const std::vector<Vec3> before = positions(session);
+    window_->selectTool("attraction_points");
+    const QPointF at = axial->widgetPosition(target);
+    QTest::mouseClick(axial, Qt::LeftButton, {}, at.toPoint());
+    QCOMPARE(session.attractionPoints(s).size(), size_t(1));
+    const Vec3 placed = session.attractionPoints(s)[0];
+    const Vec3 expected = display.toWorld(target);
+    const double voxel = display.geometry().spacing.maxCoeff();
+    QVERIFY2((placed - expected).norm() <= voxel,
+             qPrintable(QString("placed %1 mm from the click").arg((placed - expected).norm())));
+    // Nothing moved yet: placing is an edit, not a step.
+    QVERIFY(positions(session) == before);
+
+    const double d0 = nearestVertexDistance(session, s, placed);
+    session.step(40);
+    const double d1 = nearestVertexDistance(session, s, placed);
+    QVERIFY2(d1 < d0 - 1.0, qPrintable(QString("nearest vertex %1 -> %2 mm").arg(d0).arg(d1)));
+
+    QVERIFY(session.canUndo());
+    QVERIFY(session.undo());
+    QVERIFY(session.attractionPoints(s).empty());
+    QVERIFY2(positions(session) == before, "undo did not restore the meshes exactly");
+    QVERIFY(session.redo());
+    QCOMPARE(session.attractionPoints(s).size(), size_t(1));
+    QVERIFY(nearestVertexDistance(session, s, placed) == d1);
+  }
+
+  void dragMovesPointInOneUndoStep() {
+    SegmentationSession& session = window_->session();
+    DisplayScene& display = window_->display();
+    window_->selectTool("attraction_points");
+    SliceView* axial = window_->sliceView(2);
+    const QPointF centre(axial->width() / 2.0, axial->height() / 2.0);
+    QTest::mouseClick(axial, Qt::LeftButton, {}, centre.toPoint());
+    QCOMPARE(session.attractionPoints(display.selected).size(), size_t(1));
+    const Vec3 first = session.attractionPoints(display.selected)[0];
+    QTest::mousePress(axial, Qt::LeftButton, {}, centre.toPoint());
+    for (int i = 1; i <= 5; ++i) QTest::mouseMove(axial, (centre + QPointF(4 * i, 0)).toPoint());
+    QTest::mouseRelease(axial, Qt::LeftButton, {}, (centre + QPointF(20, 0)).toPoint());
+    const Vec3 moved = session.attractionPoints(display.selected)[0];
+    QVERIFY((moved - first).norm() > 1.0);
+    QVERIFY(session.undo());  // the whole drag
+    QVERIFY((session.attractionPoints(display.selected)[0] - first).norm() == 0.0f);
+    QVERIFY(session.undo());  // the placement
+    QVERIFY(session.attractionPoints(display.selected).empty());
+  }
+
+  void crosshairClickMovesOtherViews() {
+    DisplayScene& display = window_->display();
+    window_->selectTool("navigate");
+    SliceView* axial = window_->sliceView(2);
+    const auto before = display.cursor;
+    QTest::mouseClick(axial, Qt::LeftButton, {}, QPoint(axial->width() / 3, axial->height() / 3));
+    QVERIFY(display.cursor[0] != before[0] || display.cursor[1] != before[1]);
+    QCOMPARE(display.cursor[2], before[2]);  // the axial slice itself stays
+  }
+
+  void closesCleanlyWhileRunning() {
+    window_->setFollowSchedule(false);  // keeps running past the short schedule
+    window_->setRunning(true);
+    QTest::qWait(600);
+    QVERIFY(window_->isRunning());
+    QVERIFY(window_->session().simulation().iteration() > 0);
+    QVERIFY(window_->close());
+    QVERIFY(!window_->isRunning());
+    window_.reset();  // destroys views, GL contexts and the session
+  }
+
+private:
+  QTemporaryDir dir_;
+  Registry registry_;
+  ToolRegistry tools_;
+  std::unique_ptr<MainWindow> window_;
+};
+
+int main(int argc, char** argv) {
+  qputenv("QT_XCB_GL_INTEGRATION", "xcb_glx");
+  QApplication::setAttribute(Qt::AA_ShareOpenGLContexts);
+  QSurfaceFormat format;
+  format.setVersion(3, 2);
+  format.setProfile(QSurfaceFormat::CoreProfile);
+  format.setDepthBufferSize(24);
+  format.setStencilBufferSize(8);
+  QSurfaceFormat::setDefaultFormat(format);
+  QApplication app(argc, argv);
+  TestWorkstation test;
+  return QTest::qExec(&test, argc, argv);
+}
+
+#include "tst_workstation.moc"
