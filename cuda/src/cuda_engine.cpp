@@ -96,6 +96,9 @@ struct CudaEngine::Impl {
   DeviceArray<float3> points;
   DeviceArray<int> pointMesh;
   DeviceArray<unsigned long long> keys;
+  // Drawing: contour segments and their count.
+  DeviceArray<float3> contourOut;
+  DeviceArray<int> contourCount;
   int pointCount = 0;
   MeshView view;
   std::map<int, cudaGraphExec_t> graphs;  // one per batch length
@@ -394,6 +397,42 @@ void CudaEngine::levelChanged() {
   I.x = std::move(x);
   I.prev = std::move(prev);
   I.upload(false);
+}
+
+namespace {
+DrawRange drawRange(const MeshStore& s, Index mesh) {
+  const MeshRange& r = s.range(mesh);
+  return {int(r.vertexBegin), int(r.vertexEnd), int(r.cellBegin), int(r.cellEnd)};
+}
+}  // namespace
+
+void CudaEngine::writeSurfacePoints(Index mesh, float* out) {
+  Impl& I = *impl_;
+  launchSurfacePoints(drawRange(I.sim.store(), mesh), I.x.get(), I.cellOffsets.get(), I.cellVertices.get(), out,
+                      I.stream);
+  SINEW_CUDA(cudaStreamSynchronize(I.stream));
+  SINEW_CUDA(cudaGetLastError());
+}
+
+std::vector<Vec3> CudaEngine::contourSegments(Index mesh, const Vec3& normal, float offset) {
+  Impl& I = *impl_;
+  const MeshStore& s = I.sim.store();
+  const DrawRange r = drawRange(s, mesh);
+  // A plane crosses each triangle at most once: the mesh's triangle count bounds the segments.
+  const int capacity = int(s.cellOffsets()[r.cellEnd] - s.cellOffsets()[r.cellBegin]);
+  if (int(I.contourOut.size()) < 2 * capacity) I.contourOut.resize(2 * capacity);
+  if (I.contourCount.size() == 0) I.contourCount.resize(1);
+  SINEW_CUDA(cudaMemsetAsync(I.contourCount.get(), 0, sizeof(int), I.stream));
+  launchContour(r, I.x.get(), I.cellOffsets.get(), I.cellVertices.get(), make_float3(normal.x(), normal.y(), normal.z()),
+                offset, I.contourOut.get(), capacity, I.contourCount.get(), I.stream);
+  int count = 0;
+  I.contourCount.download(&count, 1, I.stream);
+  SINEW_CUDA(cudaStreamSynchronize(I.stream));
+  count = std::min(count, capacity);
+  std::vector<Vec3> out(2 * static_cast<size_t>(count));
+  I.contourOut.download(reinterpret_cast<float3*>(out.data()), out.size(), I.stream);
+  SINEW_CUDA(cudaStreamSynchronize(I.stream));
+  return out;
 }
 
 std::string CudaEngine::device() const { return impl_->device; }

@@ -70,6 +70,18 @@ void launchAttraction(const MeshView& m, ParamView p, int kRing, const float3* p
                       cudaStream_t s);
 void launchVerlet(const MeshView& m, float dt, float keep, cudaStream_t s);
 // fine[i] = sum_k weight[k] coarse[index[k]] (level change on the device).
+// One structure's vertex and cell ranges (global indices), for drawing.
+struct DrawRange {
+  int vertexBegin = 0, vertexEnd = 0, cellBegin = 0, cellEnd = 0;
+};
+// Tessellation points (vertices, then cell centres) as packed xyz floats.
+void launchSurfacePoints(const DrawRange& r, const float3* x, const int* offsets, const int* cellVertices, float* out,
+                         cudaStream_t s);
+// Contour segments (pairs of points) where the tessellation crosses dot(n, x) = d; count is
+// incremented per segment, segments beyond capacity are counted but not written.
+void launchContour(const DrawRange& r, const float3* x, const int* offsets, const int* cellVertices, float3 n, float d,
+                   float3* out, int capacity, int* count, cudaStream_t s);
+
 void launchProlong(const int* rowOffsets, const int* index, const float* weight, int rows, const float3* coarse,
                    float3* fine, cudaStream_t s);
 

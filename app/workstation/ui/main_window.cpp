@@ -5,6 +5,9 @@
 #include "slice_view.h"
 #include "surface_drawing.h"
 #include "volume_view.h"
+#ifdef SINEW_WITH_CUDA
+#include "interop_drawing.h"
+#endif
 
 #include <QActionGroup>
 #include <QApplication>
@@ -25,6 +28,7 @@
 #include <QVBoxLayout>
 
 #include <cmath>
+#include <cstdio>
 
 namespace sinew {
 
@@ -574,7 +578,17 @@ void MainWindow::closeEvent(QCloseEvent* e) {
 }
 
 namespace {
-std::unique_ptr<SurfaceDrawing> chooseDrawing(const WorkstationOptions&, SegmentationSession&) {
+// interop when the CUDA engine runs the steps (unless the host path was asked for); the host path
+// otherwise, with a note when interop was asked for and is not possible.
+std::unique_ptr<SurfaceDrawing> chooseDrawing(const WorkstationOptions& o, SegmentationSession& session) {
+  if (o.drawing != "host") {
+#ifdef SINEW_WITH_CUDA
+    if (auto interop = makeInteropDrawing(session)) return interop;
+#endif
+    if (o.drawing == "interop")
+      std::fprintf(stderr, "sinew: interop drawing needs the CUDA backend (backend: %s); drawing from the host\n",
+                   session.backendName().c_str());
+  }
   return makeHostDrawing();
 }
 }  // namespace

@@ -1,14 +1,10 @@
-// VTK's GLEW must come before any OpenGL header Qt pulls in.
-#include <vtk_glew.h>
-
+// Qt side only: no VTK OpenGL header here (VTK's GLEW and Qt's OpenGL headers do not mix); the
+// blit is in vtk_blit.cpp.
 #include "vtk_view_widget.h"
 
-// Qt warns that its GL function wrappers and GLEW do not mix; only QOpenGLContext's current-context
-// query is used here, no Qt GL function.
-#pragma GCC diagnostic push
-#pragma GCC diagnostic ignored "-Wcpp"
+#include "vtk_blit.h"
+
 #include <QOpenGLContext>
-#pragma GCC diagnostic pop
 #include <QSurfaceFormat>
 
 #include <vtkCallbackCommand.h>
@@ -16,7 +12,6 @@
 #include <vtkCommand.h>
 #include <vtkGenericOpenGLRenderWindow.h>
 #include <vtkGenericRenderWindowInteractor.h>
-#include <vtkOpenGLState.h>
 #include <vtkRenderer.h>
 
 namespace sinew {
@@ -108,13 +103,7 @@ void VtkViewWidget::paintGL() {
   if (window_->GetSize()[0] != w || window_->GetSize()[1] != h) window_->SetSize(w, h);
   window_->Render();
   // VTK rendered into its own framebuffer; copy it into the widget's.
-  vtkOpenGLState* state = window_->GetState();
-  state->PushDrawFramebufferBinding();
-  state->vtkglBindFramebuffer(GL_DRAW_FRAMEBUFFER, defaultFramebufferObject());
-  state->vtkglViewport(0, 0, w, h);
-  state->vtkglScissor(0, 0, w, h);
-  window_->BlitDisplayFramebuffer(0, 0, 0, w, h, 0, 0, w, h, GL_COLOR_BUFFER_BIT, GL_NEAREST);
-  state->PopDrawFramebufferBinding();
+  blitToFramebuffer(window_, defaultFramebufferObject(), w, h);
   ++frames_;
   Q_EMIT rendered();
 }

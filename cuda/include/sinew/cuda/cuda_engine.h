@@ -40,6 +40,14 @@ public:
   // device (the state never visits the host); topology, reference and profiles come from the host.
   void levelChanged() override;
 
+  // Drawing from the device store (the workstation's interop path). Structure `mesh`'s
+  // tessellation points, vertices then cell centres, as packed xyz floats, written to device memory
+  // (a mapped OpenGL buffer) on the engine's stream, which is synchronised before returning.
+  void writeSurfacePoints(Index mesh, float* deviceOut);
+  // Where structure `mesh`'s tessellation crosses the plane normal . x = offset, computed on the
+  // device: segment end points in pairs. Only the segments cross to the host.
+  std::vector<Vec3> contourSegments(Index mesh, const Vec3& normal, float offset);
+
   std::string name() const override { return "cuda"; }
   std::string device() const override;
   std::size_t deviceBytes() const;  // device memory the engine holds

@@ -1,0 +1,74 @@
+#include "interop_drawing.h"
+
+#include "interop_mapper.h"
+#include "sinew/cuda/gl_buffer_link.h"
+
+#include <vtkPoints.h>
+#include <vtkPolyData.h>
+
+#include <map>
+
+namespace sinew {
+
+namespace {
+class InteropDrawing final : public SurfaceDrawing {
+public:
+  explicit InteropDrawing(cuda::CudaEngine& engine) : engine_(engine) {}
+  std::string name() const override { return "interop"; }
+
+  vtkSmartPointer<vtkPolyDataMapper> makeMapper(Index s) override {
+    auto m = vtkSmartPointer<InteropPolyDataMapper>::New();
+    mappers_[s] = {m, nullptr, 0, 0};
+    return m;
+  }
+
+  // Only the topology goes through the host (after a level change); points are written on the GPU.
+  void updateSurfaces(SegmentationSession& session, DisplayScene& display) override {
+    if (display.surfaceLevel() != session.level()) display.rebuildSurfaces(session);
+    revision_ = session.revision();
+  }
+
+  void beforeRender(SegmentationSession& session, DisplayScene& display) override {
+    for (auto& [s, slot] : mappers_) {
+      const unsigned int buffer = slot.mapper->positionBuffer();
+      if (buffer == 0) continue;  // not built yet: VTK uploads the host points this time
+      if (!slot.link || slot.link->buffer() != buffer || slot.builds != slot.mapper->buildCount()) {
+        slot.link = std::make_unique<cuda::GlBufferLink>(buffer);
+        slot.builds = slot.mapper->buildCount();
+        slot.written = 0;  // a rebuild uploaded host points: write again
+      }
+      if (slot.written == revision_) continue;
+      const auto points = display.surface(s)->GetNumberOfPoints();
+      slot.link->writeSurface(engine_, s, static_cast<std::size_t>(points));
+      slot.written = revision_;
+    }
+    (void)session;
+  }
+
+  std::vector<ContourSegment> contour(SegmentationSession&, Index s, const SlicePlane& plane) override {
+    const std::vector<Vec3> p = engine_.contourSegments(s, plane.normal, plane.offset);
+    std::vector<ContourSegment> out(p.size() / 2);
+    for (size_t i = 0; i < out.size(); ++i) out[i] = {p[2 * i], p[2 * i + 1]};
+    return out;
+  }
+
+private:
+  struct Slot {
+    vtkSmartPointer<InteropPolyDataMapper> mapper;
+    std::unique_ptr<cuda::GlBufferLink> link;
+    unsigned long builds = 0;
+    std::uint64_t written = 0;
+  };
+  cuda::CudaEngine& engine_;
+  std::map<Index, Slot> mappers_;
+  std::uint64_t revision_ = 1;
+};
+}  // namespace
+
+std::unique_ptr<SurfaceDrawing> makeInteropDrawing(SegmentationSession& session) {
+  auto* engine = dynamic_cast<cuda::CudaEngine*>(session.backend());
+  if (!engine) return nullptr;
+  return std::make_unique<InteropDrawing>(*engine);
+}
+
+}  // namespace sinew
