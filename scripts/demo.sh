@@ -9,7 +9,7 @@ seed="${1:-1}"
 out="${2:-demo-output}"
 bash scripts/install-deps.sh
 cmake --preset release >/dev/null
-cmake --build --preset release --target sinew-run sinew-make-scene
+cmake --build --preset release --target sinew-run sinew-make-scene sinew
 t=/usr/share/mricron/templates
 build/release/app/sinew-make-scene --atlas "$t/aal.nii.gz" --labels "$t/aal.nii.txt" \
   --training "$t/ch2better.nii.gz" --target "$t/ch2.nii.gz" --seed "$seed" -o "$out/scene.json"

@@ -83,6 +83,7 @@ int main(int argc, char** argv) {
   }
   window.refreshViews();
   window.setFollowSchedule(false);
+  window.setSampling(false);
   window.setRunning(true);
   QElapsedTimer clock;
   clock.start();

@@ -5,9 +5,14 @@
 // angle's sine and cosine taken from the host). Any difference, even one ulp, is then a bug, and
 // one flipped choice in a search would grow far beyond 1e-4 mm anyway.
 #include "sinew/cuda/cuda_engine.h"
+#include "surface_source.h"
 #include "synthetic.h"
 
+#include <cuda_runtime.h>
+
 #include <QtTest>
+
+#include <numeric>
 
 using namespace sinew;
 using namespace sinew::testing;
@@ -105,6 +110,43 @@ private slots:
     const double diff = maxDifference(cpu->store(), gpu->store());
     qInfo("two levels: max CPU-CUDA difference %.3g mm over %d vertices", diff, cpu->store().vertexCount());
     QCOMPARE(diff, 0.0);
+  }
+
+  // The workstation's interop path draws from the device: surface points and slice contours must
+  // match what the host path computes from the downloaded store.
+  void drawingMatchesTheHost() {
+    auto gpu = scene({"smoothing", "shape_prior", "gradient"}, 1);
+    cuda::CudaEngine engine(*gpu);
+    engine.run(25);
+    engine.download();
+    MeshStore& store = gpu->store();
+    for (Index m = 0; m < store.meshCount(); ++m) {
+      const Index n = surfacePointCount(store, m);
+      std::vector<Vec3> host(n), device(n);
+      hostSurfacePoints(store, m, host);
+      float* buffer = nullptr;
+      QCOMPARE(cudaMalloc(&buffer, n * 3 * sizeof(float)), cudaSuccess);
+      engine.writeSurfacePoints(m, buffer);
+      QCOMPARE(cudaMemcpy(device.data(), buffer, n * 3 * sizeof(float), cudaMemcpyDeviceToHost), cudaSuccess);
+      cudaFree(buffer);
+      double worst = 0;
+      for (Index i = 0; i < n; ++i) worst = std::max(worst, double((host[i] - device[i]).norm()));
+      QVERIFY2(worst < 1e-4, qPrintable(QString("surface points differ by %1 mm").arg(worst)));
+
+      const Vec3 centre = std::accumulate(host.begin(), host.end(), Vec3(Vec3::Zero())) / float(n);
+      const SlicePlane plane{Vec3(0.3f, -0.5f, 0.8f).normalized(), Vec3(0.3f, -0.5f, 0.8f).normalized().dot(centre) + 0.7f};
+      const std::vector<ContourSegment> h = hostContour(store, m, plane);
+      const std::vector<Vec3> d = engine.contourSegments(m, plane.normal, plane.offset);
+      QVERIFY(h.size() > 10);
+      QCOMPARE(d.size(), 2 * h.size());
+      // Same segments in another order (atomics): every device segment's midpoint has a host twin.
+      for (size_t i = 0; i < d.size(); i += 2) {
+        const Vec3 mid = 0.5f * (d[i] + d[i + 1]);
+        double nearest = 1e30;
+        for (const auto& seg : h) nearest = std::min(nearest, double((0.5f * (seg.a + seg.b) - mid).norm()));
+        QVERIFY2(nearest < 1e-4, qPrintable(QString("a device contour segment is %1 mm from the host's").arg(nearest)));
+      }
+    }
   }
 };
 

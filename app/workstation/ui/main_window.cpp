@@ -466,7 +466,7 @@ void MainWindow::tick() {
     }
   }
   fpsIterations_ += std::max(steps, 0);
-  if (sampleClock_.elapsed() > 1000 * std::max(kMinSampleSeconds, 10 * sampleCost_)) {
+  if (sampling_ && sampleClock_.elapsed() > 1000 * std::max(kMinSampleSeconds, 10 * sampleCost_)) {
     QElapsedTimer cost;
     cost.start();
     session_.sample();

@@ -58,6 +58,8 @@ public:
   // Off: Run keeps stepping past the schedule's iterations (benchmarks); on by default.
   void setFollowSchedule(bool follow) { followSchedule_ = follow; }
   void setFrameBudgetMs(double ms);
+  // Off: no timeline samples while running (benchmarks: the error evaluation would stall frames).
+  void setSampling(bool on) { sampling_ = on; }
   void selectTool(const std::string& name);
   // Brings every view up to date with the session now (the frame loop does it while running).
   void refreshViews();
@@ -114,7 +116,7 @@ private:
   double fps_ = 0.0, itPerSecond_ = 0.0, sampleCost_ = 0.0, budgetCredit_ = 0.0;
   long fpsIterations_ = 0;
   std::uint64_t shownRevision_ = 0;
-  bool followSchedule_ = true;
+  bool followSchedule_ = true, sampling_ = true;
   QString sceneFile_;
   QAction *openScene_, *openImage_, *saveScene_, *saveSceneAs_, *saveMeshes_, *exportLabels_, *quit_;
   QAction *undo_, *redo_, *deletePoint_, *run_, *step_, *nextLevel_, *resetViews_, *maximise_;
