@@ -19,6 +19,7 @@
 
 #include <cmath>
 #include <memory>
+#include <set>
 
 using namespace sinew;
 
@@ -198,7 +199,11 @@ private Q_SLOTS:
     QCOMPARE(session.attractionPoints(display.selected).size(), size_t(1));
     const Vec3 first = session.attractionPoints(display.selected)[0];
     QTest::mousePress(axial, Qt::LeftButton, {}, centre.toPoint());
-    for (int i = 1; i <= 5; ++i) QTest::mouseMove(axial, (centre + QPointF(4 * i, 0)).toPoint());
+    // The simulation steps between the moves, as it does while running.
+    for (int i = 1; i <= 5; ++i) {
+      QTest::mouseMove(axial, (centre + QPointF(4 * i, 0)).toPoint());
+      session.step(1);
+    }
     QTest::mouseRelease(axial, Qt::LeftButton, {}, (centre + QPointF(20, 0)).toPoint());
     const Vec3 moved = session.attractionPoints(display.selected)[0];
     QVERIFY((moved - first).norm() > 1.0);
@@ -206,6 +211,33 @@ private Q_SLOTS:
     QVERIFY((session.attractionPoints(display.selected)[0] - first).norm() == 0.0f);
     QVERIFY(session.undo());  // the placement
     QVERIFY(session.attractionPoints(display.selected).empty());
+  }
+
+  // Save Scene keeps the user's points and parameter values and the schedule; the label map export
+  // writes every structure's label.
+  void savesSceneAndExportsLabels() {
+    SegmentationSession& session = window_->session();
+    const Vec3 point = window_->display().toWorld(Vec3(90, 100, 80));
+    session.addAttractionPoint(1, point);
+    session.setParameter("shape_prior", 1, "weight", 0.25);
+    const std::filesystem::path saved = dir_.filePath("saved.json").toStdString();
+    session.saveScene(saved);
+    const SceneDesc s = readScene(saved);
+    QCOMPARE(s.structures[1].attractionPointsMm.size(), size_t(1));
+    QVERIFY(std::abs(s.structures[1].attractionPointsMm[0][0] - point.x()) < 1e-4);
+    bool found = false;
+    for (const auto& [force, values] : s.structures[1].forces)
+      for (const auto& [name, value] : values) found |= force == "shape_prior" && name == "weight" && value == 0.25;
+    QVERIFY2(found, "the structure's own shape_prior weight was not saved");
+    QCOMPARE(s.schedule.size(), session.scene().schedule.size());
+    for (size_t l = 0; l < s.schedule.size(); ++l) QVERIFY(s.schedule[l].forces == session.scene().schedule[l].forces);
+
+    const std::filesystem::path labels = dir_.filePath("labels.nii.gz").toStdString();
+    session.exportLabelMap(labels);
+    const LabelVolume map = registry_.imageIOFor(labels).readLabels(labels);
+    std::set<int> values(map.voxels().begin(), map.voxels().end());
+    for (const auto& d : session.scene().structures)
+      QVERIFY2(values.count(d.label), qPrintable(QString("label %1 missing").arg(d.label)));
   }
 
   void crosshairClickMovesOtherViews() {

@@ -1,6 +1,8 @@
 // Scene files: every error names the file and the JSON path.
 #include "sinew/core/scene.h"
 
+#include <QDir>
+#include <QTemporaryDir>
 #include <QtTest>
 
 using namespace sinew;
@@ -12,7 +14,7 @@ const char* kValid = R"({
   "structures": [
     {"name": "a", "label": 3, "reference": {"label_map": "l.nii.gz", "label": 3},
      "initial": {"rotation_axis": [0, 0, 1], "rotation_deg": 5, "translation_mm": [1, 2, 3], "scale": 1.05},
-     "forces": {"smoothing": {"weight": 0.5}}}
+     "forces": {"smoothing": {"weight": 0.5}}, "attraction_points_mm": [[1.5, -2, 30]]}
   ],
   "forces": {"smoothing": {"weight": 0.1}, "shape_prior": {}},
   "integrator": {"name": "damped_verlet", "time_step": 0.4},
@@ -68,6 +70,8 @@ private slots:
     QTest::newRow("reference twice") << R"("label_map": "l.nii.gz", "label": 3})"
                                      << R"("label_map": "l.nii.gz", "label": 3, "mesh": "m.vtp"})"
                                      << "/structures/0/reference: give either";
+    QTest::newRow("attraction point") << R"([[1.5, -2, 30]])" << R"([[1.5, -2]])"
+                                      << "/structures/0/attraction_points_mm/0: expected 3 numbers, got 2";
     QTest::newRow("not json") << R"("version": 1,)" << R"("version": 1,,)" << "/data/scene.json: not valid JSON";
   }
   void errorsNameTheJsonPath() {
@@ -76,6 +80,34 @@ private slots:
     QFETCH(QString, expected);
     const QString msg = errorOf(replaced(kValid, from.toStdString(), to.toStdString()));
     QVERIFY2(msg.contains(expected), qPrintable("got: " + msg));
+  }
+
+  // What the workstation saves reads back the same (paths made absolute against the scene's folder).
+  void writtenSceneReadsBack() {
+    const SceneDesc a = parseScene(kValid, "/data/scene.json");
+    QCOMPARE(a.structures[0].attractionPointsMm.size(), size_t(1));
+    QTemporaryDir dir;
+    const std::filesystem::path file = dir.filePath("saved.json").toStdString();
+    writeScene(a, file);
+    const SceneDesc b = readScene(file);
+    QCOMPARE(b.targetImage, std::filesystem::path("/data/t.nii.gz"));
+    QCOMPARE(b.structures.size(), a.structures.size());
+    const StructureDesc &x = a.structures[0], &y = b.structures[0];
+    QCOMPARE(y.name, x.name);
+    QCOMPARE(y.label, x.label);
+    QCOMPARE(y.reference.label->labelMap, std::filesystem::path("/data/l.nii.gz"));
+    QCOMPARE(y.initial.rotationDeg, x.initial.rotationDeg);
+    QVERIFY(y.initial.translationMm == x.initial.translationMm);
+    QCOMPARE(y.initial.scale, x.initial.scale);
+    QVERIFY(y.forces == x.forces);
+    QVERIFY(y.attractionPointsMm == x.attractionPointsMm);
+    QVERIFY(b.forces == a.forces);
+    QCOMPARE(b.integrator, a.integrator);
+    QVERIFY(b.integratorParams == a.integratorParams);
+    QCOMPARE(b.schedule.size(), a.schedule.size());
+    QVERIFY(b.schedule[1].forces == a.schedule[1].forces);
+    QCOMPARE(b.schedule[1].iterations, a.schedule[1].iterations);
+    QCOMPARE(QDir(dir.path()).entryList(QDir::Files), QStringList{"saved.json"});  // no temporary left
   }
 
   void missingFileIsNamed() {

@@ -87,7 +87,6 @@ int SegmentationSession::step(int iterations) {
   const double perStep = seconds / iterations;
   secondsPerStep_ = secondsPerStep_ == 0.0 ? perStep : 0.7 * secondsPerStep_ + 0.3 * perStep;
   levelDone_ += iterations;
-  lastEdit_.clear();  // a drag after steps is a new edit
   changed();
   return iterations;
 }
@@ -197,6 +196,8 @@ void SegmentationSession::restore(const Snapshot& s) {
   changed();
 }
 
+void SegmentationSession::endEdit() { lastEdit_.clear(); }
+
 void SegmentationSession::beginEdit(const std::string& label, bool continuing) {
   if (continuing && !undo_.empty() && lastEdit_ == label) return;  // the drag goes on: one undo step
   undo_.push_back(capture(label));
@@ -264,8 +265,7 @@ void SegmentationSession::removeAttractionPoint(Index structure, int index) {
   auto& points = simulation().scene().attractionPoints()[structure];
   if (index < 0 || index >= static_cast<int>(points.size())) throw InputError("no such attraction point");
   beginEdit("Delete attraction point", false);
-  simulation().scene().attractionPoints()[structure].erase(
-      simulation().scene().attractionPoints()[structure].begin() + index);
+  points.erase(points.begin() + index);
   lastEdit_.clear();
   changed();
 }
@@ -323,24 +323,33 @@ SceneDesc SegmentationSession::currentScene() {
   s.integratorParams.clear();
   const ParamTable& integ = sim.integratorParams();
   for (size_t p = 0; p < integ.decls().size(); ++p) s.integratorParams.emplace_back(integ.decls()[p].name, integ.get(0, int(p)));
-  // The schedule would overwrite the values above on entering its levels from the start again.
-  for (auto& l : s.schedule) l.forces.clear();
+  // The schedule is kept as it was: a rerun enters its levels with their values again, which win
+  // over the values above for the parameters the schedule names (docs/workstation.md).
   return s;
 }
 
 void SegmentationSession::saveScene(const fs::path& file) { writeScene(currentScene(), file); }
 
-std::vector<fs::path> SegmentationSession::saveMeshes(const fs::path& dir, const std::string& ext) {
+std::vector<StructureResult> SegmentationSession::finalSurfaces() {
   syncHost();
-  std::vector<StructureResult> results;
+  MeshStore& store = simulation().store();
+  std::vector<StructureResult> out;
   for (Index i = 0; i < structureCount(); ++i) {
-    results.push_back(runner_->evaluate(i, false));
-    for (const Vec3& p : results.back().surface.points)
-      if (!p.allFinite())
-        throw NumericalError("structure '" + results.back().name + "' has a non-finite vertex; no mesh was written");
+    StructureResult r;
+    r.name = scene().structures[i].name;
+    r.label = scene().structures[i].label;
+    const auto x = store.mesh(store.positions(), i);
+    r.surface = tessellate(store.topologyOf(i), std::vector<Vec3>(x.begin(), x.end()));
+    for (const Vec3& p : r.surface.points)
+      if (!p.allFinite()) throw NumericalError("structure '" + r.name + "' has a non-finite vertex; nothing was written");
+    out.push_back(std::move(r));
   }
+  return out;
+}
+
+std::vector<fs::path> SegmentationSession::saveMeshes(const fs::path& dir, const std::string& ext) {
   std::vector<fs::path> written;
-  for (const auto& r : results) {
+  for (const auto& r : finalSurfaces()) {
     const fs::path file = dir / (r.name + ext);
     registry_.meshIOFor(file).write(file, r.surface);
     written.push_back(file);
@@ -349,13 +358,8 @@ std::vector<fs::path> SegmentationSession::saveMeshes(const fs::path& dir, const
 }
 
 void SegmentationSession::exportLabelMap(const fs::path& file) {
-  syncHost();
   RunReport report;
-  for (Index i = 0; i < structureCount(); ++i) {
-    report.structures.push_back(runner_->evaluate(i, false));
-    for (const Vec3& p : report.structures.back().surface.points)
-      if (!p.allFinite()) throw NumericalError("structure '" + report.structures.back().name + "' has a non-finite vertex");
-  }
+  report.structures = finalSurfaces();
   registry_.imageIOFor(file).writeLabels(file, runner_->labelMap(report));
 }
 

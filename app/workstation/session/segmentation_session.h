@@ -74,7 +74,8 @@ public:
 
   // Edits. Each is undoable; its snapshot holds the mesh state too, so undo restores exactly the
   // state before the edit, however far the simulation moved since. A continuing edit (a drag, a
-  // slider being moved) extends the previous one instead of adding a new undo step.
+  // slider being moved) extends the previous one instead of adding a new undo step, also when the
+  // simulation steps in between; endEdit() closes the gesture (a button press or release).
   const std::vector<Vec3>& attractionPoints(Index structure);
   void addAttractionPoint(Index structure, const Vec3& point);
   void moveAttractionPoint(Index structure, int index, const Vec3& point, bool continuing);
@@ -84,6 +85,7 @@ public:
   void setParameter(const std::string& force, Index structure, const std::string& param, double value,
                     bool continuing = false);
   double parameter(const std::string& force, Index structure, const std::string& param);
+  void endEdit();
   bool canUndo() const { return !undo_.empty(); }
   bool canRedo() const { return !redo_.empty(); }
   std::string undoLabel() const { return undo_.empty() ? "" : undo_.back().label; }
@@ -112,6 +114,8 @@ private:
   };
   ParamTable& params(const std::string& owner);
   Snapshot capture(std::string label);
+  // Every structure's tessellated surface from the host store; throws NumericalError on NaN.
+  std::vector<StructureResult> finalSurfaces();
   void restore(const Snapshot& s);
   void beginEdit(const std::string& label, bool continuing);
   void trimHistory();

@@ -13,21 +13,18 @@ namespace {
 class AttractionTool final : public InteractionTool {
 public:
   void press(ToolContext& ctx, const ViewPointerEvent& e) override {
+    ctx.session.endEdit();  // a new gesture
     const Index s = ctx.display.selected;
+    structure_ = s;
+    dragging_ = false;
     selected_ = nearest(ctx, s, e);
     if (e.control) {
       if (selected_ >= 0) ctx.session.removeAttractionPoint(s, selected_);
       selected_ = -1;
-      return;
-    }
-    if (selected_ < 0) {
+    } else if (selected_ < 0) {
       ctx.session.addAttractionPoint(s, e.world);
       selected_ = static_cast<int>(ctx.session.attractionPoints(s).size()) - 1;
-      dragging_ = false;
-    } else {
-      dragging_ = false;
     }
-    structure_ = s;
   }
 
   void drag(ToolContext& ctx, const ViewPointerEvent& e) override {
@@ -36,7 +33,10 @@ public:
     dragging_ = true;
   }
 
-  void release(ToolContext&, const ViewPointerEvent&) override { dragging_ = false; }
+  void release(ToolContext& ctx, const ViewPointerEvent&) override {
+    dragging_ = false;
+    ctx.session.endEdit();
+  }
 
   void deleteSelection(ToolContext& ctx) override {
     if (selected_ < 0 || structure_ >= ctx.session.structureCount()) return;

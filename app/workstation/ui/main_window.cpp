@@ -265,6 +265,9 @@ void MainWindow::buildActions() {
 
 bool MainWindow::openScene(const QString& file) {
   setRunning(false);
+  // Opening replaces the session's backend; the interop path is bound to the old one, and the
+  // progress dialog repaints the views while the new scene loads.
+  drawing_ = makeHostDrawing();
   QProgressDialog progress(tr("Opening %1...").arg(QFileInfo(file).fileName()), QString(), 0, 0, this);
   progress.setWindowModality(Qt::WindowModal);
   progress.setMinimumDuration(300);
@@ -294,6 +297,7 @@ bool MainWindow::openScene(const QString& file) {
   paramsPanel_->rebuild();
   schedulePanel_->rebuild();
   shownRevision_ = 0;
+  plottedSamples_ = 0;
   addRecent(file);
   if (options_.persistSettings) QSettings().setValue("dirs/scene", QFileInfo(file).absolutePath());
   setWindowTitle(QString("Sinew - %1").arg(QFileInfo(file).fileName()));
@@ -313,6 +317,7 @@ bool MainWindow::openImage(const QString& file) {
     showError(tr("Open image"), QString::fromUtf8(e.what()));
     return false;
   }
+  drawing_ = makeHostDrawing();
   session_.close();
   sceneFile_.clear();
   display_.resetImage(*imageOnly_);
@@ -503,7 +508,10 @@ void MainWindow::refreshViews() {
     volume_->invalidate();
     scenePanel_->refresh();
     schedulePanel_->refresh();
-    plot_->setSamples(session_.timeline(), session_.hasGroundTruth());
+    if (session_.timeline().size() != plottedSamples_) {
+      plot_->setSamples(session_.timeline(), session_.hasGroundTruth());
+      plottedSamples_ = session_.timeline().size();
+    }
     updateActions();
   }
 }
@@ -563,8 +571,6 @@ void MainWindow::updateStatus() {
 void MainWindow::setFrameBudgetMs(double ms) { schedulePanel_->setBudgetMs(ms); }
 
 std::string MainWindow::drawingPath() const { return drawing_->name(); }
-
-void MainWindow::keyPressEvent(QKeyEvent* e) { QMainWindow::keyPressEvent(e); }
 
 void MainWindow::closeEvent(QCloseEvent* e) {
   // Stop stepping first: nothing runs while the window and its GL contexts go away.

@@ -72,7 +72,6 @@ public:
 
 protected:
   void closeEvent(QCloseEvent* e) override;
-  void keyPressEvent(QKeyEvent* e) override;
 
 private:
   void buildViews();
@@ -116,6 +115,7 @@ private:
   double fps_ = 0.0, itPerSecond_ = 0.0, sampleCost_ = 0.0, budgetCredit_ = 0.0;
   long fpsIterations_ = 0;
   std::uint64_t shownRevision_ = 0;
+  std::size_t plottedSamples_ = 0;
   bool followSchedule_ = true, sampling_ = true;
   QString sceneFile_;
   QAction *openScene_, *openImage_, *saveScene_, *saveSceneAs_, *saveMeshes_, *exportLabels_, *quit_;

@@ -120,7 +120,6 @@ void ParametersPanel::rebuild() {
   std::vector<std::pair<std::string, std::span<const ParamDecl>>> owners;
   for (const std::string& f : sim.forceNames()) owners.emplace_back(f, sim.forceParams(f).decls());
   owners.emplace_back(sim.integratorName(), sim.integratorParams().decls());
-  rows_.reserve(64);
   for (const auto& [owner, decls] : owners) {
     const bool isIntegrator = owner == sim.integratorName();
     auto* box = new QGroupBox(QString::fromStdString(isIntegrator ? "integrator: " + owner : owner));
@@ -150,6 +149,8 @@ void ParametersPanel::rebuild() {
         Row& r = rows_[index];
         apply(r, r.min + (r.max - r.min) * v / 1000.0, r.slider->isSliderDown());
       });
+      // Pressing the slider starts a new undo step; moving it while held extends that step.
+      connect(row.slider, &QSlider::sliderPressed, this, [this] { session_.endEdit(); });
       connect(row.spin, &QDoubleSpinBox::valueChanged, this, [this, index](double v) { apply(rows_[index], v, false); });
     }
     groups_->insertWidget(groups_->count() - 1, box);

@@ -1,6 +1,7 @@
 #include "display_scene.h"
 
 #include "segmentation_session.h"
+#include "structure_colour.h"
 
 #include <vtkCellArray.h>
 #include <vtkFloatArray.h>
@@ -10,6 +11,7 @@
 #include <vtkPointData.h>
 #include <vtkPoints.h>
 #include <vtkPolyData.h>
+#include <vtkUnsignedCharArray.h>
 
 #include <algorithm>
 #include <cmath>
@@ -29,12 +31,8 @@ void DisplayScene::reset(SegmentationSession& session) {
   for (Index s = 0; s < n; ++s) {
     StructureLook look;
     look.name = session.scene().structures[s].name;
-    // Evenly spaced hues, the same as in sinew-run's pictures.
-    const double h = 6.0 * double(s) / std::max<Index>(n, 1), sat = 210.0 / 255.0, val = 230.0 / 255.0;
-    const int i = static_cast<int>(h) % 6;
-    const double f = h - std::floor(h), p = val * (1 - sat), q = val * (1 - sat * f), t = val * (1 - sat * (1 - f));
-    const double rgb[6][3] = {{val, t, p}, {q, val, p}, {p, val, t}, {p, q, val}, {t, p, val}, {val, p, q}};
-    look.colour = {rgb[i][0], rgb[i][1], rgb[i][2]};
+    const QColor c = structureColour(std::size_t(s), std::size_t(n));
+    look.colour = {c.redF(), c.greenF(), c.blueF()};
     looks_.push_back(look);
   }
   for (Index s = 0; s < n; ++s) surfaces_.push_back(vtkSmartPointer<vtkPolyData>::New());
@@ -144,6 +142,29 @@ void DisplayScene::updateSurfacePointsFromHost(SegmentationSession& session) {
     points->Modified();
     surfaces_[s]->Modified();
   }
+}
+
+void fillPointCloud(DisplayScene& scene, const std::function<std::vector<Vec3>(Index)>& worldPoints,
+                    const std::function<bool(Vec3&)>& place, double brighten, vtkPolyData* out) {
+  auto points = vtkSmartPointer<vtkPoints>::New();
+  auto verts = vtkSmartPointer<vtkCellArray>::New();
+  auto colours = vtkSmartPointer<vtkUnsignedCharArray>::New();
+  colours->SetNumberOfComponents(3);
+  for (Index s = 0; worldPoints && s < scene.structureCount(); ++s) {
+    if (!scene.look(s).visible) continue;
+    const auto& c = scene.look(s).colour;
+    for (const Vec3& w : worldPoints(s)) {
+      Vec3 p = scene.toDisplay(w);
+      if (!place(p)) continue;
+      const vtkIdType id = points->InsertNextPoint(p.x(), p.y(), p.z());
+      verts->InsertNextCell(1, &id);
+      colours->InsertNextTuple3(255 * std::min(1.0, c[0] + brighten), 255 * std::min(1.0, c[1] + brighten),
+                                255 * std::min(1.0, c[2] + brighten));
+    }
+  }
+  out->SetPoints(points);
+  out->SetVerts(verts);
+  out->GetPointData()->SetScalars(colours);
 }
 
 }  // namespace sinew

@@ -13,6 +13,7 @@
 #include <vtkSmartPointer.h>
 
 #include <array>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -77,5 +78,11 @@ private:
   std::vector<vtkSmartPointer<vtkPolyData>> surfaces_;
   int surfaceLevel_ = -1;
 };
+
+// The visible structures' points (world mm, from worldPoints) as a vertex cloud in display space,
+// each in its structure's colour brightened by `brighten`. `place` may move a display point (slice
+// views pin them to the slice) or return false to leave it out.
+void fillPointCloud(DisplayScene& scene, const std::function<std::vector<Vec3>(Index)>& worldPoints,
+                    const std::function<bool(Vec3&)>& place, double brighten, vtkPolyData* out);
 
 }  // namespace sinew

@@ -28,7 +28,7 @@ public:
     revision_ = session.revision();
   }
 
-  void beforeRender(SegmentationSession& session, DisplayScene& display) override {
+  void beforeRender(SegmentationSession&, DisplayScene& display) override {
     for (auto& [s, slot] : mappers_) {
       const unsigned int buffer = slot.mapper->positionBuffer();
       if (buffer == 0) continue;  // not built yet: VTK uploads the host points this time
@@ -42,7 +42,6 @@ public:
       slot.link->writeSurface(engine_, s, static_cast<std::size_t>(points));
       slot.written = revision_;
     }
-    (void)session;
   }
 
   std::vector<ContourSegment> contour(SegmentationSession&, Index s, const SlicePlane& plane) override {

@@ -10,13 +10,11 @@
 #include <vtkImageProperty.h>
 #include <vtkImageSlice.h>
 #include <vtkImageSliceMapper.h>
-#include <vtkPointData.h>
 #include <vtkPoints.h>
 #include <vtkPolyData.h>
 #include <vtkPolyDataMapper.h>
 #include <vtkProperty.h>
 #include <vtkRenderer.h>
-#include <vtkUnsignedCharArray.h>
 
 #include <cmath>
 
@@ -238,28 +236,14 @@ void SliceView::rebuildOverlays() {
   crosshair_->SetPoints(cp);
   crosshair_->SetLines(cl);
 
-  // Attraction points within one voxel of the slice, in their structure's colour.
-  auto pp = vtkSmartPointer<vtkPoints>::New();
-  auto verts = vtkSmartPointer<vtkCellArray>::New();
-  auto colours = vtkSmartPointer<vtkUnsignedCharArray>::New();
-  colours->SetNumberOfComponents(3);
+  // Attraction points within one voxel of the slice, brightened, pinned just above it.
   const double half = scene_.geometry().spacing[axis_];
-  for (Index s = 0; points_ && s < scene_.structureCount(); ++s) {
-    if (!scene_.look(s).visible) continue;
-    for (const Vec3& w : points_(s)) {
-      Vec3 p = scene_.toDisplay(w);
-      if (std::abs(p[axis_] - scene_.cursor[axis_]) > half) continue;
-      p[axis_] = float(scene_.cursor[axis_] - 2 * lift * d[axis_]);
-      const vtkIdType id = pp->InsertNextPoint(p.x(), p.y(), p.z());
-      verts->InsertNextCell(1, &id);
-      const auto& c = scene_.look(s).colour;
-      colours->InsertNextTuple3(255 * std::min(1.0, c[0] + 0.3), 255 * std::min(1.0, c[1] + 0.3),
-                                255 * std::min(1.0, c[2] + 0.3));
-    }
-  }
-  points_data_->SetPoints(pp);
-  points_data_->SetVerts(verts);
-  points_data_->GetPointData()->SetScalars(colours);
+  const float pinned = float(scene_.cursor[axis_] - 2 * lift * d[axis_]);
+  fillPointCloud(scene_, points_, [&](Vec3& p) {
+    if (std::abs(p[axis_] - scene_.cursor[axis_]) > half) return false;
+    p[axis_] = pinned;
+    return true;
+  }, 0.3, points_data_);
 }
 
 void SliceView::prepareRender() {

@@ -5,18 +5,14 @@
 
 #include <vtkActor.h>
 #include <vtkCamera.h>
-#include <vtkCellArray.h>
 #include <vtkImageData.h>
 #include <vtkImageProperty.h>
 #include <vtkImageSlice.h>
 #include <vtkImageSliceMapper.h>
-#include <vtkPointData.h>
-#include <vtkPoints.h>
 #include <vtkPolyData.h>
 #include <vtkPolyDataMapper.h>
 #include <vtkProperty.h>
 #include <vtkRenderer.h>
-#include <vtkUnsignedCharArray.h>
 
 #include <cmath>
 
@@ -105,23 +101,7 @@ void VolumeView::prepareRender() {
   }
   if (beforeRender) beforeRender();
   if (dirty_) {
-    auto pp = vtkSmartPointer<vtkPoints>::New();
-    auto verts = vtkSmartPointer<vtkCellArray>::New();
-    auto colours = vtkSmartPointer<vtkUnsignedCharArray>::New();
-    colours->SetNumberOfComponents(3);
-    for (Index s = 0; points_ && s < scene_.structureCount(); ++s) {
-      if (!scene_.look(s).visible) continue;
-      for (const Vec3& w : points_(s)) {
-        const Vec3 p = scene_.toDisplay(w);
-        const vtkIdType id = pp->InsertNextPoint(p.x(), p.y(), p.z());
-        verts->InsertNextCell(1, &id);
-        const auto& c = scene_.look(s).colour;
-        colours->InsertNextTuple3(255 * c[0], 255 * c[1], 255 * c[2]);
-      }
-    }
-    pointsData_->SetPoints(pp);
-    pointsData_->SetVerts(verts);
-    pointsData_->GetPointData()->SetScalars(colours);
+    fillPointCloud(scene_, points_, [](Vec3&) { return true; }, 0.0, pointsData_);
     dirty_ = false;
   }
   renderer()->ResetCameraClippingRange();

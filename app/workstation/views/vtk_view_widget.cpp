@@ -105,7 +105,6 @@ void VtkViewWidget::paintGL() {
   // VTK rendered into its own framebuffer; copy it into the widget's.
   blitToFramebuffer(window_, defaultFramebufferObject(), w, h);
   ++frames_;
-  Q_EMIT rendered();
 }
 
 QPointF VtkViewWidget::toDisplay(const QPointF& p) const {

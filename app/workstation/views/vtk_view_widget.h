@@ -30,9 +30,6 @@ public:
   void displayToWorld(const QPointF& widgetPos, double world[3]) const;
   long framesRendered() const { return frames_; }
 
-Q_SIGNALS:
-  void rendered();
-
 protected:
   void initializeGL() override;
   void resizeGL(int w, int h) override;
