@@ -14,6 +14,7 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <vector>
 
 int main(int argc, char** argv) {
   CLI::App cli{"sinew: the Sinew workstation (segment by looking and clicking)."};
@@ -21,6 +22,7 @@ int main(int argc, char** argv) {
   sinew::WorkstationOptions options;
   double measureSeconds = 0.0;
   std::string screenshot;
+  std::vector<int> windowSize{1400, 900};
   double budgetMs = 0.0;
   int level = 0;
   cli.add_option("scene", scene, "scene file to open");
@@ -37,6 +39,10 @@ int main(int argc, char** argv) {
   cli.add_option("--level", level, "with --measure-fps: level of detail to measure at")->check(CLI::NonNegativeNumber);
   cli.add_option("--budget-ms", budgetMs, "simulation time budget per frame (default: the saved setting, 30 ms)")
       ->check(CLI::Range(1.0, 1000.0));
+  cli.add_option("--window-size", windowSize, "initial window size in pixels (width height)")
+      ->expected(2)
+      ->check(CLI::Range(200, 10000))
+      ->capture_default_str();
   cli.add_option("--screenshot", screenshot, "with --measure-fps: save the window as a PNG at the end");
   cli.set_version_flag("--version", std::string("sinew ") + SINEW_VERSION);
   try {
@@ -67,7 +73,7 @@ int main(int argc, char** argv) {
   sinew::registerBuiltinTools(tools);
   if (measureSeconds > 0) options.persistSettings = false;
   sinew::MainWindow window(registry, tools, options);
-  window.resize(1400, 900);
+  window.resize(windowSize[0], windowSize[1]);
   if (budgetMs > 0) window.setFrameBudgetMs(budgetMs);
   window.show();
   if (!image.empty() && !window.openImage(QString::fromStdString(image))) return 3;
@@ -88,7 +94,13 @@ int main(int argc, char** argv) {
   QElapsedTimer clock;
   clock.start();
   long frames0 = 0, iterations0 = 0, paints0 = 0;
+  double sim0 = 0.0, update0 = 0.0, paint0 = 0.0;
   bool measuring = false;
+  auto paintSeconds = [&] {
+    double s = window.volumeView()->paintSeconds();
+    for (int axis = 0; axis < 3; ++axis) s += window.sliceView(axis)->paintSeconds();
+    return s;
+  };
   QTimer poll;
   QObject::connect(&poll, &QTimer::timeout, [&] {
     const double t = clock.elapsed() * 1e-3;
@@ -97,16 +109,27 @@ int main(int argc, char** argv) {
       frames0 = window.framesDrawn();
       paints0 = window.volumeView()->framesRendered();
       iterations0 = window.session().simulation().iteration();
+      sim0 = window.simulationSeconds();
+      update0 = window.updateSeconds();
+      paint0 = paintSeconds();
       clock.restart();
     } else if (measuring && t >= measureSeconds) {
       // A frame counts when it was both simulated and painted (paints can coalesce).
       const double frames = double(std::min(window.framesDrawn() - frames0, window.volumeView()->framesRendered() - paints0));
       const double its = double(window.session().simulation().iteration() - iterations0);
+      // Per frame: simulation, drawing update (vertex buffers), painting the four views (CPU side),
+      // and the rest (Qt composing the window, presenting it, events).
+      const double frameMs = 1e3 * t / std::max(frames, 1.0);
+      const double simMs = 1e3 * (window.simulationSeconds() - sim0) / std::max(frames, 1.0);
+      const double updateMs = 1e3 * (window.updateSeconds() - update0) / std::max(frames, 1.0);
+      const double paintMs = 1e3 * (paintSeconds() - paint0) / std::max(frames, 1.0);
       std::printf("{\"frames_per_second\": %.2f, \"iterations_per_second\": %.1f, \"vertices\": %ld, "
-                  "\"level\": %d, \"drawing\": \"%s\", \"backend\": \"%s\", \"device\": \"%s\", \"seconds\": %.2f}\n",
+                  "\"level\": %d, \"drawing\": \"%s\", \"backend\": \"%s\", \"device\": \"%s\", \"seconds\": %.2f, "
+                  "\"ms_per_frame\": {\"simulate\": %.2f, \"update\": %.2f, \"paint\": %.2f, \"rest\": %.2f}}\n",
                   frames / t, its / t, long(window.session().simulation().store().vertexCount()),
                   window.session().level(), window.drawingPath().c_str(), window.session().backendName().c_str(),
-                  window.session().deviceName().c_str(), t);
+                  window.session().deviceName().c_str(), t, simMs, updateMs, paintMs,
+                  frameMs - simMs - updateMs - paintMs);
       std::fflush(stdout);
       window.setRunning(false);
       if (!screenshot.empty()) window.grab().save(QString::fromStdString(screenshot));

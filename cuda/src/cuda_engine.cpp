@@ -98,7 +98,7 @@ struct CudaEngine::Impl {
   DeviceArray<unsigned long long> keys;
   // Drawing: contour segments and their count.
   DeviceArray<float3> contourOut;
-  DeviceArray<int> contourCount;
+  DeviceArray<int> contourCount, contourBase;
   int pointCount = 0;
   MeshView view;
   std::map<int, cudaGraphExec_t> graphs;  // one per batch length
@@ -410,27 +410,39 @@ void CudaEngine::writeSurfacePoints(Index mesh, float* out) {
   Impl& I = *impl_;
   launchSurfacePoints(drawRange(I.sim.store(), mesh), I.x.get(), I.cellOffsets.get(), I.cellVertices.get(), out,
                       I.stream);
-  SINEW_CUDA(cudaStreamSynchronize(I.stream));
   SINEW_CUDA(cudaGetLastError());
 }
 
-std::vector<Vec3> CudaEngine::contourSegments(Index mesh, const Vec3& normal, float offset) {
+void* CudaEngine::nativeStream() const { return impl_->stream; }
+
+void CudaEngine::synchronize() { SINEW_CUDA(cudaStreamSynchronize(impl_->stream)); }
+
+std::vector<std::vector<Vec3>> CudaEngine::contourSegments(const Vec3& normal, float offset) {
   Impl& I = *impl_;
   const MeshStore& s = I.sim.store();
-  const DrawRange r = drawRange(s, mesh);
-  // A plane crosses each triangle at most once: the mesh's triangle count bounds the segments.
-  const int capacity = int(s.cellOffsets()[r.cellEnd] - s.cellOffsets()[r.cellBegin]);
-  if (int(I.contourOut.size()) < 2 * capacity) I.contourOut.resize(2 * capacity);
-  if (I.contourCount.size() == 0) I.contourCount.resize(1);
-  SINEW_CUDA(cudaMemsetAsync(I.contourCount.get(), 0, sizeof(int), I.stream));
-  launchContour(r, I.x.get(), I.cellOffsets.get(), I.cellVertices.get(), make_float3(normal.x(), normal.y(), normal.z()),
-                offset, I.contourOut.get(), capacity, I.contourCount.get(), I.stream);
-  int count = 0;
-  I.contourCount.download(&count, 1, I.stream);
+  const Index meshes = s.meshCount();
+  // A plane crosses each triangle at most once: each structure's triangle count bounds its segments.
+  std::vector<int> base(meshes + 1, 0);
+  for (Index m = 0; m < meshes; ++m) base[m] = int(s.cellOffsets()[s.range(m).cellBegin]);
+  base[meshes] = int(s.cellOffsets()[s.cellCount()]);
+  I.contourBase.upload(base, I.stream);
+  if (I.contourOut.size() < 2 * std::size_t(base[meshes])) I.contourOut.resize(2 * std::size_t(base[meshes]));
+  I.contourCount.resize(meshes);
+  SINEW_CUDA(cudaMemsetAsync(I.contourCount.get(), 0, meshes * sizeof(int), I.stream));
+  launchContour(int(s.cellCount()), I.x.get(), I.cellOffsets.get(), I.cellVertices.get(), I.meshOf.get(),
+                make_float3(normal.x(), normal.y(), normal.z()), offset, I.contourBase.get(), I.contourOut.get(),
+                I.contourCount.get(), I.stream);
+  std::vector<int> counts(meshes);
+  I.contourCount.download(counts.data(), meshes, I.stream);
   SINEW_CUDA(cudaStreamSynchronize(I.stream));
-  count = std::min(count, capacity);
-  std::vector<Vec3> out(2 * static_cast<size_t>(count));
-  I.contourOut.download(reinterpret_cast<float3*>(out.data()), out.size(), I.stream);
+  std::vector<std::vector<Vec3>> out(meshes);
+  for (Index m = 0; m < meshes; ++m) {
+    const int count = std::min(counts[m], base[m + 1] - base[m]);
+    out[m].resize(2 * std::size_t(count));
+    if (count > 0)
+      SINEW_CUDA(cudaMemcpyAsync(out[m].data(), I.contourOut.get() + 2 * std::size_t(base[m]),
+                                 2 * std::size_t(count) * sizeof(float3), cudaMemcpyDeviceToHost, I.stream));
+  }
   SINEW_CUDA(cudaStreamSynchronize(I.stream));
   return out;
 }
@@ -442,7 +454,7 @@ std::size_t CudaEngine::deviceBytes() const {
   return I.neighbours.bytes() + I.vertexCells.bytes() + I.cellOffsets.bytes() + I.cellVertices.bytes() +
          I.meshOf.bytes() + I.density.bytes() + I.elevation.bytes() + I.area.bytes() + I.mass.bytes() + I.x.bytes() +
          I.prev.bytes() + I.force.bytes() + I.normal.bytes() + I.centre.bytes() + I.reference.bytes() +
-         I.image.bytes() + I.profiles.bytes() + I.gradient.bytes();
+         I.image.bytes() + I.profiles.bytes() + I.gradient.bytes() + I.contourOut.bytes();
 }
 
 }  // namespace sinew::cuda

@@ -24,14 +24,18 @@ __global__ void surfacePoints(DrawRange r, const float3* x, const int* offsets, 
 
 __device__ float3 crossing(float3 p, float dp, float3 q, float dq) { return p + (dp / (dp - dq)) * (q - p); }
 
-// One thread per cell; the same case analysis as the host's hostContour().
-__global__ void contour(DrawRange r, const float3* x, const int* offsets, const int* cellVertices, float3 n, float d,
-                        float3* out, int capacity, int* count) {
-  const int c = r.cellBegin + blockIdx.x * blockDim.x + threadIdx.x;
-  if (c >= r.cellEnd) return;
+// One thread per cell of every structure; the same case analysis as the host's hostContour().
+// Structure m's segments go to its own region, which starts at segmentBase[m] (its first triangle:
+// a plane crosses each triangle at most once) and holds segmentBase[m + 1] - segmentBase[m].
+__global__ void contour(int cells, const float3* x, const int* offsets, const int* cellVertices, const int* meshOf,
+                        float3 n, float d, const int* segmentBase, float3* out, int* counts) {
+  const int c = blockIdx.x * blockDim.x + threadIdx.x;
+  if (c >= cells) return;
   const float3 centre = cellCentreOf(x, offsets, cellVertices, c);
   const float dc = dot(n, centre) - d;
   const int begin = offsets[c], end = offsets[c + 1];
+  const int mesh = meshOf[cellVertices[begin]];
+  const int base = segmentBase[mesh], capacity = segmentBase[mesh + 1] - base;
   for (int i = begin; i < end; ++i) {
     const float3 a = x[cellVertices[i]], b = x[cellVertices[i + 1 == end ? begin : i + 1]];
     const float da = dot(n, a) - d, db = dot(n, b) - d;
@@ -41,10 +45,10 @@ __global__ void contour(DrawRange r, const float3* x, const int* offsets, const 
     if (sa == sb) p = crossing(b, db, centre, dc), q = crossing(centre, dc, a, da);
     else if (sb == sc) p = crossing(a, da, b, db), q = crossing(centre, dc, a, da);
     else p = crossing(a, da, b, db), q = crossing(b, db, centre, dc);
-    const int slot = atomicAdd(count, 1);
+    const int slot = atomicAdd(&counts[mesh], 1);
     if (slot < capacity) {
-      out[2 * slot] = p;
-      out[2 * slot + 1] = q;
+      out[2 * (base + slot)] = p;
+      out[2 * (base + slot) + 1] = q;
     }
   }
 }
@@ -56,10 +60,9 @@ void launchSurfacePoints(const DrawRange& r, const float3* x, const int* offsets
   if (n > 0) surfacePoints<<<(n + 255) / 256, 256, 0, s>>>(r, x, offsets, cellVertices, out);
 }
 
-void launchContour(const DrawRange& r, const float3* x, const int* offsets, const int* cellVertices, float3 n, float d,
-                   float3* out, int capacity, int* count, cudaStream_t s) {
-  const int cells = r.cellEnd - r.cellBegin;
-  if (cells > 0) contour<<<(cells + 127) / 128, 128, 0, s>>>(r, x, offsets, cellVertices, n, d, out, capacity, count);
+void launchContour(int cells, const float3* x, const int* offsets, const int* cellVertices, const int* meshOf,
+                   float3 n, float d, const int* segmentBase, float3* out, int* counts, cudaStream_t s) {
+  if (cells > 0) contour<<<(cells + 127) / 128, 128, 0, s>>>(cells, x, offsets, cellVertices, meshOf, n, d, segmentBase, out, counts);
 }
 
 }  // namespace sinew::cuda

@@ -5,6 +5,9 @@
 #include <GL/gl.h>
 #include <cuda_gl_interop.h>
 
+#include <stdexcept>
+#include <vector>
+
 namespace sinew::cuda {
 
 GlBufferLink::GlBufferLink(unsigned int glBuffer) : buffer_(glBuffer) {
@@ -17,20 +20,27 @@ GlBufferLink::~GlBufferLink() {
   if (resource_) cudaGraphicsUnregisterResource(static_cast<cudaGraphicsResource_t>(resource_));
 }
 
-void GlBufferLink::writeSurface(CudaEngine& engine, Index mesh, std::size_t pointCount) {
-  auto r = static_cast<cudaGraphicsResource_t>(resource_);
-  SINEW_CUDA(cudaGraphicsMapResources(1, &r, 0));
-  void* ptr = nullptr;
-  size_t bytes = 0;
+void writeSurfaces(CudaEngine& engine, const std::vector<SurfaceWrite>& writes) {
+  if (writes.empty()) return;
+  auto stream = static_cast<cudaStream_t>(engine.nativeStream());
+  std::vector<cudaGraphicsResource_t> resources;
+  for (const SurfaceWrite& w : writes) resources.push_back(static_cast<cudaGraphicsResource_t>(w.link->resource()));
+  // One map and one unmap per frame: each is a synchronisation point with OpenGL.
+  SINEW_CUDA(cudaGraphicsMapResources(int(resources.size()), resources.data(), stream));
   try {
-    SINEW_CUDA(cudaGraphicsResourceGetMappedPointer(&ptr, &bytes, r));
-    if (bytes < pointCount * 3 * sizeof(float)) throw std::runtime_error("CUDA: the OpenGL vertex buffer is too small");
-    engine.writeSurfacePoints(mesh, static_cast<float*>(ptr));
+    for (std::size_t i = 0; i < writes.size(); ++i) {
+      void* ptr = nullptr;
+      size_t bytes = 0;
+      SINEW_CUDA(cudaGraphicsResourceGetMappedPointer(&ptr, &bytes, resources[i]));
+      if (bytes < writes[i].pointCount * 3 * sizeof(float))
+        throw std::runtime_error("CUDA: the OpenGL vertex buffer is too small");
+      engine.writeSurfacePoints(writes[i].mesh, static_cast<float*>(ptr));
+    }
   } catch (...) {
-    cudaGraphicsUnmapResources(1, &r, 0);
+    cudaGraphicsUnmapResources(int(resources.size()), resources.data(), stream);
     throw;
   }
-  SINEW_CUDA(cudaGraphicsUnmapResources(1, &r, 0));
+  SINEW_CUDA(cudaGraphicsUnmapResources(int(resources.size()), resources.data(), stream));
 }
 
 }  // namespace sinew::cuda

@@ -77,10 +77,11 @@ struct DrawRange {
 // Tessellation points (vertices, then cell centres) as packed xyz floats.
 void launchSurfacePoints(const DrawRange& r, const float3* x, const int* offsets, const int* cellVertices, float* out,
                          cudaStream_t s);
-// Contour segments (pairs of points) where the tessellation crosses dot(n, x) = d; count is
-// incremented per segment, segments beyond capacity are counted but not written.
-void launchContour(const DrawRange& r, const float3* x, const int* offsets, const int* cellVertices, float3 n, float d,
-                   float3* out, int capacity, int* count, cudaStream_t s);
+// Contour segments (pairs of points) where every structure's tessellation crosses dot(n, x) = d.
+// Structure m's segments are written from out[2 * segmentBase[m]] on and counted in counts[m];
+// those beyond its capacity (segmentBase[m + 1] - segmentBase[m]) are counted but not written.
+void launchContour(int cells, const float3* x, const int* offsets, const int* cellVertices, const int* meshOf,
+                   float3 n, float d, const int* segmentBase, float3* out, int* counts, cudaStream_t s);
 
 void launchProlong(const int* rowOffsets, const int* index, const float* weight, int rows, const float3* coarse,
                    float3* fine, cudaStream_t s);

@@ -127,6 +127,7 @@ private slots:
       float* buffer = nullptr;
       QCOMPARE(cudaMalloc(&buffer, n * 3 * sizeof(float)), cudaSuccess);
       engine.writeSurfacePoints(m, buffer);
+      engine.synchronize();
       QCOMPARE(cudaMemcpy(device.data(), buffer, n * 3 * sizeof(float), cudaMemcpyDeviceToHost), cudaSuccess);
       cudaFree(buffer);
       double worst = 0;
@@ -136,7 +137,9 @@ private slots:
       const Vec3 centre = std::accumulate(host.begin(), host.end(), Vec3(Vec3::Zero())) / float(n);
       const SlicePlane plane{Vec3(0.3f, -0.5f, 0.8f).normalized(), Vec3(0.3f, -0.5f, 0.8f).normalized().dot(centre) + 0.7f};
       const std::vector<ContourSegment> h = hostContour(store, m, plane);
-      const std::vector<Vec3> d = engine.contourSegments(m, plane.normal, plane.offset);
+      const std::vector<std::vector<Vec3>> all = engine.contourSegments(plane.normal, plane.offset);
+      QCOMPARE(Index(all.size()), store.meshCount());
+      const std::vector<Vec3>& d = all[m];
       QVERIFY(h.size() > 10);
       QCOMPARE(d.size(), 2 * h.size());
       // Same segments in another order (atomics): every device segment's midpoint has a host twin.

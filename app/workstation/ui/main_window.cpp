@@ -102,7 +102,7 @@ void MainWindow::buildViews() {
     slices_[axis] = view;
     grid->addWidget(frame(view, tr(SliceView::axisName(axis)), axis), i / 2, i % 2);
     view->setProviders(
-        [this](Index s, const SlicePlane& plane) { return drawing_->contour(session_, s, plane); },
+        [this](const SlicePlane& plane) { return drawing_->contours(session_, plane); },
         [this](Index s) { return session_.isOpen() ? session_.attractionPoints(s) : std::vector<Vec3>{}; });
     connect(view, &SliceView::toolPressed, this, [this](const ViewPointerEvent& e) {
       if (!tool_) return;
@@ -459,6 +459,7 @@ void MainWindow::tick() {
       return;
     }
     budgetCredit_ -= spent.nsecsElapsed() * 1e-9;
+    simulationSeconds_ += spent.nsecsElapsed() * 1e-9;
   }
   if (steps == 0) {  // the level's iterations are done: the next level, or the end of the schedule
     if (session_.level() + 1 < session_.levelCount()) {
@@ -478,7 +479,10 @@ void MainWindow::tick() {
     sampleCost_ = cost.elapsed() * 1e-3;
     sampleClock_.restart();
   }
+  QElapsedTimer updating;
+  updating.start();
   refreshViews();
+  updateSeconds_ += updating.nsecsElapsed() * 1e-9;
   // One paint of the whole window per frame (every view composed once), before the next tick.
   for (auto* v : slices_) v->update();
   volume_->update();

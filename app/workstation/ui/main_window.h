@@ -66,6 +66,10 @@ public:
   double framesPerSecond() const { return fps_; }
   // Frames of the run loop so far: each stepped the simulation and repainted every visible view.
   long framesDrawn() const { return framesDrawn_; }
+  // Where the frame loop's time went so far: simulation steps, and bringing the drawing up to date
+  // (vertex buffers, plots); painting is counted by each view.
+  double simulationSeconds() const { return simulationSeconds_; }
+  double updateSeconds() const { return updateSeconds_; }
   std::string drawingPath() const;
   // Maximises one view (0..2 slices by axis, 3 the 3D view), or restores the 2x2 layout (-1).
   void maximiseView(int view);
@@ -113,6 +117,7 @@ private:
   QElapsedTimer fpsClock_, sampleClock_;
   long fpsFrames_ = 0, framesDrawn_ = 0;
   double fps_ = 0.0, itPerSecond_ = 0.0, sampleCost_ = 0.0, budgetCredit_ = 0.0;
+  double simulationSeconds_ = 0.0, updateSeconds_ = 0.0;
   long fpsIterations_ = 0;
   std::uint64_t shownRevision_ = 0;
   std::size_t plottedSamples_ = 0;

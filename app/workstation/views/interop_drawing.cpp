@@ -29,6 +29,7 @@ public:
   }
 
   void beforeRender(SegmentationSession&, DisplayScene& display) override {
+    std::vector<cuda::SurfaceWrite> writes;
     for (auto& [s, slot] : mappers_) {
       const unsigned int buffer = slot.mapper->positionBuffer();
       if (buffer == 0) continue;  // not built yet: VTK uploads the host points this time
@@ -38,16 +39,19 @@ public:
         slot.written = 0;  // a rebuild uploaded host points: write again
       }
       if (slot.written == revision_) continue;
-      const auto points = display.surface(s)->GetNumberOfPoints();
-      slot.link->writeSurface(engine_, s, static_cast<std::size_t>(points));
+      writes.push_back({slot.link.get(), s, static_cast<std::size_t>(display.surface(s)->GetNumberOfPoints())});
       slot.written = revision_;
     }
+    cuda::writeSurfaces(engine_, writes);
   }
 
-  std::vector<ContourSegment> contour(SegmentationSession&, Index s, const SlicePlane& plane) override {
-    const std::vector<Vec3> p = engine_.contourSegments(s, plane.normal, plane.offset);
-    std::vector<ContourSegment> out(p.size() / 2);
-    for (size_t i = 0; i < out.size(); ++i) out[i] = {p[2 * i], p[2 * i + 1]};
+  std::vector<std::vector<ContourSegment>> contours(SegmentationSession&, const SlicePlane& plane) override {
+    const std::vector<std::vector<Vec3>> points = engine_.contourSegments(plane.normal, plane.offset);
+    std::vector<std::vector<ContourSegment>> out(points.size());
+    for (size_t s = 0; s < points.size(); ++s) {
+      out[s].resize(points[s].size() / 2);
+      for (size_t i = 0; i < out[s].size(); ++i) out[s][i] = {points[s][2 * i], points[s][2 * i + 1]};
+    }
     return out;
   }
 

@@ -200,11 +200,13 @@ void SliceView::rebuildOverlays() {
   const double* d = kDirection[axis_];
   const double lift = 0.5;  // overlays float half a millimetre toward the camera (no z-fighting)
   const SlicePlane plane = scene_.slicePlane(axis_, scene_.cursor[axis_]);
+  const std::vector<std::vector<ContourSegment>> contours =
+      contours_ ? contours_(plane) : std::vector<std::vector<ContourSegment>>();
   for (Index s = 0; s < scene_.structureCount(); ++s) {
     auto pts = vtkSmartPointer<vtkPoints>::New();
     auto lines = vtkSmartPointer<vtkCellArray>::New();
-    if (scene_.look(s).visible && contours_) {
-      for (const ContourSegment& seg : contours_(s, plane)) {
+    if (scene_.look(s).visible && s < Index(contours.size())) {
+      for (const ContourSegment& seg : contours[s]) {
         Vec3 a = scene_.toDisplay(seg.a), b = scene_.toDisplay(seg.b);
         a[axis_] = b[axis_] = float(scene_.cursor[axis_] - lift * d[axis_]);
         const vtkIdType ia = pts->InsertNextPoint(a.x(), a.y(), a.z());

@@ -28,7 +28,8 @@ struct ViewPointerEvent {
 class SliceView : public VtkViewWidget {
   Q_OBJECT
 public:
-  using ContourProvider = std::function<std::vector<ContourSegment>(Index structure, const SlicePlane& plane)>;
+  // Every structure's contour on a plane (segments per structure).
+  using ContourProvider = std::function<std::vector<std::vector<ContourSegment>>(const SlicePlane& plane)>;
   using PointsProvider = std::function<std::vector<Vec3>(Index structure)>;
 
   SliceView(int axis, DisplayScene& scene, QWidget* parent = nullptr);

@@ -16,9 +16,12 @@ public:
     if (display.surfaceLevel() != session.level()) display.rebuildSurfaces(session);
     else display.updateSurfacePointsFromHost(session);
   }
-  std::vector<ContourSegment> contour(SegmentationSession& session, Index structure, const SlicePlane& plane) override {
+  std::vector<std::vector<ContourSegment>> contours(SegmentationSession& session, const SlicePlane& plane) override {
     session.syncHost();
-    return hostContour(session.simulation().store(), structure, plane);
+    MeshStore& store = session.simulation().store();
+    std::vector<std::vector<ContourSegment>> out(store.meshCount());
+    for (Index s = 0; s < store.meshCount(); ++s) out[s] = hostContour(store, s, plane);
+    return out;
   }
 };
 }  // namespace

@@ -26,8 +26,8 @@ public:
   virtual void updateSurfaces(SegmentationSession& session, DisplayScene& display) = 0;
   // Right before the 3D view renders (its context is current).
   virtual void beforeRender(SegmentationSession&, DisplayScene&) {}
-  virtual std::vector<ContourSegment> contour(SegmentationSession& session, Index structure,
-                                              const SlicePlane& plane) = 0;
+  // Where every structure's surface crosses the plane (segments per structure).
+  virtual std::vector<std::vector<ContourSegment>> contours(SegmentationSession& session, const SlicePlane& plane) = 0;
 };
 
 std::unique_ptr<SurfaceDrawing> makeHostDrawing();

@@ -4,6 +4,7 @@
 
 #include "vtk_blit.h"
 
+#include <QElapsedTimer>
 #include <QOpenGLContext>
 #include <QSurfaceFormat>
 
@@ -97,6 +98,8 @@ void VtkViewWidget::resizeGL(int w, int h) {
 
 void VtkViewWidget::paintGL() {
   if (!contextReady_) return;
+  QElapsedTimer clock;
+  clock.start();
   prepareRender();
   const double dpr = devicePixelRatioF();
   const int w = static_cast<int>(width() * dpr + 0.5), h = static_cast<int>(height() * dpr + 0.5);
@@ -105,6 +108,7 @@ void VtkViewWidget::paintGL() {
   // VTK rendered into its own framebuffer; copy it into the widget's.
   blitToFramebuffer(window_, defaultFramebufferObject(), w, h);
   ++frames_;
+  paintSeconds_ += clock.nsecsElapsed() * 1e-9;
 }
 
 QPointF VtkViewWidget::toDisplay(const QPointF& p) const {

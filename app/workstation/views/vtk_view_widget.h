@@ -29,6 +29,8 @@ public:
   // Where a widget position lies in world (scene) coordinates on the focal plane of the camera.
   void displayToWorld(const QPointF& widgetPos, double world[3]) const;
   long framesRendered() const { return frames_; }
+  // Wall time spent in paintGL so far (CPU side: GL work still queued is not included).
+  double paintSeconds() const { return paintSeconds_; }
 
 protected:
   void initializeGL() override;
@@ -44,6 +46,7 @@ private:
   QMetaObject::Connection contextConnection_;
   bool contextReady_ = false;
   long frames_ = 0;
+  double paintSeconds_ = 0.0;
 };
 
 }  // namespace sinew

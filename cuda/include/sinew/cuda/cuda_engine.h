@@ -42,11 +42,16 @@ public:
 
   // Drawing from the device store (the workstation's interop path). Structure `mesh`'s
   // tessellation points, vertices then cell centres, as packed xyz floats, written to device memory
-  // (a mapped OpenGL buffer) on the engine's stream, which is synchronised before returning.
+  // (a mapped OpenGL buffer). Asynchronous on the engine's stream: unmapping the buffer on that
+  // stream (or synchronize()) orders it before the drawing.
   void writeSurfacePoints(Index mesh, float* deviceOut);
-  // Where structure `mesh`'s tessellation crosses the plane normal . x = offset, computed on the
-  // device: segment end points in pairs. Only the segments cross to the host.
-  std::vector<Vec3> contourSegments(Index mesh, const Vec3& normal, float offset);
+  // Where every structure's tessellation crosses the plane normal . x = offset, computed on the
+  // device in one pass: per structure, segment end points in pairs. Only the segments cross to the
+  // host.
+  std::vector<std::vector<Vec3>> contourSegments(const Vec3& normal, float offset);
+  // The engine's CUDA stream (a cudaStream_t), for work that must be ordered with it.
+  void* nativeStream() const;
+  void synchronize();
 
   std::string name() const override { return "cuda"; }
   std::string device() const override;

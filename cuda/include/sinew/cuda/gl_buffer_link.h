@@ -5,6 +5,8 @@
 
 #include "sinew/cuda/cuda_engine.h"
 
+#include <vector>
+
 namespace sinew::cuda {
 
 class GlBufferLink {
@@ -17,13 +19,23 @@ public:
   GlBufferLink& operator=(const GlBufferLink&) = delete;
 
   unsigned int buffer() const { return buffer_; }
-  // Maps the buffer, has the engine write structure mesh's surface points into it, unmaps. Throws
-  // when the buffer is smaller than the points.
-  void writeSurface(CudaEngine& engine, Index mesh, std::size_t pointCount);
+  void* resource() const { return resource_; }
 
 private:
   unsigned int buffer_ = 0;
   void* resource_ = nullptr;  // cudaGraphicsResource_t
 };
+
+// One structure's surface points to write into a linked buffer.
+struct SurfaceWrite {
+  GlBufferLink* link = nullptr;
+  Index mesh = 0;
+  std::size_t pointCount = 0;
+};
+
+// Maps every link's buffer at once, has the engine write each structure's surface points into its
+// buffer, and unmaps them, all on the engine's stream: OpenGL draws only after the writes, and the
+// host does not wait. Throws when a buffer is smaller than its points.
+void writeSurfaces(CudaEngine& engine, const std::vector<SurfaceWrite>& writes);
 
 }  // namespace sinew::cuda
