@@ -2,6 +2,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
+
 #include <cmath>
 #include <fstream>
 #include <iomanip>
@@ -41,6 +43,14 @@ void writeReportJson(const std::filesystem::path& path, const RunReport& r, cons
   j["total_seconds"] = r.totalSeconds;
   j["simulation_seconds"] = r.simulationSeconds;
   j["level_start_seconds"] = r.levelStartSeconds;
+  j["status"] = r.numericalFailure.empty() ? "completed" : "numerical_failure";
+  if (!r.numericalFailure.empty()) j["numerical_failure"] = r.numericalFailure;
+  Json events = Json::array();
+  for (const StabilityEvent& e : r.stability)
+    events.push_back({{"iteration", e.iteration}, {"level", e.level}, {"reason", e.reason}, {"time_step", e.timeStep},
+                      {"recovered", e.recovered}});
+  j["stability"] = {{"rollbacks", std::count_if(r.stability.begin(), r.stability.end(), [](const StabilityEvent& e) { return e.recovered; })},
+                    {"events", events}};
   Json structures = Json::array();
   for (const StructureResult& s : r.structures) {
     structures.push_back({{"name", s.name},

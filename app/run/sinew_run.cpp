@@ -208,6 +208,15 @@ int main(int argc, char** argv) {
     out.commit();
     printTable(report);
     if (!quiet) std::fprintf(stderr, "outputs in %s\n", outDir.c_str());
+    for (const StabilityEvent& e : report.stability)
+      if (e.recovered && !quiet)
+        std::fprintf(stderr, "stability guard: iteration %ld: %s; time step halved to %g\n", e.iteration, e.reason.c_str(),
+                     e.timeStep);
+    if (!report.numericalFailure.empty()) {
+      std::fprintf(stderr, "sinew-run: numerical failure: %s (the outputs hold the last good meshes)\n",
+                   report.numericalFailure.c_str());
+      return kNumerical;
+    }
     return kOk;
   } catch (const InputError& e) {
     std::fprintf(stderr, "sinew-run: error: %s\n", e.what());

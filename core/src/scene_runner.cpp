@@ -313,7 +313,7 @@ RunReport SceneRunner::run() {
   for (const auto& l : scene_.schedule) total += l.iterations;
   double simSeconds = 0.0;
   sample(report, 0.0);
-  for (int level = 0; level < levels; ++level) {
+  for (int level = 0; level < levels && report.numericalFailure.empty(); ++level) {
     const LevelDesc& lv = scene_.schedule[level];
     if (level > 0) {
       const auto t0 = Clock::now();
@@ -323,14 +323,21 @@ RunReport SceneRunner::run() {
     }
     report.levelStartSeconds.push_back(simSeconds);
     // Steps run in chunks that end on the sample points; only samples bring state to the host.
-    for (int it = 0; it < lv.iterations;) {
+    for (int it = 0; it < lv.iterations && report.numericalFailure.empty();) {
       const int chunk = std::min(scene_.sampleInterval - it % scene_.sampleInterval, lv.iterations - it);
       const auto t0 = Clock::now();
       if (!onBackend([&](ExecutionBackend& b) {
             b.run(chunk);
             b.download();
-          }))
-        sim.run(chunk);
+          })) {
+        try {
+          sim.run(chunk);
+        } catch (const NumericalError& e) {
+          // The stability guard gave up and left the last good state: the run ends here and keeps it.
+          report.numericalFailure = e.what();
+          if (options_.log) options_.log(std::string("numerical failure: ") + e.what());
+        }
+      }
       simSeconds += since(t0);
       it += chunk;
       done += chunk;
@@ -339,6 +346,7 @@ RunReport SceneRunner::run() {
     }
   }
   report.simulationSeconds = simSeconds;
+  report.stability = sim.stabilityEvents();
   for (Index i = 0; i < sim.structureCount(); ++i) {
     StructureResult r = evaluate(i, true);
     r.assdInitialMm = initial[i].assdFinalMm;

@@ -1,5 +1,8 @@
 #include "sinew/core/simulation.h"
 
+#include <cmath>
+#include <cstdio>
+#include <limits>
 #include <numeric>
 
 namespace sinew {
@@ -139,8 +142,7 @@ void Simulation::prepareForces() {
   }
 }
 
-void Simulation::step() {
-  if (!initialized_) throw std::logic_error("Simulation::step before initialize");
+void Simulation::computeForces() {
   store_.refresh();
   auto f = store_.forces();
   executor_.forEach(store_.vertexCount(), [&](Index v) { f[v] = Vec3::Zero(); }, 4096);
@@ -150,8 +152,86 @@ void Simulation::step() {
     s->force->accumulate(ctx, f);
     ++s->evaluations;
   }
-  IntegratorContext ictx{store_, integratorParams_, executor_};
-  integrator_->step(ictx);
+  if (!integrator_->requirements().jacobian) return;
+  jacobian_.reset(store_.vertexCount());
+  for (auto& s : forces_) {
+    if (!s->params.anyPositive(0)) continue;
+    ForceContext ctx{store_, s->params, scene_, executor_};
+    s->force->addJacobian(ctx, jacobian_);
+  }
+}
+
+std::string Simulation::checkStep(std::span<const Vec3> before) {
+  const auto x = store_.positions();
+  // The worst vertex: non-finite first, then the longest move (ties to the lower index).
+  struct Worst {
+    float score = -1.0f;  // +inf for a non-finite position
+    Index v = -1;
+    static Worst pick(Worst a, Worst b) { return (b.score > a.score || (b.score == a.score && b.v < a.v)) ? b : a; }
+  };
+  const Worst w = executor_.reduce(
+      Index{0}, store_.vertexCount(), Worst{},
+      [&](Index b, Index e, Worst acc) {
+        for (Index v = b; v < e; ++v) {
+          const float d = x[v].allFinite() ? (x[v] - before[v]).norm() : std::numeric_limits<float>::infinity();
+          acc = Worst::pick(acc, {d, v});
+        }
+        return acc;
+      },
+      Worst::pick);
+  if (w.v < 0 || w.score <= guard_.maxStepMm) return {};
+  const Index m = store_.meshOfVertex()[w.v];
+  const std::string where = "structure '" + structures_[m].name + "', vertex " + std::to_string(w.v - store_.range(m).vertexBegin);
+  if (!std::isfinite(w.score)) return "non-finite position (" + where + ")";
+  char moved[64];
+  std::snprintf(moved, sizeof moved, "moved %.3g mm in one step (limit %.3g)", double(w.score), guard_.maxStepMm);
+  return std::string(moved) + " (" + where + ")";
+}
+
+void Simulation::step() {
+  if (!initialized_) throw std::logic_error("Simulation::step before initialize");
+  IntegratorContext ictx{store_, integratorParams_, executor_, &jacobian_};
+  if (!guard_.enabled) {
+    computeForces();
+    integrator_->step(ictx);
+    ++iteration_;
+    return;
+  }
+  const auto x = store_.positions();
+  goodPositions_.assign(x.begin(), x.end());
+  const bool hasPrevious = store_.has(Attribute::PreviousPosition);
+  if (hasPrevious) {
+    const auto prev = store_.previousPositions();
+    goodPrevious_.assign(prev.begin(), prev.end());
+  }
+  int kStep = -1;
+  for (int i = 0; i < static_cast<int>(integratorParams_.decls().size()); ++i)
+    if (integratorParams_.decls()[i].name == "time_step") kStep = i;
+  for (int attempt = 0;; ++attempt) {
+    computeForces();
+    integrator_->step(ictx);
+    const std::string problem = checkStep(goodPositions_);
+    if (problem.empty()) break;
+    // Back to the last good state.
+    auto xw = store_.positionsForWrite();
+    std::copy(goodPositions_.begin(), goodPositions_.end(), xw.begin());
+    if (hasPrevious) std::copy(goodPrevious_.begin(), goodPrevious_.end(), store_.previousPositions().begin());
+    StabilityEvent e{iteration_, level_, problem, kStep >= 0 ? integratorParams_.get(0, kStep) : 0.0, false};
+    const double halved = e.timeStep / 2.0;
+    const bool canHalve = kStep >= 0 && attempt < guard_.maxRetries && halved >= integratorParams_.decls()[kStep].min;
+    if (!canHalve) {
+      events_.push_back(e);
+      throw NumericalError(problem + " at iteration " + std::to_string(iteration_) + "; " +
+                           (kStep < 0 ? "the integrator has no time_step to reduce"
+                                      : "still unstable after " + std::to_string(attempt) + " halvings of the time step") +
+                           "; the state is the last good one");
+    }
+    integratorParams_.set(0, kStep, halved);
+    integrator_->timeStepScaled(ictx, 0.5f);
+    e.timeStep = halved;
+    e.recovered = true;
+    events_.push_back(e);
+  }
   ++iteration_;
 }
 

@@ -7,6 +7,7 @@ void registerGradientForce(Registry&);
 void registerIntensityProfileForce(Registry&);
 void registerAttractionPointsForce(Registry&);
 void registerDampedVerlet(Registry&);
+void registerImplicitEuler(Registry&);
 
 void registerBuiltinForces(Registry& registry) {
   registerSmoothingForce(registry);
@@ -15,5 +16,6 @@ void registerBuiltinForces(Registry& registry) {
   registerIntensityProfileForce(registry);
   registerAttractionPointsForce(registry);
   registerDampedVerlet(registry);
+  registerImplicitEuler(registry);
 }
 }  // namespace sinew

@@ -38,6 +38,12 @@ public:
       forces[v] += alpha * (static_cast<float>(bestJ) * step) * n;
     });
   }
+
+  // The found point is held for the step: a pull toward it along the normal.
+  bool addJacobian(ForceContext& ctx, JacobianBlocks& jacobian) override {
+    addNormalPullJacobian(ctx, jacobian);
+    return true;
+  }
 };
 }  // namespace
 

@@ -73,6 +73,12 @@ public:
     });
   }
 
+  // The best match is held for the step: a pull toward it along the normal.
+  bool addJacobian(ForceContext& ctx, JacobianBlocks& jacobian) override {
+    addNormalPullJacobian(ctx, jacobian);
+    return true;
+  }
+
 private:
   void readLayout(const ParamTable& p) {
     inside_ = static_cast<int>(p.get(0, p.indexOf("inside_samples")));

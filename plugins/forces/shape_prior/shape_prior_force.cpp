@@ -22,6 +22,11 @@ public:
       forces[v] += alpha * (positionFromParams(p1, p2, p3, f, ref[v], elevation(x[v], p1, f)) - x[v]);
     });
   }
+
+  bool addJacobian(ForceContext& ctx, JacobianBlocks& jacobian) override {
+    addNeighbourPullJacobian(ctx, jacobian);
+    return true;
+  }
 };
 }  // namespace
 

@@ -30,6 +30,11 @@ public:
       forces[v] += alpha * (centre + lift * normal[v] - x[v]);
     });
   }
+
+  bool addJacobian(ForceContext& ctx, JacobianBlocks& jacobian) override {
+    addNeighbourPullJacobian(ctx, jacobian);
+    return true;
+  }
 };
 }  // namespace
 

@@ -17,6 +17,13 @@ public:
     std::copy(x.begin(), x.end(), prev.begin());  // start at rest
   }
 
+  // x - x_prev is velocity times dt: scale it with dt so the velocity is kept.
+  void timeStepScaled(IntegratorContext& ctx, float factor) override {
+    const auto x = ctx.store.positions();
+    auto prev = ctx.store.previousPositions();
+    ctx.executor.forEach(ctx.store.vertexCount(), [&](Index v) { prev[v] = x[v] - factor * (x[v] - prev[v]); }, 4096);
+  }
+
   void step(IntegratorContext& ctx) override {
     MeshStore& s = ctx.store;
     const float dt = ctx.params.getf(0, ctx.params.indexOf("time_step"));
@@ -37,7 +44,7 @@ public:
 void registerDampedVerlet(Registry& registry) {
   registry.addIntegrator({"damped_verlet",
                           "explicit damped Verlet, x' = x + (1 - gamma)(x - x_prev) + f/m dt^2",
-                          {{"time_step", 0.5, 1e-4, 10.0, "", "dt", false},
+                          {{"time_step", 0.5, 1e-4, 100.0, "", "dt", false},
                            {"damping", 0.6, 0.0, 1.0, "", "gamma: share of the velocity lost per step", false}},
                           [] { return std::make_unique<DampedVerlet>(); }});
 }

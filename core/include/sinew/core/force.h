@@ -3,6 +3,7 @@
 // allocated.
 #pragma once
 
+#include "sinew/core/jacobian.h"
 #include "sinew/core/mesh_store.h"
 #include "sinew/core/parameters.h"
 #include "sinew/core/scene_data.h"
@@ -15,6 +16,7 @@ namespace sinew {
 struct Requirements {
   std::vector<Attribute> attributes;
   bool referenceShape = false;  // every structure where the force is active needs one
+  bool jacobian = false;        // an integrator: it needs the forces' Jacobian blocks each step
 };
 
 struct ForceContext {
@@ -32,12 +34,18 @@ public:
   virtual void prepare(ForceContext&) {}
   // Adds alpha * f to forces[v] for every vertex of every structure whose alpha is positive.
   virtual void accumulate(ForceContext& ctx, std::span<Vec3> forces) = 0;
+  // For implicit integrators: adds alpha * df/dx to the blocks, with the geometry that depends on
+  // positions nonlinearly (normals, frames, areas) held fixed over the step. The contribution must
+  // be symmetric (block (v, u) = block (u, v) transposed) and negative semi-definite. Returns false
+  // when the force has none; it is then integrated explicitly.
+  virtual bool addJacobian(ForceContext&, JacobianBlocks&) { return false; }
 };
 
 struct IntegratorContext {
   MeshStore& store;
   const ParamTable& params;  // a single row
   const Executor& executor;
+  const JacobianBlocks* jacobian = nullptr;  // when the integrator's requirements ask for it
 };
 
 class Integrator {
@@ -47,6 +55,9 @@ public:
   // Called when the store is built (not after a level change: state is carried then).
   virtual void start(IntegratorContext&) {}
   virtual void step(IntegratorContext& ctx) = 0;
+  // The stability guard changed the "time_step" parameter by `factor` (after restoring the last good
+  // state): keep the velocity, which integrators storing x - x_prev must rescale.
+  virtual void timeStepScaled(IntegratorContext&, float /*factor*/) {}
 };
 
 // Calls body(v, alpha) for every vertex whose structure has a positive weight, in parallel.
@@ -58,5 +69,14 @@ void forActiveVertices(const ForceContext& ctx, Body&& body) {
     if (alpha > 0.0f) body(v, alpha);
   });
 }
+
+// The Jacobian of a force pulling each vertex toward a combination of its three neighbours,
+// f_v = alpha (target(neighbours) - x_v), approximated with equal neighbour weights: self block
+// -alpha I, neighbour blocks alpha/3 I. Symmetric and negative semi-definite, because alpha is one
+// value per structure and neighbourhood is mutual (smoothing and the shape prior use it).
+void addNeighbourPullJacobian(const ForceContext& ctx, JacobianBlocks& jacobian);
+// The Jacobian of a pull along the normal toward a point found for the step (the image forces):
+// self block -alpha n n^T.
+void addNormalPullJacobian(const ForceContext& ctx, JacobianBlocks& jacobian);
 
 }  // namespace sinew

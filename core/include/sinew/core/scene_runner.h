@@ -54,6 +54,10 @@ struct RunReport {
   std::vector<double> levelStartSeconds;
   std::vector<StructureResult> structures;
   std::vector<TimelineSample> timeline;
+  std::vector<StabilityEvent> stability;  // the stability guard's rollbacks
+  // Why the run stopped early (the guard could not recover; the meshes are the last good ones);
+  // empty when it ran its schedule.
+  std::string numericalFailure;
   bool hasGroundTruth() const;
 };
 
@@ -72,7 +76,9 @@ public:
 
   // Reads every input and sets the simulation up. Throws InputError naming the file and problem.
   void load();
-  // Runs the schedule. Throws NumericalError when the state becomes non-finite.
+  // Runs the schedule. When the stability guard cannot recover, the run stops with the last good
+  // meshes and says why in numericalFailure. Throws NumericalError when a backend without the guard
+  // produced a non-finite state (nothing usable is left then).
   RunReport run();
   // The final meshes rasterised on the target image grid with the scene's label values.
   LabelVolume labelMap(const RunReport& report) const;

@@ -21,6 +21,24 @@ struct StructureSpec {
   float density = 0.0f;                  // 0: chosen per level so the mean vertex mass is 1
 };
 
+// The stability guard checks every step, for every integrator: a non-finite position, or a vertex
+// moving farther than maxStepMm in one step, rolls the step back to the last good state and halves
+// the integrator's "time_step" (at most maxRetries times in a row). When that does not help, step()
+// throws NumericalError with the last good state in the store.
+struct StabilityGuard {
+  bool enabled = true;
+  double maxStepMm = 20.0;
+  int maxRetries = 6;
+};
+
+struct StabilityEvent {
+  long iteration = 0;
+  int level = 0;
+  std::string reason;     // what the check found, naming the structure and vertex
+  double timeStep = 0.0;  // the step size after the event (halved), or the last one tried
+  bool recovered = true;  // false: the guard gave up and the run stops here
+};
+
 class Simulation {
 public:
   // threads <= 0: all hardware threads.
@@ -54,6 +72,10 @@ public:
   std::vector<std::string> forceNames() const;
   std::string integratorName() const { return integratorName_; }
   ParamTable& integratorParams() { return integratorParams_; }
+  void setStabilityGuard(const StabilityGuard& guard) { guard_ = guard; }
+  const StabilityGuard& stabilityGuard() const { return guard_; }
+  // Every rollback so far, in order.
+  const std::vector<StabilityEvent>& stabilityEvents() const { return events_; }
   // How often each force was evaluated (a force weighted 0 everywhere is skipped).
   long evaluations(std::string_view forceName) const;
   const Executor& executor() const { return executor_; }
@@ -64,6 +86,9 @@ private:
   const ForceSlot& slot(std::string_view name) const;
   void applyDensities();
   void prepareForces();
+  void computeForces();
+  // Empty when the step from `before` to the current positions is acceptable, else why not.
+  std::string checkStep(std::span<const Vec3> before);
 
   const Registry& registry_;
   Executor executor_;
@@ -77,6 +102,10 @@ private:
   int level_ = 0;
   long iteration_ = 0;
   bool initialized_ = false;
+  StabilityGuard guard_;
+  std::vector<StabilityEvent> events_;
+  JacobianBlocks jacobian_;
+  std::vector<Vec3> goodPositions_, goodPrevious_;  // the last good state, for rollbacks
 };
 
 }  // namespace sinew

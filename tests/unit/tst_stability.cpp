@@ -1,0 +1,107 @@
+// Issue 7's acceptance: the stability suite never produces a non-finite vertex, implicit Euler
+// stays stable at >= 5x the largest stable Verlet step on the stiff cases, and the guard's
+// rollback and clean failure are exercised and reported.
+#include "stability_suite.h"
+#include "synthetic.h"
+
+#include <QtTest>
+
+using namespace sinew;
+using namespace sinew::testing;
+
+namespace {
+const StabilityCase& findCase(const std::vector<StabilityCase>& cases, const std::string& name) {
+  for (const auto& c : cases)
+    if (c.name == name) return c;
+  qFatal("no case %s", name.c_str());
+}
+}  // namespace
+
+class TestStability : public QObject {
+  Q_OBJECT
+  std::vector<StabilityCase> cases_ = stabilityCases(false);
+
+private Q_SLOTS:
+  void noCaseEverProducesANonFiniteVertex() {
+    for (const StabilityCase& c : cases_) {
+      const double limit = largestStableStep(c, "damped_verlet", 0.05, 20.0);
+      for (const char* integrator : {"damped_verlet", "implicit_euler"})
+        for (double factor : {1.0, 5.0, 10.0}) {
+          const double dt = std::max(limit, 0.05) * factor;
+          const StabilityRun r = runStabilityCase(c, integrator, dt, 0, factor == 1.0);
+          qInfo("%-22s %-15s dt %6.3f (%4.1fx): %-14s rollbacks %d, final dt %.3g, error %.3f mm", c.name.c_str(),
+                integrator, dt, factor, r.outcome().c_str(), r.rollbacks, r.finalTimeStep, r.errorMm);
+          if (r.rollbacks > 0 || r.failed) qInfo("  guard: %s", r.message.c_str());
+          QVERIFY2(r.finite, qPrintable(QString::fromStdString(c.name + " / " + integrator + ": " + r.message)));
+        }
+    }
+  }
+
+  void implicitEulerIsStableAtFiveTimesTheVerletLimitOnStiffCases() {
+    int stiff = 0;
+    for (const StabilityCase& c : cases_) {
+      if (!c.stiff) continue;
+      ++stiff;
+      const double verlet = largestStableStep(c, "damped_verlet", 0.005, 20.0);
+      QVERIFY2(verlet > 0.0, c.name.c_str());
+      // The Verlet limit is real: one grid step above it needs the guard.
+      QVERIFY(runStabilityCase(c, "damped_verlet", 2.0 * verlet, 0, false).rollbacks > 0);
+      const double implicit = largestStableStep(c, "implicit_euler", 5.0 * verlet, 50.0 * verlet);
+      const StabilityRun r = runStabilityCase(c, "implicit_euler", 5.0 * verlet);
+      const StabilityRun v = runStabilityCase(c, "damped_verlet", verlet);
+      qInfo("%s: largest stable step Verlet %.4g, implicit Euler >= %.4g (%.1fx); error at 5x: %.3f mm (Verlet at its "
+            "limit: %.3f mm)",
+            c.name.c_str(), verlet, implicit, implicit / verlet, r.errorMm, v.errorMm);
+      QCOMPARE(r.outcome(), std::string("stable"));
+      QVERIFY(implicit >= 5.0 * verlet);
+      // Stable and still segmenting: at least as close to the truth as the start.
+      QVERIFY(r.errorMm < runStabilityCase(c, "implicit_euler", 5.0 * verlet, 1).errorMm);
+    }
+    QVERIFY(stiff >= 2);
+  }
+
+  void guardRollsBackAndRecordsIt() {
+    const StabilityCase& c = findCase(cases_, "weights_at_maxima");
+    const double verlet = largestStableStep(c, "damped_verlet", 0.05, 20.0);
+    const StabilityRun r = runStabilityCase(c, "damped_verlet", 4.0 * verlet, 0, false);
+    QVERIFY(r.rollbacks > 0);
+    QVERIFY(!r.failed);
+    QVERIFY(r.finite);
+    QVERIFY(r.finalTimeStep < 4.0 * verlet);
+    QVERIFY2(r.message.find("moved") != std::string::npos || r.message.find("non-finite") != std::string::npos,
+             r.message.c_str());
+  }
+
+  void guardFailsCleanlyKeepingTheLastGoodState() {
+    Simulation sim(forceRegistry());
+    sim.addStructure(sphereStructure("ball", 2, 10.0f, Vec3::Zero()));
+    sim.addForce("smoothing").setAll("weight", 1.0);
+    sim.setIntegrator("damped_verlet").set(0, "time_step", 10.0);
+    sim.setStabilityGuard({true, 1.0, 0});  // no halving allowed
+    sim.initialize();
+    auto x = sim.store().positionsForWrite();
+    x[0] += Vec3(3.0f, 0.0f, 0.0f);  // a kick that the huge step turns into an explosion
+    const std::vector<Vec3> before(x.begin(), x.end());
+    QVERIFY_THROWS_EXCEPTION(NumericalError, sim.step());
+    const auto after = sim.store().positions();
+    for (size_t v = 0; v < before.size(); ++v) QCOMPARE(after[v], before[v]);
+    QCOMPARE(sim.stabilityEvents().size(), size_t(1));
+    QVERIFY(!sim.stabilityEvents()[0].recovered);
+    QCOMPARE(sim.iteration(), 0L);
+  }
+
+  void implicitEulerMatchesVerletWhereBothAreStable() {
+    // Same equilibrium: a small step of each integrator ends on the same surface.
+    const StabilityCase& c = findCase(cases_, "baseline");
+    const StabilityRun v = runStabilityCase(c, "damped_verlet", 0.5, 400);
+    const StabilityRun i = runStabilityCase(c, "implicit_euler", 0.5, 400);
+    qInfo("baseline error: Verlet %.3f mm, implicit Euler %.3f mm", v.errorMm, i.errorMm);
+    QCOMPARE(v.outcome(), std::string("stable"));
+    QCOMPARE(i.outcome(), std::string("stable"));
+    QVERIFY(std::abs(v.errorMm - i.errorMm) < 0.1);
+    QVERIFY(i.errorMm < 0.6);
+  }
+};
+
+QTEST_GUILESS_MAIN(TestStability)
+#include "tst_stability.moc"
