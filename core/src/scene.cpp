@@ -182,7 +182,7 @@ SceneDesc parseScene(const std::string& text, const fs::path& file) {
   }
   const Node root(json, "", file);
   root.expectObject({"version", "description", "images", "structures", "forces", "integrator", "schedule",
-                     "model", "report", "outputs"});
+                     "model", "report", "outputs", "stability"});
   SceneDesc s;
   s.file = file;
   s.version = root.at("version").integer();
@@ -237,6 +237,15 @@ SceneDesc parseScene(const std::string& text, const fs::path& file) {
     m.expectObject({"coarse_spacing_mm"});
     s.coarseSpacingMm = m.at("coarse_spacing_mm").number();
     if (!(s.coarseSpacingMm > 0.0)) m.at("coarse_spacing_mm").fail("must be positive");
+  }
+  if (root.has("stability")) {
+    const Node g = root.at("stability");
+    g.expectObject({"guard", "max_step_mm", "max_retries"});
+    if (g.has("guard")) s.stability.enabled = g.at("guard").boolean();
+    if (g.has("max_step_mm")) s.stability.maxStepMm = g.at("max_step_mm").number();
+    if (!(s.stability.maxStepMm > 0.0)) g.at("max_step_mm").fail("must be positive");
+    if (g.has("max_retries")) s.stability.maxRetries = g.at("max_retries").integer();
+    if (s.stability.maxRetries < 0 || s.stability.maxRetries > 30) g.at("max_retries").fail("must be in [0, 30]");
   }
   if (root.has("report")) {
     const Node r = root.at("report");
@@ -308,6 +317,8 @@ std::string sceneToJson(const SceneDesc& s) {
   }
   j["schedule"] = schedule;
   j["model"]["coarse_spacing_mm"] = s.coarseSpacingMm;
+  j["stability"] = {{"guard", s.stability.enabled}, {"max_step_mm", s.stability.maxStepMm},
+                    {"max_retries", s.stability.maxRetries}};
   j["report"] = {{"sample_interval", s.sampleInterval}, {"surface_sample_spacing_mm", s.surfaceSampleSpacingMm}};
   j["outputs"] = {{"mesh_format", s.meshFormat}, {"meshes", s.writeMeshes}, {"label_map", s.labelMapName}};
   return j.dump(2) + "\n";

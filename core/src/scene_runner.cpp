@@ -230,6 +230,7 @@ void SceneRunner::load() {
     L.sim->scene().setTrainingImage(
         std::make_shared<Image3D>(registry_.imageIOFor(*scene_.trainingImage).readImage(*scene_.trainingImage)));
   log("training and initialising the forces");
+  L.sim->setStabilityGuard(scene_.stability);
   L.sim->initialize();
   log("ready");
 }

@@ -207,6 +207,41 @@ private slots:
     QCOMPARE(seg.at(2, 2, 2), 0);
   }
 
+  // A Verlet step far beyond its stable limit: the guard rolls back and halves it, the run completes
+  // and the report lists every rollback. With no halving allowed, the run stops with exit code 4
+  // and still writes the last good meshes.
+  void stabilityGuardIsReported() {
+    auto unstable = [](std::string& t) { replace(t, R"("time_step": 0.5)", R"("time_step": 12)"); };
+    const fs::path out = path("guarded");
+    const Result r = sinewRun({QString::fromStdString(writeScene("unstable.json", unstable).string()), "-o",
+                               QString::fromStdString(out.string())});
+    QVERIFY2(r.code == 0, qPrintable(r.err));
+    QVERIFY2(r.err.contains("stability guard: iteration"), qPrintable(r.err));
+    const QJsonObject report = readJson(out / "report.json");
+    QCOMPARE(report["status"].toString(), QString("completed"));
+    const QJsonObject stability = report["stability"].toObject();
+    QVERIFY(stability["rollbacks"].toInt() > 0);
+    const QJsonObject first = stability["events"].toArray()[0].toObject();
+    QVERIFY(first["recovered"].toBool());
+    QVERIFY(first["time_step"].toDouble() < 12.0);
+    QVERIFY(first["reason"].toString().contains("ellipsoid"));
+
+    const fs::path failed = path("failed");
+    const Result f = sinewRun({QString::fromStdString(writeScene("no_retries.json", [&](std::string& t) {
+                                 unstable(t);
+                                 replace(t, R"("report": {)", R"("stability": {"max_retries": 0}, "report": {)");
+                               }).string()),
+                               "-o", QString::fromStdString(failed.string())});
+    QCOMPARE(f.code, 4);
+    QVERIFY2(f.err.contains("numerical failure") && f.err.contains("last good"), qPrintable(f.err));
+    const QJsonObject failedReport = readJson(failed / "report.json");
+    QCOMPARE(failedReport["status"].toString(), QString("numerical_failure"));
+    QVERIFY(!failedReport["stability"].toObject()["events"].toArray().last().toObject()["recovered"].toBool());
+    const TriangleMesh kept = builtinRegistry().meshIOFor("x.vtp").read(failed / "ellipsoid.vtp");
+    QVERIFY(!kept.points.empty());
+    for (const Vec3& p : kept.points) QVERIFY(p.allFinite());
+  }
+
   void refusesBadInputs() {
     expectBadInput(writeScene("missing_image.json", [](std::string& t) { replace(t, "image.nii.gz", "nothere.nii.gz"); }),
                    "nothere.nii.gz", "no such file");

@@ -3,6 +3,7 @@
 // resources/scene.schema.json; unknown keys and wrong types are errors naming the JSON path.
 #pragma once
 
+#include "sinew/core/stability.h"
 #include "sinew/core/types.h"
 
 #include <array>
@@ -68,6 +69,7 @@ struct SceneDesc {
   std::vector<std::pair<std::string, double>> integratorParams;
   std::vector<LevelDesc> schedule;
   double coarseSpacingMm = 4.0;      // target vertex spacing of a reference built at level 0
+  StabilityGuard stability;          // "stability": the guard's limits
   int sampleInterval = 10;           // iterations between report samples
   double surfaceSampleSpacingMm = 0.5;
   std::string meshFormat = ".vtp";

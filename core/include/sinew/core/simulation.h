@@ -3,6 +3,7 @@
 #pragma once
 
 #include "sinew/core/registry.h"
+#include "sinew/core/stability.h"
 
 #include <memory>
 #include <string>
@@ -19,24 +20,6 @@ struct StructureSpec {
   // gets the coarser reference carried by the prolongation.
   std::vector<std::vector<Vec3>> finerReferences;
   float density = 0.0f;                  // 0: chosen per level so the mean vertex mass is 1
-};
-
-// The stability guard checks every step, for every integrator: a non-finite position, or a vertex
-// moving farther than maxStepMm in one step, rolls the step back to the last good state and halves
-// the integrator's "time_step" (at most maxRetries times in a row). When that does not help, step()
-// throws NumericalError with the last good state in the store.
-struct StabilityGuard {
-  bool enabled = true;
-  double maxStepMm = 20.0;
-  int maxRetries = 6;
-};
-
-struct StabilityEvent {
-  long iteration = 0;
-  int level = 0;
-  std::string reason;     // what the check found, naming the structure and vertex
-  double timeStep = 0.0;  // the step size after the event (halved), or the last one tried
-  bool recovered = true;  // false: the guard gave up and the run stops here
 };
 
 class Simulation {

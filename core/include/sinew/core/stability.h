@@ -1,0 +1,26 @@
+// The stability guard's settings and what it records (used by Simulation, scenes and reports).
+#pragma once
+
+#include <string>
+
+namespace sinew {
+
+// The stability guard checks every step, for every integrator: a non-finite position, or a vertex
+// moving farther than maxStepMm in one step, rolls the step back to the last good state and halves
+// the integrator's "time_step" (at most maxRetries times in a row). When that does not help, step()
+// throws NumericalError with the last good state in the store.
+struct StabilityGuard {
+  bool enabled = true;
+  double maxStepMm = 20.0;
+  int maxRetries = 6;
+};
+
+struct StabilityEvent {
+  long iteration = 0;
+  int level = 0;
+  std::string reason;     // what the check found, naming the structure and vertex
+  double timeStep = 0.0;  // the step size after the event (halved), or the last one tried
+  bool recovered = true;  // false: the guard gave up and the run stops here
+};
+
+}  // namespace sinew
