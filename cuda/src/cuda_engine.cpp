@@ -83,6 +83,10 @@ struct CudaEngine::Impl {
   DeviceArray<float> density, elevation, area, mass;
   DeviceArray<float3> x, prev, force, normal, centre;
   DeviceArray<float4> reference;
+  // Implicit Euler: per-structure Jacobian weights and the solver's work arrays.
+  DeviceArray<float> meshPull, meshNormalPull, implicitA, implicitB, implicitOff;
+  DeviceArray<float3> implicitVel, implicitRhs, implicitR, implicitZ, implicitP, implicitAp;
+  DeviceArray<double> implicitScalars;
   // Image-derived data, only when a force needs it.
   DeviceArray<float> image, profiles;
   DeviceArray<float3> gradient;
@@ -136,6 +140,27 @@ struct CudaEngine::Impl {
     if (points.get() != oldPoints) invalidateGraph();
     for (const ForceSlot& f : forces)
       if (f.kind == Kind::Gradient) uploadGradient(f);
+    if (implicit()) uploadJacobianWeights();
+  }
+
+  bool implicit() const { return sim.integratorName() == "implicit_euler"; }
+
+  // As the CPU forces' addJacobian: smoothing and the shape prior pull toward the neighbours, the
+  // image forces along the normal; a force weighted 0 everywhere adds nothing.
+  void uploadJacobianWeights() {
+    const Index meshes = sim.structureCount();
+    std::vector<float> pull(meshes, 0.0f), normalPull(meshes, 0.0f);
+    for (const ForceSlot& f : forces) {
+      const ParamTable& t = sim.forceParams(f.name);
+      if (!t.anyPositive(0)) continue;
+      std::vector<float>* target = f.kind == Kind::Smoothing || f.kind == Kind::ShapePrior ? &pull
+                                   : f.kind == Kind::Gradient || f.kind == Kind::Profile    ? &normalPull
+                                                                                             : nullptr;
+      if (!target) continue;  // attraction points stay explicit, as on the CPU
+      for (Index m = 0; m < meshes; ++m) (*target)[m] += std::max(0.0f, t.getf(m, 0));
+    }
+    meshPull.upload(pull, stream);
+    meshNormalPull.upload(normalPull, stream);
   }
 
   void invalidateGraph() {
@@ -188,6 +213,11 @@ struct CudaEngine::Impl {
       centre.resize(s.cellCount());
     }
     if (s.has(Attribute::Mass)) mass.resize(s.vertexCount());
+    if (implicit()) {
+      for (auto* a : {&implicitA, &implicitB, &implicitOff}) a->resize(s.vertexCount());
+      for (auto* a : {&implicitVel, &implicitRhs, &implicitR, &implicitZ, &implicitP, &implicitAp}) a->resize(s.vertexCount());
+      implicitScalars.resize(8);
+    }
     if (s.has(Attribute::ReferenceParams)) {
       const auto rp = s.referenceParams();
       std::vector<float4> r(rp.size());
@@ -285,7 +315,16 @@ struct CudaEngine::Impl {
       }
     }
     const ParamTable& ip = sim.integratorParams();
-    launchVerlet(view, ip.getf(0, ip.indexOf("time_step")), 1.0f - ip.getf(0, ip.indexOf("damping")), stream);
+    if (!implicit()) {
+      launchVerlet(view, ip.getf(0, ip.indexOf("time_step")), 1.0f - ip.getf(0, ip.indexOf("damping")), stream);
+      return;
+    }
+    const ImplicitTerms terms{meshPull.get(), meshNormalPull.get()};
+    const ImplicitWork work{implicitA.get(), implicitB.get(), implicitOff.get(), implicitVel.get(), implicitRhs.get(),
+                            implicitR.get(), implicitZ.get(), implicitP.get(), implicitAp.get(), implicitScalars.get()};
+    launchImplicitEuler(view, terms, work, ip.getf(0, ip.indexOf("time_step")), ip.getf(0, ip.indexOf("damping_rate")),
+                        ip.get(0, ip.indexOf("cg_tolerance")), static_cast<int>(ip.get(0, ip.indexOf("cg_max_iterations"))),
+                        stream);
   }
 };
 
@@ -293,7 +332,7 @@ CudaEngine::CudaEngine(Simulation& simulation) : impl_(std::make_unique<Impl>(si
   const DeviceStatus st = probeDevice();
   if (!st.usable) throw std::runtime_error(st.reason);
   impl_->device = st.description;
-  if (simulation.integratorName() != "damped_verlet")
+  if (simulation.integratorName() != "damped_verlet" && simulation.integratorName() != "implicit_euler")
     throw std::runtime_error("integrator '" + simulation.integratorName() + "' has no CUDA implementation");
   static const std::map<std::string, Kind> kinds = {{"smoothing", Kind::Smoothing},
                                                     {"shape_prior", Kind::ShapePrior},

@@ -69,6 +69,20 @@ void launchAttraction(const MeshView& m, ParamView p, int kRing, const float3* p
                       const int* meshBegin, const int* meshEnd, int pointCount, unsigned long long* scratch,
                       cudaStream_t s);
 void launchVerlet(const MeshView& m, float dt, float keep, cudaStream_t s);
+// Implicit Euler (implicit_kernels.cu): per structure, the weights of the forces whose Jacobian is
+// a pull toward the neighbours (smoothing, shape prior) and along the normal (gradient, profile).
+struct ImplicitTerms {
+  const float* meshPull = nullptr;
+  const float* meshNormalPull = nullptr;
+};
+// Work arrays, one entry per vertex, and the solve's scalars (8 doubles).
+struct ImplicitWork {
+  float *a = nullptr, *b = nullptr, *off = nullptr;
+  float3 *vel = nullptr, *rhs = nullptr, *r = nullptr, *z = nullptr, *p = nullptr, *ap = nullptr;
+  double* scalars = nullptr;
+};
+void launchImplicitEuler(const MeshView& m, const ImplicitTerms& t, const ImplicitWork& w, float dt, float kappa,
+                         double tolerance, int maxIterations, cudaStream_t s);
 // fine[i] = sum_k weight[k] coarse[index[k]] (level change on the device).
 // One structure's vertex and cell ranges (global indices), for drawing.
 struct DrawRange {

@@ -19,13 +19,15 @@ using Clock = std::chrono::steady_clock;
 
 namespace {
 
+std::string integrator = "damped_verlet";
+
 std::unique_ptr<Simulation> seedScene(const std::vector<StructureSpec>& specs, bool profile) {
   auto sim = std::make_unique<Simulation>(forceRegistry(), 0);
   for (const auto& s : specs) sim->addStructure(s);
   sim->addForce("smoothing");
   sim->addForce("shape_prior");
   if (profile) sim->addForce("intensity_profile");
-  sim->setIntegrator("damped_verlet");
+  sim->setIntegrator(integrator);
   sim->scene().setTargetImage(seedImage());
   sim->initialize();
   return sim;
@@ -52,12 +54,14 @@ int main(int argc, char** argv) {
   const int maxLevel = argc > 1 ? std::atoi(argv[1]) : 6;
   const int cpuMaxLevel = argc > 2 ? std::atoi(argv[2]) : 3;
   const int minLevel = argc > 3 ? std::atoi(argv[3]) : 0;  // e.g. to profile only the large sizes
+  if (argc > 4) integrator = argv[4];                       // damped_verlet (default) or implicit_euler
   const cuda::DeviceStatus st = cuda::probeDevice();
   if (!st.usable) {
     std::printf("no CUDA device: %s\n", st.reason.c_str());
     return 0;
   }
-  std::printf("device: %s; CPU: %s\n", st.description.c_str(), cpuDescription(Executor().threads()).c_str());
+  std::printf("device: %s; CPU: %s; integrator %s\n", st.description.c_str(),
+              cpuDescription(Executor().threads()).c_str(), integrator.c_str());
   std::printf("device-to-device copy: %.0f GB/s (read + write)\n\n", deviceCopyBandwidth() / 1e9);
   std::printf("| case | vertices | CUDA us/iter | CUDA G vertex-iter/s | CPU ms/iter | CPU M vertex-iter/s | CUDA/CPU |\n");
   std::printf("| --- | ---: | ---: | ---: | ---: | ---: | ---: |\n");
