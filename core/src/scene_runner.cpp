@@ -327,10 +327,7 @@ RunReport SceneRunner::run() {
     for (int it = 0; it < lv.iterations && report.numericalFailure.empty();) {
       const int chunk = std::min(scene_.sampleInterval - it % scene_.sampleInterval, lv.iterations - it);
       const auto t0 = Clock::now();
-      if (!onBackend([&](ExecutionBackend& b) {
-            b.run(chunk);
-            b.download();
-          })) {
+      if (!onBackend([&](ExecutionBackend& b) { runGuarded(b, chunk, report); })) {
         try {
           sim.run(chunk);
         } catch (const NumericalError& e) {
@@ -357,6 +354,40 @@ RunReport SceneRunner::run() {
   }
   report.totalSeconds = since(L.created);
   return report;
+}
+
+// The stability guard for a backend: the chunk's steps are checked together when they come back
+// (the host store holds the state the chunk started from), against the one-step limit; a failed chunk is undone on the host,
+// the step halved, and the backend reloaded to run it again.
+void SceneRunner::runGuarded(ExecutionBackend& backend, int chunk, RunReport& report) {
+  Simulation& sim = *loaded_->sim;
+  if (!sim.stabilityGuard().enabled) {
+    backend.run(chunk);
+    backend.download();
+    return;
+  }
+  MeshStore& store = sim.store();
+  const std::vector<Vec3> goodX(store.positions().begin(), store.positions().end());
+  std::vector<Vec3> goodPrev;
+  if (store.has(Attribute::PreviousPosition))
+    goodPrev.assign(store.previousPositions().begin(), store.previousPositions().end());
+  for (int attempt = 0;; ++attempt) {
+    backend.run(chunk);
+    backend.download();
+    // A whole chunk may move a vertex no farther than one step may on the CPU: legitimate motion is
+    // far slower, and a looser bound would let oscillation just below the explosion through.
+    const std::string problem = sim.checkStep(goodX);
+    if (problem.empty()) return;
+    sim.countExternalSteps(-chunk);  // the chunk is undone
+    try {
+      sim.recover(goodX, goodPrev, problem, attempt);
+    } catch (const NumericalError& e) {
+      report.numericalFailure = e.what();
+      if (options_.log) options_.log(std::string("numerical failure: ") + e.what());
+      return;
+    }
+    backend.reload();
+  }
 }
 
 bool SceneRunner::enterNextLevel() {

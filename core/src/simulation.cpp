@@ -199,40 +199,44 @@ void Simulation::step() {
   }
   const auto x = store_.positions();
   goodPositions_.assign(x.begin(), x.end());
-  const bool hasPrevious = store_.has(Attribute::PreviousPosition);
-  if (hasPrevious) {
+  goodPrevious_.clear();
+  if (store_.has(Attribute::PreviousPosition)) {
     const auto prev = store_.previousPositions();
     goodPrevious_.assign(prev.begin(), prev.end());
   }
-  int kStep = -1;
-  for (int i = 0; i < static_cast<int>(integratorParams_.decls().size()); ++i)
-    if (integratorParams_.decls()[i].name == "time_step") kStep = i;
   for (int attempt = 0;; ++attempt) {
     computeForces();
     integrator_->step(ictx);
     const std::string problem = checkStep(goodPositions_);
     if (problem.empty()) break;
-    // Back to the last good state.
-    auto xw = store_.positionsForWrite();
-    std::copy(goodPositions_.begin(), goodPositions_.end(), xw.begin());
-    if (hasPrevious) std::copy(goodPrevious_.begin(), goodPrevious_.end(), store_.previousPositions().begin());
-    StabilityEvent e{iteration_, level_, problem, kStep >= 0 ? integratorParams_.get(0, kStep) : 0.0, false};
-    const double halved = e.timeStep / 2.0;
-    const bool canHalve = kStep >= 0 && attempt < guard_.maxRetries && halved >= integratorParams_.decls()[kStep].min;
-    if (!canHalve) {
-      events_.push_back(e);
-      throw NumericalError(problem + " at iteration " + std::to_string(iteration_) + "; " +
-                           (kStep < 0 ? "the integrator has no time_step to reduce"
-                                      : "still unstable after " + std::to_string(attempt) + " halvings of the time step") +
-                           "; the state is the last good one");
-    }
-    integratorParams_.set(0, kStep, halved);
-    integrator_->timeStepScaled(ictx, 0.5f);
-    e.timeStep = halved;
-    e.recovered = true;
-    events_.push_back(e);
+    recover(goodPositions_, goodPrevious_, problem, attempt);
   }
   ++iteration_;
+}
+
+void Simulation::recover(std::span<const Vec3> goodPositions, std::span<const Vec3> goodPrevious,
+                         const std::string& problem, int attempt) {
+  auto x = store_.positionsForWrite();
+  std::copy(goodPositions.begin(), goodPositions.end(), x.begin());
+  if (!goodPrevious.empty()) std::copy(goodPrevious.begin(), goodPrevious.end(), store_.previousPositions().begin());
+  int kStep = -1;
+  for (int i = 0; i < static_cast<int>(integratorParams_.decls().size()); ++i)
+    if (integratorParams_.decls()[i].name == "time_step") kStep = i;
+  StabilityEvent e{iteration_, level_, problem, kStep >= 0 ? integratorParams_.get(0, kStep) : 0.0, false};
+  const double halved = e.timeStep / 2.0;
+  if (kStep < 0 || attempt >= guard_.maxRetries || halved < integratorParams_.decls()[kStep].min) {
+    events_.push_back(e);
+    throw NumericalError(problem + " at iteration " + std::to_string(iteration_) + "; " +
+                         (kStep < 0 ? "the integrator has no time_step to reduce"
+                                    : "still unstable after " + std::to_string(attempt) + " halvings of the time step") +
+                         "; the state is the last good one");
+  }
+  integratorParams_.set(0, kStep, halved);
+  IntegratorContext ictx{store_, integratorParams_, executor_, &jacobian_};
+  integrator_->timeStepScaled(ictx, 0.5f);
+  e.timeStep = halved;
+  e.recovered = true;
+  events_.push_back(e);
 }
 
 void Simulation::run(int iterations) {

@@ -95,6 +95,7 @@ public:
   bool hasGroundTruth(Index structure) const;
 
 private:
+  void runGuarded(ExecutionBackend& backend, int chunk, RunReport& report);
   struct Loaded;
   void sample(RunReport& report, double seconds);
 

@@ -57,6 +57,15 @@ public:
   ParamTable& integratorParams() { return integratorParams_; }
   void setStabilityGuard(const StabilityGuard& guard) { guard_ = guard; }
   const StabilityGuard& stabilityGuard() const { return guard_; }
+  // Why the current positions are not an acceptable step from `before` (non-finite, or a vertex
+  // farther than maxStepMm), or "" when they are. Also used for steps run elsewhere (a backend's
+  // chunk is held to the one-step limit).
+  std::string checkStep(std::span<const Vec3> before);
+  // Restores the good state, halves "time_step" and records the event (attempt: how many
+  // recoveries in a row before this one). Throws NumericalError, the good state restored, when the
+  // guard has no retry left.
+  void recover(std::span<const Vec3> goodPositions, std::span<const Vec3> goodPrevious, const std::string& problem,
+               int attempt);
   // Every rollback so far, in order.
   const std::vector<StabilityEvent>& stabilityEvents() const { return events_; }
   // How often each force was evaluated (a force weighted 0 everywhere is skipped).
@@ -70,8 +79,6 @@ private:
   void applyDensities();
   void prepareForces();
   void computeForces();
-  // Empty when the step from `before` to the current positions is acceptable, else why not.
-  std::string checkStep(std::span<const Vec3> before);
 
   const Registry& registry_;
   Executor executor_;
