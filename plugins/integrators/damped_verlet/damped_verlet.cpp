@@ -5,23 +5,10 @@
 namespace sinew {
 
 namespace {
-class DampedVerlet final : public Integrator {
+class DampedVerlet final : public PreviousPositionIntegrator {
 public:
   Requirements requirements() const override {
     return {{Attribute::PreviousPosition, Attribute::Force, Attribute::Mass}, false};
-  }
-
-  void start(IntegratorContext& ctx) override {
-    const auto x = ctx.store.positions();
-    auto prev = ctx.store.previousPositions();
-    std::copy(x.begin(), x.end(), prev.begin());  // start at rest
-  }
-
-  // x - x_prev is velocity times dt: scale it with dt so the velocity is kept.
-  void timeStepScaled(IntegratorContext& ctx, float factor) override {
-    const auto x = ctx.store.positions();
-    auto prev = ctx.store.previousPositions();
-    ctx.executor.forEach(ctx.store.vertexCount(), [&](Index v) { prev[v] = x[v] - factor * (x[v] - prev[v]); }, 4096);
   }
 
   void step(IntegratorContext& ctx) override {

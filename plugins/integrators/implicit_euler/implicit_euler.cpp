@@ -36,24 +36,12 @@ private:
   std::vector<double> partial_;
 };
 
-class ImplicitEuler final : public Integrator {
+class ImplicitEuler final : public PreviousPositionIntegrator {
 public:
   Requirements requirements() const override {
     Requirements r{{Attribute::PreviousPosition, Attribute::Force, Attribute::Mass}, false};
     r.jacobian = true;
     return r;
-  }
-
-  void start(IntegratorContext& ctx) override {
-    const auto x = ctx.store.positions();
-    auto prev = ctx.store.previousPositions();
-    std::copy(x.begin(), x.end(), prev.begin());  // start at rest
-  }
-
-  void timeStepScaled(IntegratorContext& ctx, float factor) override {
-    const auto x = ctx.store.positions();
-    auto prev = ctx.store.previousPositions();
-    ctx.executor.forEach(ctx.store.vertexCount(), [&](Index v) { prev[v] = x[v] - factor * (x[v] - prev[v]); }, 4096);
   }
 
   void step(IntegratorContext& ctx) override {
@@ -85,8 +73,6 @@ public:
       x[i] += h * v_[i];
     }, 4096);
   }
-
-  int lastIterations() const { return lastIterations_; }
 
 private:
   // A = M (1 + h kappa) - h^2 K, with each neighbour block averaged with its mirror so that A is
@@ -127,7 +113,6 @@ private:
     }, 4096);
     const double bNorm = std::sqrt(sums_.sum(ex, n, [&](Index i) { return double(b_[i].squaredNorm()); }));
     double rz = sums_.sum(ex, n, [&](Index i) { return double(r_[i].dot(z_[i])); });
-    lastIterations_ = 0;
     for (int it = 0; it < maxIterations; ++it) {
       const double rNorm = std::sqrt(sums_.sum(ex, n, [&](Index i) { return double(r_[i].squaredNorm()); }));
       if (!(rNorm > tolerance * bNorm)) break;  // converged (or b = 0)
@@ -144,7 +129,6 @@ private:
       const float beta = static_cast<float>(rzNext / rz);
       rz = rzNext;
       ex.forEach(n, [&](Index i) { p_[i] = z_[i] + beta * p_[i]; }, 4096);
-      lastIterations_ = it + 1;
     }
   }
 
@@ -152,7 +136,6 @@ private:
   std::vector<std::array<Mat3, 3>> off_;
   std::vector<Vec3> b_, v_, r_, z_, p_, ap_;
   BlockSums sums_;
-  int lastIterations_ = 0;
 };
 }  // namespace
 

@@ -60,6 +60,14 @@ public:
   virtual void timeStepScaled(IntegratorContext&, float /*factor*/) {}
 };
 
+// An integrator whose velocity is (x - x_prev) / dt (both built-ins): it starts at rest, and when
+// the guard changes dt, x - x_prev is scaled with it so the velocity is kept.
+class PreviousPositionIntegrator : public Integrator {
+public:
+  void start(IntegratorContext& ctx) override;
+  void timeStepScaled(IntegratorContext& ctx, float factor) override;
+};
+
 // Calls body(v, alpha) for every vertex whose structure has a positive weight, in parallel.
 template <class Body>
 void forActiveVertices(const ForceContext& ctx, Body&& body) {
