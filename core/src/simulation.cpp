@@ -214,7 +214,7 @@ void Simulation::step() {
   ++iteration_;
 }
 
-void Simulation::recover(std::span<const Vec3> goodPositions, std::span<const Vec3> goodPrevious,
+void Simulation::recover(std::span<const Vec3> goodPositions, std::vector<Vec3>& goodPrevious,
                          const std::string& problem, int attempt) {
   auto x = store_.positionsForWrite();
   std::copy(goodPositions.begin(), goodPositions.end(), x.begin());
@@ -234,6 +234,12 @@ void Simulation::recover(std::span<const Vec3> goodPositions, std::span<const Ve
   integratorParams_.set(0, kStep, halved);
   IntegratorContext ictx{store_, integratorParams_, executor_, &jacobian_};
   integrator_->timeStepScaled(ictx, 0.5f);
+  // The good state now carries the halved step's previous positions: a further retry halves from
+  // here, so the velocity stays that of the good state however many retries follow.
+  if (!goodPrevious.empty()) {
+    const auto prev = store_.previousPositions();
+    goodPrevious.assign(prev.begin(), prev.end());
+  }
   e.timeStep = halved;
   e.recovered = true;
   events_.push_back(e);

@@ -5,6 +5,7 @@
 #include "cuda_check.h"
 #include "kernels.h"
 
+#include <algorithm>
 #include <cmath>
 #include <map>
 #include <sstream>
@@ -216,7 +217,7 @@ struct CudaEngine::Impl {
     if (implicit()) {
       for (auto* a : {&implicitA, &implicitB, &implicitOff}) a->resize(s.vertexCount());
       for (auto* a : {&implicitVel, &implicitRhs, &implicitR, &implicitZ, &implicitP, &implicitAp}) a->resize(s.vertexCount());
-      implicitScalars.resize(8);
+      implicitScalars.resize(kImplicitScalars);
     }
     if (s.has(Attribute::ReferenceParams)) {
       const auto rp = s.referenceParams();
@@ -368,9 +369,14 @@ void CudaEngine::run(int iterations) {
     signature.push_back(I.sim.integratorParams().getf(0, static_cast<int>(p)));
   if (signature != I.graphSignature) I.invalidateGraph();
   I.graphSignature = signature;
-  // Batches of up to 32 steps, each length captured once as a CUDA Graph and replayed (a report
+  // Batches of up to 32 steps (fewer for implicit Euler, below), each length captured once as a CUDA Graph and replayed (a report
   // interval of 10 replays a 10-step graph).
-  constexpr int kBatch = 32;
+  // Implicit Euler captures 4 kernels per conjugate-gradient iteration in each step: fewer steps
+  // per graph keep a graph near 4,000 nodes.
+  const int cgIterations = I.implicit() ? static_cast<int>(I.sim.integratorParams().get(
+                                              0, I.sim.integratorParams().indexOf("cg_max_iterations")))
+                                        : 0;
+  const int kBatch = std::clamp(4000 / (4 * cgIterations + 8), 1, 32);
   while (iterations > 0) {
     const int n = std::min(iterations, kBatch);
     auto it = I.graphs.find(n);
@@ -493,7 +499,9 @@ std::size_t CudaEngine::deviceBytes() const {
   return I.neighbours.bytes() + I.vertexCells.bytes() + I.cellOffsets.bytes() + I.cellVertices.bytes() +
          I.meshOf.bytes() + I.density.bytes() + I.elevation.bytes() + I.area.bytes() + I.mass.bytes() + I.x.bytes() +
          I.prev.bytes() + I.force.bytes() + I.normal.bytes() + I.centre.bytes() + I.reference.bytes() +
-         I.image.bytes() + I.profiles.bytes() + I.gradient.bytes() + I.contourOut.bytes();
+         I.image.bytes() + I.profiles.bytes() + I.gradient.bytes() + I.contourOut.bytes() + I.implicitA.bytes() +
+         I.implicitB.bytes() + I.implicitOff.bytes() + I.implicitVel.bytes() + I.implicitRhs.bytes() +
+         I.implicitR.bytes() + I.implicitZ.bytes() + I.implicitP.bytes() + I.implicitAp.bytes();
 }
 
 }  // namespace sinew::cuda

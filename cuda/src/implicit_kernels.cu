@@ -14,7 +14,8 @@ constexpr unsigned kThreads = 256;
 unsigned blocks(int n) { return (n + kThreads - 1) / kThreads; }
 
 // Scalars of the solve, in device memory.
-enum Slot { kRz, kPAp, kRr, kBb, kRzNext, kBeta, kDone, kIterations, kSlots };
+enum Slot { kRz, kPAp, kRr, kBb, kRzNext, kBeta, kDone, kNonFinite, kSlots };
+static_assert(kSlots == kImplicitScalars, "ImplicitWork::scalars holds kImplicitScalars doubles");
 
 __device__ void addToSlot(double value, double* slot) {
   __shared__ double partial[kThreads / 32];
@@ -82,6 +83,11 @@ __global__ void residual(int count, System s, const float3* vel, const float3* r
 
 // Converged (or nothing to do) before the first iteration?
 __global__ void start(double* scalars, double tolerance) {
+  if (!isfinite(scalars[kRr]) || !isfinite(scalars[kBb])) {
+    // A non-finite force: the step becomes non-finite (advance), so the guard sees it.
+    scalars[kNonFinite] = 1.0;
+    scalars[kDone] = 1.0;
+  }
   if (!(scalars[kRr] > tolerance * tolerance * scalars[kBb])) scalars[kDone] = 1.0;
   scalars[kRr] = 0.0;
 }
@@ -122,7 +128,6 @@ __global__ void cgFinish(double* scalars, double tolerance) {
   }
   scalars[kBeta] = scalars[kRzNext] / scalars[kRz];
   scalars[kRz] = scalars[kRzNext];
-  scalars[kIterations] += 1.0;
   if (!(scalars[kRr] > tolerance * tolerance * scalars[kBb])) scalars[kDone] = 1.0;
   scalars[kRzNext] = scalars[kPAp] = scalars[kRr] = 0.0;
 }
@@ -133,12 +138,13 @@ __global__ void cgDirection(int count, const float3* z, float3* p, const double*
   if (v < count) p[v] = z[v] + static_cast<float>(scalars[kBeta]) * p[v];
 }
 
-__global__ void advance(MeshView m, float h, const float3* vel) {
+__global__ void advance(MeshView m, float h, const float3* vel, const double* scalars) {
   const int v = blockIdx.x * blockDim.x + threadIdx.x;
   if (v >= m.vertices) return;
   const float3 current = m.x[v];
   m.prev[v] = current;
-  m.x[v] = current + h * vel[v];
+  const float nan = __int_as_float(0x7fc00000);
+  m.x[v] = scalars[kNonFinite] != 0.0 ? make_float3(nan, nan, nan) : current + h * vel[v];
 }
 }  // namespace
 
@@ -156,7 +162,7 @@ void launchImplicitEuler(const MeshView& m, const ImplicitTerms& t, const Implic
     cgFinish<<<1, 1, 0, s>>>(w.scalars, tolerance);
     cgDirection<<<blocks(n), kThreads, 0, s>>>(n, w.z, w.p, w.scalars);
   }
-  advance<<<blocks(n), kThreads, 0, s>>>(m, dt, w.vel);
+  advance<<<blocks(n), kThreads, 0, s>>>(m, dt, w.vel, w.scalars);
 }
 
 }  // namespace sinew::cuda

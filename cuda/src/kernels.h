@@ -75,7 +75,8 @@ struct ImplicitTerms {
   const float* meshPull = nullptr;
   const float* meshNormalPull = nullptr;
 };
-// Work arrays, one entry per vertex, and the solve's scalars (8 doubles).
+// Work arrays, one entry per vertex, and the solve's scalars.
+constexpr int kImplicitScalars = 8;
 struct ImplicitWork {
   float *a = nullptr, *b = nullptr, *off = nullptr;
   float3 *vel = nullptr, *rhs = nullptr, *r = nullptr, *z = nullptr, *p = nullptr, *ap = nullptr;

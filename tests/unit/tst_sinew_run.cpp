@@ -247,10 +247,11 @@ private slots:
   // host store without the guard stands in for the device, so the runner's chunk check, undo and
   // reload are what keep the run stable.
   void stabilityGuardCoversBackends() {
+    // Steps the host store with the guard off, counting the reloads the runner asks for.
     struct UnguardedBackend final : ExecutionBackend {
       Simulation& sim;
-      int reloads = 0;
-      explicit UnguardedBackend(Simulation& s) : sim(s) {}
+      int& reloads;
+      UnguardedBackend(Simulation& s, int& r) : sim(s), reloads(r) {}
       std::string name() const override { return "unguarded"; }
       std::string device() const override { return "host"; }
       void run(int iterations) override {
@@ -261,25 +262,12 @@ private slots:
       }
       void download() override {}
       void reload() override { ++reloads; }
+      void levelChanged() override {}  // the host state is the backend's here
     };
     int reloads = 0;
     RunOptions options;
     options.backend = [&](Simulation& sim) -> std::unique_ptr<ExecutionBackend> {
-      auto b = std::make_unique<UnguardedBackend>(sim);
-      struct Counting final : ExecutionBackend {
-        std::unique_ptr<UnguardedBackend> inner;
-        int* reloads;
-        std::string name() const override { return inner->name(); }
-        std::string device() const override { return inner->device(); }
-        void run(int n) override { inner->run(n); }
-        void download() override {}
-        void reload() override { ++*reloads; }
-        void levelChanged() override {}  // the host state is the backend's here
-      };
-      auto c = std::make_unique<Counting>();
-      c->inner = std::move(b);
-      c->reloads = &reloads;
-      return c;
+      return std::make_unique<UnguardedBackend>(sim, reloads);
     };
     SceneRunner runner(builtinRegistry(),
                        readScene(writeScene("backend_unstable.json",

@@ -22,6 +22,7 @@ class TestStability : public QObject {
   std::vector<StabilityCase> cases_ = stabilityCases(false);
 
 private Q_SLOTS:
+  // With the guard on, as every run has it: the guard is part of what is tested.
   void noCaseEverProducesANonFiniteVertex() {
     for (const StabilityCase& c : cases_) {
       const double limit = largestStableStep(c, "damped_verlet", 0.05, 20.0);
@@ -88,6 +89,58 @@ private Q_SLOTS:
     QCOMPARE(sim.stabilityEvents().size(), size_t(1));
     QVERIFY(!sim.stabilityEvents()[0].recovered);
     QCOMPARE(sim.iteration(), 0L);
+  }
+
+  // Each recovery halves the step and rescales x - x_prev with it: the velocity of the good state is
+  // kept however many retries follow.
+  void recoveriesKeepTheVelocity() {
+    Simulation sim(forceRegistry());
+    sim.addStructure(sphereStructure("ball", 2, 10.0f, Vec3::Zero()));
+    sim.addForce("smoothing");
+    sim.setIntegrator("damped_verlet").set(0, "time_step", 4.0);
+    sim.initialize();
+    const Vec3 delta(0.4f, -0.2f, 0.1f);  // x - x_prev: velocity delta / 4
+    const std::vector<Vec3> x(sim.store().positions().begin(), sim.store().positions().end());
+    std::vector<Vec3> prev(x);
+    for (Vec3& p : prev) p -= delta;
+    std::copy(prev.begin(), prev.end(), sim.store().previousPositions().begin());
+    for (int attempt = 0; attempt < 3; ++attempt) {
+      sim.recover(x, prev, "a test", attempt);
+      const double dt = sim.integratorParams().get(0, sim.integratorParams().indexOf("time_step"));
+      QCOMPARE(dt, 4.0 / (2 << attempt));
+      for (size_t v = 0; v < x.size(); ++v) {
+        const Vec3 velocity = (sim.store().positions()[v] - sim.store().previousPositions()[v]) / float(dt);
+        QVERIFY2((velocity - delta / 4.0f).norm() < 1e-5f, qPrintable(QString("attempt %1").arg(attempt)));
+      }
+    }
+    QCOMPARE(sim.stabilityEvents().size(), size_t(3));
+    QVERIFY_THROWS_EXCEPTION(NumericalError, (sim.setStabilityGuard({true, 20.0, 3}), sim.recover(x, prev, "a test", 3)));
+  }
+
+  // A force that turns non-finite (a bug in a third-party force, say): every integrator must stop
+  // cleanly on it rather than carry on. Implicit Euler would otherwise keep its old velocity.
+  void nonFiniteForcesStopEveryIntegratorCleanly() {
+    struct NanForce final : Force {
+      Requirements requirements() const override { return {}; }
+      void accumulate(ForceContext&, std::span<Vec3> forces) override {
+        forces[7] += Vec3::Constant(std::numeric_limits<float>::quiet_NaN());
+      }
+    };
+    Registry registry;
+    registerBuiltinForces(registry);
+    registry.addForce({"nan_force", "adds NaN to vertex 7", {}, [] { return std::make_unique<NanForce>(); }});
+    for (const char* integrator : {"damped_verlet", "implicit_euler"}) {
+      Simulation sim(registry);
+      sim.addStructure(sphereStructure("ball", 2, 10.0f, Vec3::Zero()));
+      sim.addForce("smoothing");
+      sim.addForce("nan_force");
+      sim.setIntegrator(integrator);
+      sim.initialize();
+      const std::vector<Vec3> before(sim.store().positions().begin(), sim.store().positions().end());
+      QVERIFY_THROWS_EXCEPTION(NumericalError, sim.step());
+      QVERIFY(sim.stabilityEvents().back().reason.find("non-finite") != std::string::npos);
+      for (size_t v = 0; v < before.size(); ++v) QCOMPARE(sim.store().positions()[v], before[v]);
+    }
   }
 
   void implicitEulerMatchesVerletWhereBothAreStable() {

@@ -40,9 +40,10 @@ public:
       }
       if (slot.written == revision_) continue;
       writes.push_back({slot.link.get(), s, static_cast<std::size_t>(display.surface(s)->GetNumberOfPoints())});
-      slot.written = revision_;
     }
     cuda::writeSurfaces(engine_, writes);
+    for (auto& [s, slot] : mappers_)
+      if (slot.link) slot.written = revision_;  // only once the writes went through
   }
 
   std::vector<std::vector<ContourSegment>> contours(SegmentationSession&, const SlicePlane& plane) override {

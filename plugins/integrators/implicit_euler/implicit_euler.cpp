@@ -9,7 +9,9 @@
 // preconditioner (each vertex's 3x3 diagonal block inverted) solve it.
 #include "sinew/core/registry.h"
 
+#include <algorithm>
 #include <cmath>
+#include <limits>
 
 namespace sinew {
 
@@ -113,6 +115,12 @@ private:
     }, 4096);
     const double bNorm = std::sqrt(sums_.sum(ex, n, [&](Index i) { return double(b_[i].squaredNorm()); }));
     double rz = sums_.sum(ex, n, [&](Index i) { return double(r_[i].dot(z_[i])); });
+    if (!std::isfinite(bNorm) || !std::isfinite(rz)) {
+      // A non-finite force or Jacobian: make the step non-finite too, so the guard sees it (keeping
+      // the old velocity would coast on silently).
+      std::fill(v_.begin(), v_.end(), Vec3::Constant(std::numeric_limits<float>::quiet_NaN()));
+      return;
+    }
     for (int it = 0; it < maxIterations; ++it) {
       const double rNorm = std::sqrt(sums_.sum(ex, n, [&](Index i) { return double(r_[i].squaredNorm()); }));
       if (!(rNorm > tolerance * bNorm)) break;  // converged (or b = 0)
@@ -150,7 +158,7 @@ void registerImplicitEuler(Registry& registry) {
          false},
         {"cg_tolerance", 1e-4, 1e-10, 0.1, "", "conjugate gradients stop at this residual relative to the right side",
          false},
-        {"cg_max_iterations", 100, 1, 10000, "", "conjugate gradient iterations per step at most", false}},
+        {"cg_max_iterations", 100, 1, 1000, "", "conjugate gradient iterations per step at most", false}},
        [] { return std::make_unique<ImplicitEuler>(); }});
 }
 

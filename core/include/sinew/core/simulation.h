@@ -61,10 +61,10 @@ public:
   // farther than maxStepMm), or "" when they are. Also used for steps run elsewhere (a backend's
   // chunk is held to the one-step limit).
   std::string checkStep(std::span<const Vec3> before);
-  // Restores the good state, halves "time_step" and records the event (attempt: how many
-  // recoveries in a row before this one). Throws NumericalError, the good state restored, when the
-  // guard has no retry left.
-  void recover(std::span<const Vec3> goodPositions, std::span<const Vec3> goodPrevious, const std::string& problem,
+  // Restores the good state, halves "time_step" (rescaling goodPrevious with it, so the velocity is
+  // kept) and records the event (attempt: how many recoveries in a row before this one). Throws
+  // NumericalError, the good state restored, when the guard has no retry left.
+  void recover(std::span<const Vec3> goodPositions, std::vector<Vec3>& goodPrevious, const std::string& problem,
                int attempt);
   // Every rollback so far, in order.
   const std::vector<StabilityEvent>& stabilityEvents() const { return events_; }
