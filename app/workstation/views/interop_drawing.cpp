@@ -30,6 +30,7 @@ public:
 
   void beforeRender(SegmentationSession&, DisplayScene& display) override {
     std::vector<cuda::SurfaceWrite> writes;
+    std::vector<Slot*> written;
     for (auto& [s, slot] : mappers_) {
       const unsigned int buffer = slot.mapper->positionBuffer();
       if (buffer == 0) continue;  // not built yet: VTK uploads the host points this time
@@ -40,10 +41,10 @@ public:
       }
       if (slot.written == revision_) continue;
       writes.push_back({slot.link.get(), s, static_cast<std::size_t>(display.surface(s)->GetNumberOfPoints())});
+      written.push_back(&slot);
     }
     cuda::writeSurfaces(engine_, writes);
-    for (auto& [s, slot] : mappers_)
-      if (slot.link) slot.written = revision_;  // only once the writes went through
+    for (Slot* slot : written) slot->written = revision_;  // only once the writes went through
   }
 
   std::vector<std::vector<ContourSegment>> contours(SegmentationSession&, const SlicePlane& plane) override {
