@@ -182,7 +182,7 @@ std::string Simulation::checkStep(std::span<const Vec3> before) {
   if (w.v < 0 || w.score <= guard_.maxStepMm) return {};
   const Index m = store_.meshOfVertex()[w.v];
   const std::string where = "structure '" + structures_[m].name + "', vertex " + std::to_string(w.v - store_.range(m).vertexBegin);
-  if (!std::isfinite(w.score)) return "non-finite position (" + where + ")";
+  if (!x[w.v].allFinite()) return "non-finite position (" + where + ")";
   char moved[64];
   std::snprintf(moved, sizeof moved, "moved %.3g mm in one step (limit %.3g)", double(w.score), guard_.maxStepMm);
   return std::string(moved) + " (" + where + ")";

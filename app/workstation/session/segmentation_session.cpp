@@ -222,21 +222,16 @@ std::size_t SegmentationSession::historyBytes() const {
   return b;
 }
 
-bool SegmentationSession::undo() {
-  if (undo_.empty()) return false;
-  Snapshot before = std::move(undo_.back());
-  undo_.pop_back();
-  redo_.push_back(capture(before.label));
-  restore(before);
-  return true;
-}
+bool SegmentationSession::undo() { return travel(undo_, redo_); }
+bool SegmentationSession::redo() { return travel(redo_, undo_); }
 
-bool SegmentationSession::redo() {
-  if (redo_.empty()) return false;
-  Snapshot after = std::move(redo_.back());
-  redo_.pop_back();
-  undo_.push_back(capture(after.label));
-  restore(after);
+// Restores the newest snapshot of `from`, keeping the current state on `to` under the same label.
+bool SegmentationSession::travel(std::deque<Snapshot>& from, std::deque<Snapshot>& to) {
+  if (from.empty()) return false;
+  Snapshot target = std::move(from.back());
+  from.pop_back();
+  to.push_back(capture(target.label));
+  restore(target);
   return true;
 }
 

@@ -117,6 +117,7 @@ private:
   // Every structure's tessellated surface from the host store; throws NumericalError on NaN.
   std::vector<StructureResult> finalSurfaces();
   void restore(const Snapshot& s);
+  bool travel(std::deque<Snapshot>& from, std::deque<Snapshot>& to);
   void beginEdit(const std::string& label, bool continuing);
   void trimHistory();
   void changed() { ++revision_; }

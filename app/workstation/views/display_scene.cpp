@@ -84,6 +84,11 @@ std::array<double, 6> DisplayScene::bounds() const {
           0.0, (geometry_.size[2] - 1) * geometry_.spacing[2]};
 }
 
+std::array<double, 3> DisplayScene::centre() const {
+  const auto b = bounds();
+  return {0.5 * (b[0] + b[1]), 0.5 * (b[2] + b[3]), 0.5 * (b[4] + b[5])};
+}
+
 Vec3 DisplayScene::toDisplay(const Vec3& world) const {
   const Eigen::Vector3d i = worldToIndex_ * (world.cast<double>() - geometry_.origin);
   return (geometry_.spacing.asDiagonal() * i).cast<float>();

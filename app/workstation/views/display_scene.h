@@ -46,6 +46,7 @@ public:
   const ImageGeometry& geometry() const { return geometry_; }
   // Display-space extent of the image: [min, max] per axis (voxel centres).
   std::array<double, 6> bounds() const;
+  std::array<double, 3> centre() const;  // of bounds()
   vtkMatrix4x4* worldToDisplayMatrix() const;
   Vec3 toDisplay(const Vec3& world) const;
   Vec3 toWorld(const Vec3& display) const;

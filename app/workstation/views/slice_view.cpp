@@ -89,10 +89,10 @@ void SliceView::resetScene() {
 void SliceView::resetCamera() {
   if (scene_.empty()) return;
   const auto b = scene_.bounds();
-  const double centre[3] = {0.5 * (b[0] + b[1]), 0.5 * (b[2] + b[3]), 0.5 * (b[4] + b[5])};
+  const auto centre = scene_.centre();
   vtkCamera* cam = renderer()->GetActiveCamera();
   cam->ParallelProjectionOn();
-  cam->SetFocalPoint(centre);
+  cam->SetFocalPoint(centre.data());
   const double* d = kDirection[axis_];
   cam->SetPosition(centre[0] - 1000 * d[0], centre[1] - 1000 * d[1], centre[2] - 1000 * d[2]);
   cam->SetViewUp(kUp[axis_]);

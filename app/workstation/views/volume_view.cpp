@@ -75,10 +75,10 @@ void VolumeView::resetScene() {
 void VolumeView::resetCamera() {
   if (scene_.empty()) return;
   const auto b = scene_.bounds();
-  const double c[3] = {0.5 * (b[0] + b[1]), 0.5 * (b[2] + b[3]), 0.5 * (b[4] + b[5])};
+  const auto c = scene_.centre();
   vtkCamera* cam = renderer()->GetActiveCamera();
   cam->ParallelProjectionOff();
-  cam->SetFocalPoint(c);
+  cam->SetFocalPoint(c.data());
   // From the front-left, above: the patient's anterior faces the viewer (grid j toward it).
   cam->SetPosition(c[0] - 250, c[1] + 450, c[2] + 200);
   cam->SetViewUp(0, 0, 1);
