@@ -2,7 +2,7 @@
 # Installs the Debian 12 packages Sinew needs to build, test and run its demo. Run as root.
 set -euo pipefail
 packages=(
-  cmake ninja-build g++ pkg-config
+  cmake ninja-build g++ pkg-config dpkg-dev file
   libeigen3-dev libtbb-dev nlohmann-json3-dev libcli11-dev zlib1g-dev
   qt6-base-dev libqt6opengl6-dev fonts-dejavu-core
   xvfb xauth libgl1-mesa-dri libglx-mesa0

@@ -6,3 +6,9 @@ bash scripts/install-deps.sh
 cmake --preset ci
 cmake --build --preset ci
 ctest --preset ci
+# The packages, installed and removed with apt (needs root, as on CI).
+if [ "$(id -u)" = 0 ]; then
+  bash scripts/package-test.sh build/ci
+else
+  echo "test.sh: skipping the package install test (it needs root)"
+fi

@@ -114,20 +114,35 @@ private:
   bool createdOut_ = false, committed_ = false;
 };
 
-void listPlugins(const Registry& registry) {
-  for (const auto& f : registry.forces()) {
-    std::printf("force %s: %s\n", f.name.c_str(), f.summary.c_str());
-    for (const auto& p : f.params)
-      std::printf("    %-16s default %-8g [%g, %g] %-3s %s%s\n", p.name.c_str(), p.defaultValue, p.min, p.max,
-                  p.unit.c_str(), p.help.c_str(), p.perStructure ? "" : " (shared by all structures)");
+void printParams(const std::vector<ParamDecl>& params) {
+  for (const auto& p : params)
+    std::printf("      %-18s default %-8g [%g, %g] %-3s %s%s\n", p.name.c_str(), p.defaultValue, p.min, p.max,
+                p.unit.c_str(), p.help.c_str(), p.perStructure ? "" : " (shared by all structures)");
+}
+
+// Every plugin with its components and their parameters (from the parameter declarations).
+void listPlugins(const PluginLoader& loader, const Registry& registry) {
+  std::printf("plugin search path:");
+  for (const auto& d : loader.searchPath()) std::printf(" %s", d.c_str());
+  std::printf("\n");
+  for (const PluginRecord& p : loader.plugins()) {
+    std::printf("plugin %s %s (%s, %s): %s\n", p.name.c_str(), p.version.c_str(), pluginKindName(p.kind),
+                p.file.empty() ? "built in" : p.file.c_str(), p.summary.c_str());
+    if (p.kind == PluginKind::Tool) std::printf("    (an interaction tool: used by the workstation)\n");
+    for (const std::string& c : p.components) {
+      const std::string kind = c.substr(0, c.find(' ')), name = c.substr(c.find(' ') + 1);
+      if (kind == "force") {
+        std::printf("    force %s: %s\n", name.c_str(), registry.force(name).summary.c_str());
+        printParams(registry.force(name).params);
+      } else if (kind == "integrator") {
+        std::printf("    integrator %s: %s\n", name.c_str(), registry.integrator(name).summary.c_str());
+        printParams(registry.integrator(name).params);
+      } else {
+        std::printf("    %s\n", c.c_str());
+      }
+    }
   }
-  for (const auto& i : registry.integrators()) {
-    std::printf("integrator %s: %s\n", i.name.c_str(), i.summary.c_str());
-    for (const auto& p : i.params)
-      std::printf("    %-16s default %-8g [%g, %g] %s\n", p.name.c_str(), p.defaultValue, p.min, p.max, p.help.c_str());
-  }
-  for (const auto& d : registry.imageIOs()) std::printf("image-io %s: %s\n", d.name.c_str(), d.summary.c_str());
-  for (const auto& d : registry.meshIOs()) std::printf("mesh-io %s: %s\n", d.name.c_str(), d.summary.c_str());
+  for (const PluginFailure& f : loader.failures()) std::printf("not loaded: %s\n", f.message.c_str());
 }
 
 }  // namespace
@@ -146,7 +161,9 @@ int main(int argc, char** argv) {
   cli.add_option("--backend", backendChoice, "auto: CUDA when a usable GPU exists, else the CPU")
       ->check(CLI::IsMember({"auto", "cuda", "cpu"}))
       ->capture_default_str();
-  cli.add_flag("--list-plugins", list, "list forces, integrators and IO plugins with their parameters");
+  cli.add_flag("--list-plugins", list,
+               "list the built-in plugins and every plugin on the search path (SINEW_PLUGIN_PATH, "
+               "~/.local/share/sinew/plugins, the installed plugin directory) with versions and parameters");
   cli.set_version_flag("--version", std::string("sinew-run ") + SINEW_VERSION);
   try {
     cli.parse(argc, argv);
@@ -169,13 +186,20 @@ int main(int argc, char** argv) {
   QGuiApplication qt(qtArgc, argv);
 
   Registry registry;
-  registerBuiltinPlugins(registry);
+  PluginLoader plugins(registry);
+  addBuiltinPlugins(plugins);
   if (list) {
-    listPlugins(registry);
+    plugins.loadAll();
+    listPlugins(plugins, registry);
     return kOk;
   }
   try {
     SceneDesc scene = readScene(scenePath);
+    // Only the run-time plugins the scene names are loaded.
+    for (const std::string& name : scene.plugins) {
+      const PluginRecord& p = plugins.load(name);
+      if (!quiet) std::fprintf(stderr, "plugin %s %s loaded from %s\n", p.name.c_str(), p.version.c_str(), p.file.c_str());
+    }
     ProgressPrinter progress(quiet);
     RunOptions options{threads, std::ref(progress), {}, {}};
     if (!quiet) options.log = [](const std::string& m) { std::fprintf(stderr, "%s\n", m.c_str()); };

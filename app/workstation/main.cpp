@@ -67,10 +67,17 @@ int main(int argc, char** argv) {
   QApplication::setOrganizationName("Sinew");
   QApplication::setApplicationVersion(SINEW_VERSION);
 
+  // Built-in plugins, then every run-time plugin on the search path (tools cannot wait for a
+  // scene to name them); one that fails is reported and the others still load.
   sinew::Registry registry;
-  sinew::registerBuiltinPlugins(registry);
   sinew::ToolRegistry tools;
-  sinew::registerBuiltinTools(tools);
+  sinew::PluginLoader plugins(registry, &tools);
+  sinew::addBuiltinPlugins(plugins);
+  sinew::addBuiltinTools(plugins);
+  plugins.loadAll();
+  for (const auto& failure : plugins.failures())
+    std::fprintf(stderr, "sinew: plugin not loaded: %s\n", failure.message.c_str());
+  options.requirePlugin = [&plugins](const std::string& name) { plugins.load(name); };
   if (measureSeconds > 0) options.persistSettings = false;
   sinew::MainWindow window(registry, tools, options);
   window.resize(windowSize[0], windowSize[1]);

@@ -81,4 +81,38 @@ const MeshIODescriptor& Registry::labelSurfaceBuilder() const {
   throw InputError("no loaded mesh IO plugin can build a surface from a label map");
 }
 
+namespace {
+template <class D>
+void checkFree(const std::vector<D>& mine, const std::vector<D>& theirs, const char* kind) {
+  for (const D& t : theirs)
+    for (const D& m : mine)
+      if (m.name == t.name) throw InputError(std::string(kind) + " '" + t.name + "' is already registered");
+}
+template <class D>
+void moveAll(std::vector<D>& mine, std::vector<D>& theirs) {
+  for (D& d : theirs) mine.push_back(std::move(d));
+  theirs.clear();
+}
+}  // namespace
+
+void Registry::merge(Registry&& other) {
+  checkFree(forces_, other.forces_, "force");
+  checkFree(integrators_, other.integrators_, "integrator");
+  checkFree(imageIOs_, other.imageIOs_, "image IO");
+  checkFree(meshIOs_, other.meshIOs_, "mesh IO");
+  moveAll(forces_, other.forces_);  // the weight parameter was prepended when they were added
+  moveAll(integrators_, other.integrators_);
+  moveAll(imageIOs_, other.imageIOs_);
+  moveAll(meshIOs_, other.meshIOs_);
+}
+
+std::vector<std::string> Registry::componentNames() const {
+  std::vector<std::string> names;
+  for (const auto& d : forces_) names.push_back("force " + d.name);
+  for (const auto& d : integrators_) names.push_back("integrator " + d.name);
+  for (const auto& d : imageIOs_) names.push_back("image-io " + d.name);
+  for (const auto& d : meshIOs_) names.push_back("mesh-io " + d.name);
+  return names;
+}
+
 }  // namespace sinew

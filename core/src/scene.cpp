@@ -182,7 +182,7 @@ SceneDesc parseScene(const std::string& text, const fs::path& file) {
   }
   const Node root(json, "", file);
   root.expectObject({"version", "description", "images", "structures", "forces", "integrator", "schedule",
-                     "model", "report", "outputs", "stability"});
+                     "model", "report", "outputs", "stability", "plugins"});
   SceneDesc s;
   s.file = file;
   s.version = root.at("version").integer();
@@ -190,6 +190,13 @@ SceneDesc parseScene(const std::string& text, const fs::path& file) {
     root.at("version").fail("scene version " + std::to_string(s.version) + " is not supported (this Sinew reads version " +
                             std::to_string(kSceneVersion) + ")");
   if (root.has("description")) s.description = root.at("description").string();
+  if (root.has("plugins"))
+    for (const Node& n : root.at("plugins").elements()) {
+      const std::string name = n.string();
+      if (name.empty() || name.find_first_not_of("abcdefghijklmnopqrstuvwxyz0123456789_") != std::string::npos)
+        n.fail("'" + name + "' is not a plugin name (lower-case letters, digits and _)");
+      s.plugins.push_back(name);
+    }
 
   const Node images = root.at("images");
   images.expectObject({"target", "training"});
@@ -306,6 +313,7 @@ std::string sceneToJson(const SceneDesc& s) {
     structures.push_back(o);
   }
   j["structures"] = structures;
+  if (!s.plugins.empty()) j["plugins"] = s.plugins;
   j["forces"] = forcesJson(s.forces);
   j["integrator"]["name"] = s.integrator;
   for (const auto& [name, value] : s.integratorParams) j["integrator"][name] = value;

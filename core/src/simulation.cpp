@@ -62,6 +62,7 @@ const Simulation::ForceSlot& Simulation::slot(std::string_view name) const {
 }
 
 ParamTable& Simulation::forceParams(std::string_view name) { return slot(name).params; }
+Force& Simulation::force(std::string_view name) { return *slot(name).force; }
 
 std::vector<std::string> Simulation::forceNames() const {
   std::vector<std::string> names;

@@ -63,7 +63,8 @@ VolumeView viewOf(const ImageGeometry& g) {
   return v;
 }
 
-enum class Kind { Smoothing, ShapePrior, Gradient, Profile, Attraction };
+// Built-in forces have kernels here; a plugin's force brings its own (DeviceForce).
+enum class Kind { Smoothing, ShapePrior, Gradient, Profile, Attraction, Plugin };
 }  // namespace
 
 struct CudaEngine::Impl {
@@ -75,6 +76,7 @@ struct CudaEngine::Impl {
     Kind kind;
     DeviceArray<float> params;
     int count = 0;
+    DeviceForce* device = nullptr;  // Kind::Plugin
   };
   std::vector<ForceSlot> forces;
   // Mesh store mirror.
@@ -275,7 +277,7 @@ struct CudaEngine::Impl {
     for (; next < forces.size() && fused.count < 4; ++next) {
       const ForceSlot& f = forces[next];
       const ParamTable& t = sim.forceParams(f.name);
-      if (f.kind == Kind::Profile || f.kind == Kind::Attraction) break;
+      if (f.kind == Kind::Profile || f.kind == Kind::Attraction || f.kind == Kind::Plugin) break;
       if (!t.anyPositive(0)) continue;
       FusedTerm term{};
       term.params = ParamView{f.params.get(), f.count};
@@ -313,6 +315,7 @@ struct CudaEngine::Impl {
           launchAttraction(view, p, t.indexOf("ring"), points.get(), pointMesh.get(), meshBegin.get(), meshEnd.get(),
                            pointCount, keys.get(), stream);
           break;
+        case Kind::Plugin: f.device->enqueue(DeviceForceContext{view, p, t, stream}); break;
       }
     }
     const ParamTable& ip = sim.integratorParams();
@@ -342,8 +345,9 @@ CudaEngine::CudaEngine(Simulation& simulation) : impl_(std::make_unique<Impl>(si
                                                     {"attraction_points", Kind::Attraction}};
   for (const std::string& name : simulation.forceNames()) {
     auto it = kinds.find(name);
-    if (it == kinds.end()) throw std::runtime_error("force '" + name + "' has no CUDA implementation");
-    impl_->forces.push_back({name, it->second, {}, 0});
+    DeviceForce* device = it == kinds.end() ? simulation.force(name).deviceForce() : nullptr;
+    if (it == kinds.end() && !device) throw std::runtime_error("force '" + name + "' has no CUDA implementation");
+    impl_->forces.push_back({name, device ? Kind::Plugin : it->second, {}, 0, device});
   }
   SINEW_CUDA(cudaStreamCreateWithFlags(&impl_->stream, cudaStreamNonBlocking));
   impl_->upload();

@@ -2,34 +2,11 @@
 // device code here, so host C++ (the engine) includes it.
 #pragma once
 
+#include "sinew/cuda/device_force.h"  // MeshView, ParamView
+
 #include <cuda_runtime.h>
 
 namespace sinew::cuda {
-
-// The device side of the mesh store: the host store's arrays, one to one.
-struct MeshView {
-  int vertices = 0, cells = 0;
-  const int3* neighbours = nullptr;
-  const int3* vertexCells = nullptr;
-  const int* cellOffsets = nullptr;
-  const int* cellVertices = nullptr;
-  const int* meshOf = nullptr;
-  const float* density = nullptr;
-  float3* x = nullptr;
-  float3* prev = nullptr;
-  float3* force = nullptr;
-  float3* normal = nullptr;
-  float* elevation = nullptr;
-  float* area = nullptr;
-  float* mass = nullptr;
-  float3* cellCentre = nullptr;
-};
-
-// Per-structure parameters of one force: params[mesh * count + p], p = 0 is the weight alpha.
-struct ParamView {
-  const float* values = nullptr;
-  int count = 0;
-};
 
 // A volume in linear device memory with the host Volume's world-to-index transform.
 struct VolumeView {

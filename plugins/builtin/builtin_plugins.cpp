@@ -1,12 +1,17 @@
 #include "builtin_plugins.h"
 
+const sinew::PluginInfo* sinew_plugin_info_image_io_itk();
+const sinew::PluginInfo* sinew_plugin_info_mesh_io_vtk();
+
 namespace sinew {
-void registerItkImageIO(Registry&);
-void registerVtkMeshIO(Registry&);
+void addBuiltinPlugins(PluginLoader& loader) {
+  addBuiltinForces(loader);
+  loader.addBuiltin(*sinew_plugin_info_image_io_itk());
+  loader.addBuiltin(*sinew_plugin_info_mesh_io_vtk());
+}
 
 void registerBuiltinPlugins(Registry& registry) {
-  registerBuiltinForces(registry);
-  registerItkImageIO(registry);
-  registerVtkMeshIO(registry);
+  PluginLoader loader(registry);
+  addBuiltinPlugins(loader);
 }
 }  // namespace sinew

@@ -4,6 +4,7 @@
 // order (no fused multiply-add on either side, Eigen's reduction order in the kernels, the reference
 // angle's sine and cosine taken from the host). Any difference, even one ulp, is then a bug, and
 // one flipped choice in a search would grow far beyond 1e-4 mm anyway.
+#include "builtin_plugins.h"
 #include "sinew/cuda/cuda_engine.h"
 #include "surface_source.h"
 #include "synthetic.h"
@@ -40,6 +41,43 @@ std::unique_ptr<Simulation> scene(const std::vector<std::string>& forces, int le
   sim->scene().attractionPoints()[1].push_back(spec.centre + Vec3(-4, 2, 10));
   sim->initialize();
   return sim;
+}
+
+// The built-in forces plus the run-time plugins of the test builds: the balloon with its CUDA path
+// and test_constant without one.
+const Registry& pluginRegistry() {
+  static Registry registry;
+  static PluginLoader loader = [] {
+    PluginLoader l(registry);
+    addBuiltinForces(l);
+    const std::filesystem::path cudaDir = qEnvironmentVariable("SINEW_TEST_CUDA_PLUGIN_DIR", SINEW_TEST_CUDA_PLUGIN_DIR).toStdString();
+    const std::filesystem::path dir = qEnvironmentVariable("SINEW_TEST_PLUGIN_DIR", SINEW_TEST_PLUGIN_DIR).toStdString();
+    l.loadFile(cudaDir / PluginLoader::fileNameFor("balloon"));
+    l.loadFile(dir / PluginLoader::fileNameFor("test_constant"));
+    return l;
+  }();
+  return registry;
+}
+
+std::unique_ptr<Simulation> balloonScene(const std::string& force) {
+  auto sim = std::make_unique<Simulation>(pluginRegistry(), 0);
+  sim->addStructure(sphereStructure("small", 2, 6.0f, Vec3(0, 0, 0)));
+  sim->addStructure(sphereStructure("large", 3, 12.0f, Vec3(30, 0, 0)));
+  sim->addForce("smoothing").setAll("weight", 0.3);
+  ParamTable& b = sim->addForce(force);
+  if (force == "balloon") {
+    b.set(0, "pressure", 0.2);
+    b.set(1, "pressure", -0.1);  // per structure: the large one shrinks
+  }
+  sim->setIntegrator("damped_verlet");
+  sim->initialize();
+  return sim;
+}
+
+double meanRadius(MeshStore& store, Index mesh, const Vec3& centre) {
+  double sum = 0;
+  for (const Vec3& p : store.mesh(store.positions(), mesh)) sum += (p - centre).norm();
+  return sum / store.range(mesh).vertexCount();
 }
 
 double maxDifference(MeshStore& a, MeshStore& b) {
@@ -83,6 +121,35 @@ private slots:
           qPrintable(forces.join('+')), diff, moved);
     QVERIFY(moved > 0.01);  // the comparison means something only if the forces moved the mesh
     QCOMPARE(diff, 0.0);
+  }
+
+  // A run-time plugin's force (the example's balloon, loaded from its file) runs on the device
+  // through its DeviceForce, inside the captured graph, and matches its CPU path to the bit.
+  void pluginForceMatchesTheCpu() {
+    auto cpu = balloonScene("balloon"), gpu = balloonScene("balloon");
+    QVERIFY(gpu->force("balloon").deviceForce());
+    cpu->run(100);
+    cuda::CudaEngine engine(*gpu);
+    engine.run(60);
+    engine.run(40);  // a second graph length
+    engine.download();
+    const double diff = maxDifference(cpu->store(), gpu->store());
+    const double small = meanRadius(gpu->store(), 0, Vec3(0, 0, 0)), large = meanRadius(gpu->store(), 1, Vec3(30, 0, 0));
+    qInfo("balloon plugin: max CPU-CUDA difference %.3g mm; radii 6 -> %.2f mm, 12 -> %.2f mm", diff, small, large);
+    QVERIFY(small > 7.0);   // inflated
+    QVERIFY(large < 11.5);  // deflated by its own negative pressure
+    QCOMPARE(diff, 0.0);
+  }
+
+  void pluginForceWithoutADevicePathIsRefused() {
+    auto sim = balloonScene("test_constant");
+    QVERIFY(!sim->force("test_constant").deviceForce());
+    try {
+      cuda::CudaEngine engine(*sim);
+      QFAIL("the engine accepted a force it cannot run");
+    } catch (const std::runtime_error& e) {
+      QCOMPARE(std::string(e.what()), std::string("force 'test_constant' has no CUDA implementation"));
+    }
   }
 
   void levelChangeAndWeightChangesMatch() {

@@ -18,6 +18,8 @@ SegmentationSession::~SegmentationSession() = default;
 
 void SegmentationSession::open(const fs::path& sceneFile, const SessionOpenOptions& options) {
   SceneDesc scene = readScene(sceneFile);
+  if (options.requirePlugin)
+    for (const std::string& plugin : scene.plugins) options.requirePlugin(plugin);
   bool hasAttraction = false;
   for (const auto& f : scene.forces) hasAttraction |= f.first == kAttraction;
   if (!hasAttraction) scene.forces.emplace_back(kAttraction, std::vector<std::pair<std::string, double>>{});

@@ -26,6 +26,9 @@ struct SessionOpenOptions {
   int threads = 0;              // 0: all hardware threads
   std::string backend = "auto";  // auto | cuda | cpu
   std::function<void(const std::string&)> log;
+  // Makes a run-time plugin the scene names available (throws InputError when it cannot); unset:
+  // the registry must already hold what the scene uses.
+  std::function<void(const std::string& plugin)> requirePlugin;
 };
 
 class SegmentationSession {

@@ -1,6 +1,6 @@
-// Interaction tools: what a left click and drag in a slice view does. Each tool is a plugin
-// registered explicitly by one function (registerNavigateTool, registerAttractionTool); the main
-// window lists what the registry holds. Tools edit through the session, so every edit is undoable.
+// Interaction tools: what a left click and drag in a slice view does. Each tool is a plugin of kind
+// tool, registered explicitly by one function (registerNavigateTool, registerAttractionTool); the
+// main window lists what the registry holds. Tools edit through the session, so every edit is undoable.
 #pragma once
 
 #include "slice_view.h"
@@ -53,11 +53,13 @@ private:
   std::vector<ToolDescriptor> tools_;
 };
 
+class PluginLoader;
 void registerNavigateTool(ToolRegistry& registry);
 void registerAttractionTool(ToolRegistry& registry);
-inline void registerBuiltinTools(ToolRegistry& registry) {
-  registerNavigateTool(registry);
-  registerAttractionTool(registry);
-}
+// The built-in tools, added as built-in tool plugins (tools/builtin_tools.cpp); the loader must
+// have been given the tool registry.
+void addBuiltinTools(PluginLoader& loader);
+// The same, for code that has only a tool registry (tests).
+void registerBuiltinTools(ToolRegistry& registry);
 
 }  // namespace sinew

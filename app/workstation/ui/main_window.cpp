@@ -274,6 +274,7 @@ bool MainWindow::openScene(const QString& file) {
   SessionOpenOptions o;
   o.threads = options_.threads;
   o.backend = options_.backend;
+  o.requirePlugin = options_.requirePlugin;
   o.log = [&](const std::string& m) {
     progress.setLabelText(QString::fromStdString(m));
     statusBar()->showMessage(QString::fromStdString(m));

@@ -35,6 +35,8 @@ struct WorkstationOptions {
   std::string drawing = "auto";  // auto | interop | host: how the 3D view gets the surfaces
   int threads = 0;
   bool persistSettings = true;   // tests run with false
+  // Loads a plugin a scene names (PluginLoader::load); see SessionOpenOptions.
+  std::function<void(const std::string& plugin)> requirePlugin;
 };
 
 class MainWindow : public QMainWindow {

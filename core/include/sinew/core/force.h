@@ -13,6 +13,10 @@
 
 namespace sinew {
 
+namespace cuda {
+class DeviceForce;  // sinew/cuda/device_force.h: a force's CUDA path
+}
+
 struct Requirements {
   std::vector<Attribute> attributes;
   bool referenceShape = false;  // every structure where the force is active needs one
@@ -39,6 +43,9 @@ public:
   // be symmetric (block (v, u) = block (u, v) transposed) and negative semi-definite. Returns false
   // when the force has none; it is then integrated explicitly.
   virtual bool addJacobian(ForceContext&, JacobianBlocks&) { return false; }
+  // The force's CUDA path, for the CUDA backend (a run-time plugin's force provides one by also
+  // deriving from cuda::DeviceForce). Null: the force runs on the CPU backend only.
+  virtual cuda::DeviceForce* deviceForce() { return nullptr; }
 };
 
 struct IntegratorContext {

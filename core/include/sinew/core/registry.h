@@ -48,6 +48,13 @@ public:
   const std::vector<ImageIODescriptor>& imageIOs() const { return imageIOs_; }
   const std::vector<MeshIODescriptor>& meshIOs() const { return meshIOs_; }
 
+  // Moves every component of `other` into this registry. Throws InputError naming the first name
+  // already taken, before anything is moved.
+  void merge(Registry&& other);
+  // "force balloon", "integrator damped_verlet", ... in registration order.
+  std::vector<std::string> componentNames() const;
+  bool empty() const { return forces_.empty() && integrators_.empty() && imageIOs_.empty() && meshIOs_.empty(); }
+
 private:
   std::vector<ForceDescriptor> forces_;
   std::vector<IntegratorDescriptor> integrators_;

@@ -64,6 +64,7 @@ struct SceneDesc {
   std::filesystem::path targetImage;
   std::optional<std::filesystem::path> trainingImage;
   std::vector<StructureDesc> structures;
+  std::vector<std::string> plugins;  // run-time plugins the scene needs, loaded before it runs
   ForceSettings forces;  // the scene's forces in evaluation order, with scene-wide values
   std::string integrator = "damped_verlet";
   std::vector<std::pair<std::string, double>> integratorParams;

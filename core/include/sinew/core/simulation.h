@@ -51,6 +51,8 @@ public:
   const StructureSpec& structure(Index i) const { return structures_[i]; }
   Index structureCount() const { return static_cast<Index>(structures_.size()); }
   ParamTable& forceParams(std::string_view name);
+  // The force object itself (for backends: a plugin force's device path).
+  Force& force(std::string_view name);
   // The scene's forces in evaluation order (for backends that run them elsewhere).
   std::vector<std::string> forceNames() const;
   std::string integratorName() const { return integratorName_; }

@@ -1,0 +1,58 @@
+#!/usr/bin/env bash
+# The packages as a user gets them: builds the .deb and .tar.gz packages of a build directory,
+# installs the .debs with apt, runs the installed sinew-run (--version, then the example plugin's
+# scene with the plugin built out of tree against the installed SDK), removes the packages and
+# checks that nothing is left behind. Run as root on Debian 12: bash scripts/package-test.sh [BUILD]
+set -euo pipefail
+cd "$(dirname "$0")/.."
+build=$(realpath "${1:-build/ci}")
+export DEBIAN_FRONTEND=noninteractive
+
+echo "== packages"
+rm -f "$build"/sinew*.deb "$build"/sinew-*.tar.gz
+(cd "$build" && cpack -G "DEB;TGZ" >/dev/null)
+runtime=$(ls "$build"/sinew_*.deb) dev=$(ls "$build"/sinew-dev_*.deb)
+ls -l "$runtime" "$dev" "$build"/sinew-*.tar.gz
+dpkg-deb -f "$runtime" Package Version Depends Recommends
+dpkg-deb -f "$dev" Package Depends
+dpkg-deb -c "$runtime" > "$build/runtime-contents.txt"
+dpkg-deb -c "$dev" > "$build/dev-contents.txt"
+for f in usr/bin/sinew-run usr/bin/sinew usr/share/applications/io.github.sinew.Sinew.desktop \
+         usr/share/icons/hicolor/scalable/apps/io.github.sinew.Sinew.svg \
+         usr/share/metainfo/io.github.sinew.Sinew.metainfo.xml usr/share/mime/packages/io.github.sinew.Sinew.xml \
+         usr/share/man/man1/sinew-run.1.gz; do
+  grep -q " \./$f\$" "$build/runtime-contents.txt" || { echo "package-test: $f is not in $(basename "$runtime")" >&2; exit 1; }
+done
+grep -q "cmake/Sinew/SinewConfig.cmake" "$build/dev-contents.txt" || { echo "package-test: no SinewConfig.cmake in sinew-dev" >&2; exit 1; }
+
+echo "== install"
+apt-get install -y -qq --no-install-recommends "$runtime" "$dev" >/dev/null
+test "$(command -v sinew-run)" = /usr/bin/sinew-run
+sinew-run --version
+man -w sinew-run >/dev/null 2>&1 || test -f /usr/share/man/man1/sinew-run.1.gz
+
+echo "== example plugin, out of tree against the installed SDK"
+work=$(mktemp -d)
+trap 'rm -rf "$work"' EXIT
+example=/usr/share/doc/sinew/examples/force-plugin
+cmake -S "$example" -B "$work/build" -G Ninja -DCMAKE_BUILD_TYPE=Release >/dev/null
+cmake --build "$work/build" >/dev/null
+ctest --test-dir "$work/build" --output-on-failure
+SINEW_PLUGIN_PATH="$work/build" sinew-run --list-plugins | grep "^plugin balloon"
+SINEW_PLUGIN_PATH="$work/build" sinew-run "$example/balloon_scene.sinew.json" -o "$work/out" -q
+test -s "$work/out/Thalamus_L.vtp" && test -s "$work/out/report.json"
+# The installed plugin directory is searched too.
+plugins=$(dirname "$(dpkg -L sinew | grep '/libsinew_core.so' | head -1)")/plugins
+test -d "$plugins"
+cp "$work/build/sinew-plugin-balloon.so" "$plugins/"
+sinew-run "$example/balloon_scene.sinew.json" -o "$work/out2" -q
+rm "$plugins/sinew-plugin-balloon.so"
+cmp "$work/out/Thalamus_L.vtp" "$work/out2/Thalamus_L.vtp"
+
+echo "== remove"
+apt-get remove --purge -y -qq sinew-dev sinew >/dev/null
+if dpkg -l sinew sinew-dev 2>/dev/null | grep -q '^ii'; then echo "package-test: still installed" >&2; exit 1; fi
+for p in /usr/bin/sinew-run /usr/bin/sinew /usr/include/sinew /usr/lib/sinew "$plugins" /usr/share/doc/sinew; do
+  if [ -e "$p" ]; then echo "package-test: $p is left after removal" >&2; exit 1; fi
+done
+echo "package-test: passed"
