@@ -18,7 +18,7 @@ add_custom_command(OUTPUT "${CMAKE_BINARY_DIR}/sinew-run.1.gz"
 add_custom_target(sinew_man_pages ALL DEPENDS "${CMAKE_BINARY_DIR}/sinew-run.1.gz")
 install(FILES "${CMAKE_BINARY_DIR}/sinew-run.1.gz" DESTINATION "${CMAKE_INSTALL_MANDIR}/man1" COMPONENT runtime)
 install(FILES README.md docs/sinew-run.md docs/scene-format.md docs/workstation.md docs/plugins.md docs/stability.md
-  resources/scene.schema.json DESTINATION "${CMAKE_INSTALL_DOCDIR}" COMPONENT runtime)
+  resources/scene.schema.json DESTINATION "${CMAKE_INSTALL_DATADIR}/doc/sinew" COMPONENT runtime)
 
 set(CPACK_PACKAGE_NAME sinew)
 set(CPACK_PACKAGE_VENDOR "Sinew")

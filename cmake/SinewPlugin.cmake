@@ -13,8 +13,6 @@
 # extern "C" entry points; put it in a plugin directory (or SINEW_PLUGIN_PATH) to load it.
 # With STATIC: a static library sinew_plugin_NAME whose entry point is sinew_plugin_info_NAME(),
 # for a program to link in and hand to PluginLoader::addBuiltin().
-set(_SINEW_PLUGIN_TEMPLATE "${CMAKE_CURRENT_LIST_DIR}/sinew_plugin_entry.cpp.in")
-
 function(sinew_add_plugin)
   cmake_parse_arguments(P "STATIC" "NAME;KIND;REGISTER;VERSION;SUMMARY" "SOURCES" ${ARGN})
   if(NOT P_NAME OR NOT P_NAME MATCHES "^[a-z][a-z0-9_]*$")
@@ -39,9 +37,13 @@ function(sinew_add_plugin)
   string(REPLACE "\"" "\\\"" SINEW_PLUGIN_SUMMARY "${P_SUMMARY}")
   set(SINEW_PLUGIN_REGISTER "${P_REGISTER}")
   if(P_KIND STREQUAL "tool")
+    # Tools register into a scratch registry merged only when complete, as the loader does for the
+    # engine's components (the loader cannot: ToolRegistry is the workstation's type).
+    set(SINEW_PLUGIN_INCLUDE "#include \"interaction_tool.h\"")
     set(SINEW_PLUGIN_REGISTRY ToolRegistry)
-    set(SINEW_PLUGIN_CALL "if (host.tools) sinew::${P_REGISTER}(*host.tools);")
+    set(SINEW_PLUGIN_CALL "if (!host.tools) return;\n  sinew::ToolRegistry scratch;\n  sinew::${P_REGISTER}(scratch);\n  host.tools->merge(std::move(scratch));")
   else()
+    set(SINEW_PLUGIN_INCLUDE "")
     set(SINEW_PLUGIN_REGISTRY Registry)
     set(SINEW_PLUGIN_CALL "sinew::${P_REGISTER}(host.registry);")
   endif()
@@ -57,7 +59,7 @@ function(sinew_add_plugin)
     set(_target ${P_NAME})
   endif()
   set(_entry "${CMAKE_CURRENT_BINARY_DIR}/sinew_plugin_entry_${P_NAME}.cpp")
-  configure_file("${_SINEW_PLUGIN_TEMPLATE}" "${_entry}" @ONLY)
+  configure_file("${CMAKE_CURRENT_FUNCTION_LIST_DIR}/sinew_plugin_entry.cpp.in" "${_entry}" @ONLY)
   if(P_STATIC)
     add_library(${_target} STATIC ${P_SOURCES} "${_entry}")
   else()
@@ -67,6 +69,9 @@ function(sinew_add_plugin)
       CXX_VISIBILITY_PRESET hidden CUDA_VISIBILITY_PRESET hidden VISIBILITY_INLINES_HIDDEN ON)
   endif()
   target_link_libraries(${_target} PUBLIC Sinew::core)
+  # No fused multiply-add on the CPU (Sinew's own rule): with --fmad=false kernels, a force's CPU
+  # and CUDA paths then round alike.
+  target_compile_options(${_target} PRIVATE $<$<COMPILE_LANGUAGE:CXX>:-ffp-contract=off>)
 endfunction()
 
 # sinew_add_plugin_test(NAME test_balloon PLUGIN balloon SOURCES test_balloon.cpp): a Qt Test

@@ -7,6 +7,17 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 build=$(realpath "${1:-build/ci}")
 export DEBIAN_FRONTEND=noninteractive
+fail() { echo "package-test: $*" >&2; exit 1; }
+
+work=$(mktemp -d)
+plugins=""
+cleanup() {
+  [ -n "$plugins" ] && rm -f "$plugins/sinew-plugin-balloon.so"
+  apt-get remove --purge -y -qq sinew-dev sinew >/dev/null 2>&1 || true
+  rm -rf "$work"
+}
+trap cleanup EXIT
+apt-get remove --purge -y -qq sinew-dev sinew >/dev/null 2>&1 || true  # left by an earlier run
 
 echo "== packages"
 rm -f "$build"/sinew*.deb "$build"/sinew-*.tar.gz
@@ -15,35 +26,39 @@ runtime=$(ls "$build"/sinew_*.deb) dev=$(ls "$build"/sinew-dev_*.deb)
 ls -l "$runtime" "$dev" "$build"/sinew-*.tar.gz
 dpkg-deb -f "$runtime" Package Version Depends Recommends
 dpkg-deb -f "$dev" Package Depends
-dpkg-deb -c "$runtime" > "$build/runtime-contents.txt"
-dpkg-deb -c "$dev" > "$build/dev-contents.txt"
+dpkg-deb -c "$runtime" > "$work/runtime-contents.txt"
+dpkg-deb -c "$dev" > "$work/dev-contents.txt"
 for f in usr/bin/sinew-run usr/bin/sinew usr/share/applications/io.github.sinew.Sinew.desktop \
          usr/share/icons/hicolor/scalable/apps/io.github.sinew.Sinew.svg \
          usr/share/metainfo/io.github.sinew.Sinew.metainfo.xml usr/share/mime/packages/io.github.sinew.Sinew.xml \
-         usr/share/man/man1/sinew-run.1.gz; do
-  grep -q " \./$f\$" "$build/runtime-contents.txt" || { echo "package-test: $f is not in $(basename "$runtime")" >&2; exit 1; }
+         usr/share/man/man1/sinew-run.1.gz usr/share/doc/sinew/plugins.md; do
+  grep -q " \./$f\$" "$work/runtime-contents.txt" || fail "$f is not in $(basename "$runtime")"
 done
-grep -q "cmake/Sinew/SinewConfig.cmake" "$build/dev-contents.txt" || { echo "package-test: no SinewConfig.cmake in sinew-dev" >&2; exit 1; }
+for f in cmake/Sinew/SinewConfig.cmake include/sinew/core/plugin_api.h include/sinew/cuda/device_force.h \
+         usr/share/sinew/examples/force-plugin/CMakeLists.txt; do
+  grep -q "$f\$" "$work/dev-contents.txt" || fail "$f is not in $(basename "$dev")"
+done
 
 echo "== install"
 apt-get install -y -qq --no-install-recommends "$runtime" "$dev" >/dev/null
-test "$(command -v sinew-run)" = /usr/bin/sinew-run
+test "$(command -v sinew-run)" = /usr/bin/sinew-run || fail "sinew-run is not /usr/bin/sinew-run"
 sinew-run --version
-man -w sinew-run >/dev/null 2>&1 || test -f /usr/share/man/man1/sinew-run.1.gz
 
 echo "== example plugin, out of tree against the installed SDK"
-work=$(mktemp -d)
-trap 'rm -rf "$work"' EXIT
-example=/usr/share/doc/sinew/examples/force-plugin
+export XDG_DATA_HOME="$work/data"  # no user plugins
+example=/usr/share/sinew/examples/force-plugin
 cmake -S "$example" -B "$work/build" -G Ninja -DCMAKE_BUILD_TYPE=Release >/dev/null
 cmake --build "$work/build" >/dev/null
 ctest --test-dir "$work/build" --output-on-failure
 SINEW_PLUGIN_PATH="$work/build" sinew-run --list-plugins | grep "^plugin balloon"
 SINEW_PLUGIN_PATH="$work/build" sinew-run "$example/balloon_scene.sinew.json" -o "$work/out" -q
-test -s "$work/out/Thalamus_L.vtp" && test -s "$work/out/report.json"
+test -s "$work/out/Thalamus_L.vtp" || fail "no mesh written"
+test -s "$work/out/report.json" || fail "no report written"
 # The installed plugin directory is searched too.
-plugins=$(dirname "$(dpkg -L sinew | grep '/libsinew_core.so' | head -1)")/plugins
-test -d "$plugins"
+core=$(dpkg -L sinew | grep '/libsinew_core\.so' | head -1 || true)
+[ -n "$core" ] || fail "libsinew_core is not in the sinew package"
+plugins=$(dirname "$core")/plugins
+test -d "$plugins" || fail "$plugins is missing"
 cp "$work/build/sinew-plugin-balloon.so" "$plugins/"
 sinew-run "$example/balloon_scene.sinew.json" -o "$work/out2" -q
 rm "$plugins/sinew-plugin-balloon.so"
@@ -51,8 +66,9 @@ cmp "$work/out/Thalamus_L.vtp" "$work/out2/Thalamus_L.vtp"
 
 echo "== remove"
 apt-get remove --purge -y -qq sinew-dev sinew >/dev/null
-if dpkg -l sinew sinew-dev 2>/dev/null | grep -q '^ii'; then echo "package-test: still installed" >&2; exit 1; fi
-for p in /usr/bin/sinew-run /usr/bin/sinew /usr/include/sinew /usr/lib/sinew "$plugins" /usr/share/doc/sinew; do
-  if [ -e "$p" ]; then echo "package-test: $p is left after removal" >&2; exit 1; fi
+if dpkg -l sinew sinew-dev 2>/dev/null | grep -q '^ii'; then fail "still installed"; fi
+for p in /usr/bin/sinew-run /usr/bin/sinew /usr/include/sinew "$plugins" /usr/share/doc/sinew /usr/share/sinew \
+         /usr/share/applications/io.github.sinew.Sinew.desktop; do
+  [ ! -e "$p" ] || fail "$p is left after removal"
 done
 echo "package-test: passed"

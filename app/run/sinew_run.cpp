@@ -26,8 +26,8 @@ const char* kExitCodes =
     "  0  success\n"
     "  1  internal error (a bug: please report it)\n"
     "  2  bad command line\n"
-    "  3  bad input: scene, image, mesh or label problem (the message names the file)\n"
-    "  4  numerical failure: the simulation state became non-finite; nothing was written\n";
+    "  3  bad input: scene, image, mesh, label or plugin problem (the message names the file)\n"
+    "  4  numerical failure: the stability guard could not recover (the outputs hold the last good meshes)\n";
 
 // Progress on stderr: a bar redrawn in place on a terminal, a plain line every 10 % otherwise.
 class ProgressPrinter {
@@ -198,7 +198,9 @@ int main(int argc, char** argv) {
     // Only the run-time plugins the scene names are loaded.
     for (const std::string& name : scene.plugins) {
       const PluginRecord& p = plugins.load(name);
-      if (!quiet) std::fprintf(stderr, "plugin %s %s loaded from %s\n", p.name.c_str(), p.version.c_str(), p.file.c_str());
+      if (!quiet)
+        std::fprintf(stderr, "plugin %s %s: %s\n", p.name.c_str(), p.version.c_str(),
+                     p.file.empty() ? "built in" : ("loaded from " + p.file.string()).c_str());
     }
     ProgressPrinter progress(quiet);
     RunOptions options{threads, std::ref(progress), {}, {}};

@@ -9,6 +9,7 @@
 #include <CLI/CLI.hpp>
 #include <QApplication>
 #include <QElapsedTimer>
+#include <QMessageBox>
 #include <QSurfaceFormat>
 #include <QTimer>
 
@@ -83,6 +84,15 @@ int main(int argc, char** argv) {
   window.resize(windowSize[0], windowSize[1]);
   if (budgetMs > 0) window.setFrameBudgetMs(budgetMs);
   window.show();
+  if (!plugins.failures().empty() && measureSeconds <= 0) {  // users of the desktop see no stderr
+    QString text;
+    for (const auto& failure : plugins.failures()) text += QString::fromStdString(failure.message) + "\n\n";
+    auto* box = new QMessageBox(QMessageBox::Warning, "Sinew", "Some plugins were not loaded; the others are available.",
+                                QMessageBox::Ok, &window);
+    box->setDetailedText(text.trimmed());
+    box->setAttribute(Qt::WA_DeleteOnClose);
+    box->open();
+  }
   if (!image.empty() && !window.openImage(QString::fromStdString(image))) return 3;
   if (!scene.empty() && !window.openScene(QString::fromStdString(scene))) return 3;
   if (measureSeconds <= 0) return app.exec();

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cstdlib>
+#include <set>
 #include <sstream>
 
 namespace fs = std::filesystem;
@@ -160,6 +161,10 @@ const PluginRecord& PluginLoader::load(std::string_view name) {
 }
 
 void PluginLoader::loadAll() {
+  // As load(): of the files of one name, the first on the search path is the plugin, whether it
+  // loads or is refused; later ones are never tried.
+  std::set<std::string> seen;
+  for (const PluginRecord& p : plugins_) seen.insert(p.name);
   for (const fs::path& dir : searchPath_) {
     std::error_code ec;
     if (!fs::is_directory(dir, ec)) continue;
@@ -168,7 +173,12 @@ void PluginLoader::loadAll() {
       if (!pluginNameOf(entry.path()).empty()) files.push_back(entry.path());
     std::sort(files.begin(), files.end());
     for (const fs::path& file : files) {
-      if (find(pluginNameOf(file))) continue;  // an earlier directory has it
+      const std::string name = pluginNameOf(file);
+      if (const PluginRecord* p = find(name); p && p->file.empty()) {
+        failures_.push_back({file, file.string() + ": plugin '" + name + "' has the name of a built-in plugin"});
+        continue;
+      }
+      if (!seen.insert(name).second) continue;  // an earlier directory has it
       try {
         loadFile(file);
       } catch (const std::exception& e) {

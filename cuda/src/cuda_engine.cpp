@@ -262,7 +262,17 @@ struct CudaEngine::Impl {
     view.mass = s.has(Attribute::Mass) ? mass.get() : nullptr;
     view.cellCentre = s.has(Attribute::Area) ? centre.get() : nullptr;
     uploadParams();
+    for (ForceSlot& f : forces)
+      if (f.kind == Kind::Plugin) checkPlugin(f, f.device->prepare(pluginContext(f)), "prepare");
     SINEW_CUDA(cudaStreamSynchronize(stream));
+  }
+
+  DeviceForceContext pluginContext(const ForceSlot& f) {
+    return DeviceForceContext{view, ParamView{f.params.get(), f.count}, sim.forceParams(f.name), stream};
+  }
+  static void checkPlugin(const ForceSlot& f, cudaError_t e, const char* what) {
+    if (e != cudaSuccess)
+      throw std::runtime_error("force '" + f.name + "': its device path failed to " + what + ": " + cudaGetErrorString(e));
   }
 
   // One step, as Simulation::step: geometry, forces with a positive weight somewhere, Verlet. The
@@ -315,7 +325,7 @@ struct CudaEngine::Impl {
           launchAttraction(view, p, t.indexOf("ring"), points.get(), pointMesh.get(), meshBegin.get(), meshEnd.get(),
                            pointCount, keys.get(), stream);
           break;
-        case Kind::Plugin: f.device->enqueue(DeviceForceContext{view, p, t, stream}); break;
+        case Kind::Plugin: checkPlugin(f, f.device->enqueue(pluginContext(f)), "enqueue"); break;
       }
     }
     const ParamTable& ip = sim.integratorParams();
@@ -346,7 +356,8 @@ CudaEngine::CudaEngine(Simulation& simulation) : impl_(std::make_unique<Impl>(si
   for (const std::string& name : simulation.forceNames()) {
     auto it = kinds.find(name);
     DeviceForce* device = it == kinds.end() ? simulation.force(name).deviceForce() : nullptr;
-    if (it == kinds.end() && !device) throw std::runtime_error("force '" + name + "' has no CUDA implementation");
+    if (it == kinds.end() && !device)
+      throw std::runtime_error("force '" + name + "' has no CUDA implementation (its Force::deviceForce() gives none)");
     impl_->forces.push_back({name, device ? Kind::Plugin : it->second, {}, 0, device});
   }
   SINEW_CUDA(cudaStreamCreateWithFlags(&impl_->stream, cudaStreamNonBlocking));
@@ -388,7 +399,16 @@ void CudaEngine::run(int iterations) {
       cudaGraph_t g;
       cudaGraphExec_t exec;
       SINEW_CUDA(cudaStreamBeginCapture(I.stream, cudaStreamCaptureModeThreadLocal));
-      for (int i = 0; i < n; ++i) I.enqueueStep();
+      try {
+        for (int i = 0; i < n; ++i) I.enqueueStep();
+      } catch (...) {
+        // A plugin's launch failed and invalidated the capture: end it and clear the error it left
+        // in this runtime, so that the stream and later engines stay usable.
+        g = nullptr;
+        if (cudaStreamEndCapture(I.stream, &g) == cudaSuccess && g) cudaGraphDestroy(g);
+        (void)cudaGetLastError();
+        throw;
+      }
       SINEW_CUDA(cudaStreamEndCapture(I.stream, &g));
       SINEW_CUDA(cudaGraphInstantiate(&exec, g, 0));
       SINEW_CUDA(cudaGraphDestroy(g));

@@ -29,8 +29,8 @@ public:
 
 #ifdef BALLOON_WITH_CUDA
   cuda::DeviceForce* deviceForce() override { return this; }
-  void enqueue(const cuda::DeviceForceContext& ctx) override {
-    launchBalloon(ctx.mesh, ctx.params, ctx.hostParams.indexOf("pressure"), ctx.stream);
+  cudaError_t enqueue(const cuda::DeviceForceContext& ctx) override {
+    return launchBalloon(ctx.mesh, ctx.params, ctx.hostParams.indexOf("pressure"), ctx.stream);
   }
 #endif
 };

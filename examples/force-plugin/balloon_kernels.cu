@@ -18,8 +18,9 @@ __global__ void balloonKernel(cuda::MeshView m, cuda::ParamView p, int pressure)
 }
 }  // namespace
 
-void launchBalloon(const cuda::MeshView& mesh, cuda::ParamView params, int pressure, cudaStream_t stream) {
+cudaError_t launchBalloon(const cuda::MeshView& mesh, cuda::ParamView params, int pressure, cudaStream_t stream) {
   constexpr int kThreads = 256;
   balloonKernel<<<(mesh.vertices + kThreads - 1) / kThreads, kThreads, 0, stream>>>(mesh, params, pressure);
+  return cudaGetLastError();  // this plugin's CUDA runtime: the engine cannot see it
 }
 }  // namespace sinew

@@ -53,6 +53,7 @@ const Registry& pluginRegistry() {
     const std::filesystem::path cudaDir = qEnvironmentVariable("SINEW_TEST_CUDA_PLUGIN_DIR", SINEW_TEST_CUDA_PLUGIN_DIR).toStdString();
     const std::filesystem::path dir = qEnvironmentVariable("SINEW_TEST_PLUGIN_DIR", SINEW_TEST_PLUGIN_DIR).toStdString();
     l.loadFile(cudaDir / PluginLoader::fileNameFor("balloon"));
+    l.loadFile(cudaDir / PluginLoader::fileNameFor("test_bad_launch"));
     l.loadFile(dir / PluginLoader::fileNameFor("test_constant"));
     return l;
   }();
@@ -148,8 +149,25 @@ private slots:
       cuda::CudaEngine engine(*sim);
       QFAIL("the engine accepted a force it cannot run");
     } catch (const std::runtime_error& e) {
-      QCOMPARE(std::string(e.what()), std::string("force 'test_constant' has no CUDA implementation"));
+      QCOMPARE(std::string(e.what()),
+               std::string("force 'test_constant' has no CUDA implementation (its Force::deviceForce() gives none)"));
     }
+  }
+
+  // A plugin whose launch fails (its own CUDA runtime holds the error) stops the run with an error
+  // naming the force; the engine's stream is left out of capture, so the engine can be dropped.
+  void pluginLaunchFailureStopsTheRun() {
+    auto sim = balloonScene("test_bad_launch");
+    cuda::CudaEngine engine(*sim);
+    try {
+      engine.run(10);
+      QFAIL("a failed plugin launch went unnoticed");
+    } catch (const std::runtime_error& e) {
+      qInfo("%s", e.what());
+      QVERIFY2(std::string(e.what()).starts_with("force 'test_bad_launch': its device path failed to enqueue: "), e.what());
+    }
+    QCOMPARE(sim->iteration(), 0L);
+    QCOMPARE(cudaGetLastError(), cudaSuccess);  // nothing left behind for the next engine
   }
 
   void levelChangeAndWeightChangesMatch() {

@@ -111,6 +111,33 @@ private Q_SLOTS:
     QCOMPARE(registry.forces().size(), std::size_t(6));  // 5 built in + test_constant
   }
 
+  // Of the files of one name, the first on the search path is the plugin even when it is refused
+  // (loadAll must not pick a different file than load(name) would); a built-in's name is refused.
+  void firstFileOfANameIsThePlugin() {
+    QTemporaryDir first, clash;
+    fs::copy_file(kPluginDir / "sinew-plugin-test_wrong_abi.so",
+                  fs::path(first.path().toStdString()) / "sinew-plugin-test_constant.so");
+    fs::copy_file(kPluginDir / "sinew-plugin-test_constant.so", fs::path(clash.path().toStdString()) / "sinew-plugin-smoothing.so");
+    Registry registry;
+    PluginLoader loader(registry);
+    addBuiltinForces(loader);
+    loader.setSearchPath({first.path().toStdString(), clash.path().toStdString(), kPluginDir});
+    loader.loadAll();
+    QVERIFY(!loader.find("test_constant"));
+    const PluginFailure* refused = failureFor(loader, "test_constant");
+    QVERIFY(refused && refused->file.parent_path() == fs::path(first.path().toStdString()));
+    const PluginFailure* builtin = failureFor(loader, "smoothing");
+    QVERIFY(builtin && builtin->message.find("has the name of a built-in plugin") != std::string::npos);
+    try {
+      PluginLoader again(registry);
+      again.setSearchPath(loader.searchPath());
+      again.load("test_constant");
+      QFAIL("load() took a later file");
+    } catch (const InputError& e) {
+      QVERIFY2(std::string(e.what()).find("ABI") != std::string::npos, e.what());
+    }
+  }
+
   void loadByName() {
     Registry registry;
     PluginLoader loader(registry);

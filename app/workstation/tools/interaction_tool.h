@@ -7,6 +7,7 @@
 
 #include <functional>
 #include <memory>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -42,6 +43,14 @@ struct ToolDescriptor {
 class ToolRegistry {
 public:
   void add(ToolDescriptor d) { tools_.push_back(std::move(d)); }
+  // Moves every tool of `other` here; throws std::invalid_argument naming the first name already
+  // taken, before anything is moved.
+  void merge(ToolRegistry&& other) {
+    for (const auto& t : other.tools_)
+      if (find(t.name)) throw std::invalid_argument("tool '" + t.name + "' is already registered");
+    for (auto& t : other.tools_) tools_.push_back(std::move(t));
+    other.tools_.clear();
+  }
   const std::vector<ToolDescriptor>& tools() const { return tools_; }
   const ToolDescriptor* find(const std::string& name) const {
     for (const auto& t : tools_)

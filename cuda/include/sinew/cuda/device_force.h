@@ -49,14 +49,21 @@ struct DeviceForceContext {
   cudaStream_t stream;
 };
 
+// Both calls return the CUDA error state of the plugin's own code (cudaGetLastError() where it was
+// compiled): a plugin linking its own CUDA runtime keeps its errors there, out of the engine's
+// sight. The engine stops with an error naming the force on anything but cudaSuccess.
 class DeviceForce {
 public:
   virtual ~DeviceForce() = default;
+  // Called outside graph capture whenever the engine (re)builds its device store: at start, after a
+  // host edit and after a level change (the mesh sizes change). Allocate or upload here what the
+  // force keeps on the device; the plugin's CUDA runtime also initialises here, not inside a capture.
+  virtual cudaError_t prepare(const DeviceForceContext&) { return cudaSuccess; }
   // Adds alpha * f to mesh.force for every vertex whose structure's alpha is positive. Enqueue
   // kernels on ctx.stream only: no synchronisation, allocation or copy to the host, because the
   // calls are captured into a CUDA graph once and replayed (captured again when a parameter shared
   // by all structures or a force's on/off state changes).
-  virtual void enqueue(const DeviceForceContext& ctx) = 0;
+  virtual cudaError_t enqueue(const DeviceForceContext& ctx) = 0;
 };
 
 }  // namespace sinew::cuda

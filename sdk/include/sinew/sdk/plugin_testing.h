@@ -16,9 +16,12 @@
 namespace sinew::testing {
 
 // The plugin file loaded through Sinew's own loader (ABI check, declared kind, registration) into
-// a registry of its own. Throws InputError with the loader's message when it is refused.
+// a registry of its own. Throws InputError with the loader's message when it is refused. The
+// registry holds no built-in plugin, so a name clash with one shows only when Sinew loads it.
 struct LoadedPlugin {
   explicit LoadedPlugin(const std::filesystem::path& file) : loader(registry) { record = loader.loadFile(file); }
+  LoadedPlugin(const LoadedPlugin&) = delete;  // the loader refers to this object's registry
+  LoadedPlugin& operator=(const LoadedPlugin&) = delete;
   Registry registry;
   PluginLoader loader;
   PluginRecord record;
@@ -49,6 +52,9 @@ public:
     ForceContext ctx{store_, params_, scene_, executor_};
     force_->prepare(ctx);
   }
+
+  ForceProbe(const ForceProbe&) = delete;  // the store refers to this object's executor
+  ForceProbe& operator=(const ForceProbe&) = delete;
 
   MeshStore& store() { return store_; }
   ParamTable& params() { return params_; }
