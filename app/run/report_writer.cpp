@@ -34,9 +34,14 @@ std::string csvNumber(double v) {
 }
 }  // namespace
 
-void writeReportJson(const std::filesystem::path& path, const RunReport& r, const SceneDesc& scene) {
+void writeReportJson(const std::filesystem::path& path, const RunReport& r, const SceneDesc& scene,
+                     std::span<const PluginRecord> plugins) {
   Json j;
   j["scene"] = scene.file.string();
+  j["plugins"] = Json::array();
+  for (const PluginRecord& p : plugins)
+    if (!p.file.empty())
+      j["plugins"].push_back({{"name", p.name}, {"version", p.version}, {"kind", pluginKindName(p.kind)}, {"file", p.file.string()}});
   j["backend"] = r.backend;
   j["device"] = r.device;
   j["threads"] = r.threads;

@@ -2,13 +2,17 @@
 // timeline.csv (error and motion against simulation time).
 #pragma once
 
+#include "sinew/core/plugin_loader.h"
 #include "sinew/core/scene_runner.h"
 
 #include <filesystem>
 
 namespace sinew {
 
-void writeReportJson(const std::filesystem::path& path, const RunReport& report, const SceneDesc& scene);
+// `plugins`: the loaded plugins; the run-time ones are recorded (name, version, file), so that a
+// result can be traced to the plugin build that made it.
+void writeReportJson(const std::filesystem::path& path, const RunReport& report, const SceneDesc& scene,
+                     std::span<const PluginRecord> plugins = {});
 void writeReportCsv(const std::filesystem::path& path, const RunReport& report);
 void writeTimelineCsv(const std::filesystem::path& path, const RunReport& report, const SceneDesc& scene);
 // error_vs_time.png: ASSD (or mean displacement without ground truth) against simulation time,

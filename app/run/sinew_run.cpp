@@ -227,7 +227,7 @@ int main(int argc, char** argv) {
     const LabelVolume labelMap = runner.labelMap(report);
     registry.imageIOFor(labels).writeLabels(labels, labelMap);
     writeSliceOverlay(out.file("slices.png"), runner.simulation().scene().targetImage(), labelMap, scene);
-    writeReportJson(out.file("report.json"), report, scene);
+    writeReportJson(out.file("report.json"), report, scene, plugins.plugins());
     writeReportCsv(out.file("report.csv"), report);
     writeTimelineCsv(out.file("timeline.csv"), report, scene);
     writeErrorPlot(out.file("error_vs_time.png"), report, scene);

@@ -69,6 +69,22 @@ private Q_SLOTS:
     registerBuiltinTools(tools_);
   }
 
+  // The built-in tools are tool plugins: registered through the loader, and refused whole when
+  // their names are taken (a tool plugin leaves nothing behind).
+  void toolPluginsRegisterOnce() {
+    ToolRegistry tools;
+    registerBuiltinTools(tools);
+    QCOMPARE(tools.tools().size(), std::size_t(2));
+    QVERIFY(tools.find("navigate") && tools.find("attraction_points"));
+    try {
+      registerBuiltinTools(tools);
+      QFAIL("a tool name was registered twice");
+    } catch (const std::logic_error& e) {
+      QVERIFY2(std::string(e.what()).find("tool 'navigate' is already registered") != std::string::npos, e.what());
+    }
+    QCOMPARE(tools.tools().size(), std::size_t(2));
+  }
+
   void init() {
     WorkstationOptions o;
     o.backend = "cpu";

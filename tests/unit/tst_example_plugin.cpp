@@ -6,6 +6,9 @@
 #include "synthetic.h"
 
 #include <QDir>
+#include <QJsonArray>
+#include <QJsonDocument>
+#include <QJsonObject>
 #include <QProcess>
 #include <QTemporaryDir>
 #include <QtTest>
@@ -75,6 +78,15 @@ private Q_SLOTS:
     const QString control = work.filePath("control.sinew.json");
     std::ofstream(control.toStdString()) << text.toStdString();
     QVERIFY(run(sinewRun, {control, "-o", work.filePath("control"), "-q", "--backend", "cpu"}, env));
+
+    // The report names the plugin build that made the result.
+    QFile report(work.filePath("balloon/report.json"));
+    QVERIFY(report.open(QIODevice::ReadOnly));
+    const QJsonArray plugins = QJsonDocument::fromJson(report.readAll())["plugins"].toArray();
+    QCOMPARE(plugins.size(), 1);
+    QCOMPARE(plugins[0]["name"].toString(), QString("balloon"));
+    QCOMPARE(plugins[0]["version"].toString(), QString("1.0.0"));
+    QCOMPARE(plugins[0]["file"].toString(), build + "/sinew-plugin-balloon.so");
 
     const Registry& registry = testing::builtinRegistry();
     auto volume = [&](const QString& dir) {
