@@ -39,6 +39,14 @@ for f in cmake/Sinew/SinewConfig.cmake include/sinew/core/plugin_api.h include/s
   grep -q "$f\$" "$work/dev-contents.txt" || fail "$f is not in $(basename "$dev")"
 done
 
+echo "== the .tar.gz runs where it is unpacked"
+mkdir "$work/tgz" && tar -xzf "$build"/sinew-*.tar.gz -C "$work/tgz"
+unpacked=$(echo "$work"/tgz/sinew-*)
+"$unpacked/bin/sinew-run" --version
+listing=$("$unpacked/bin/sinew-run" --list-plugins)
+grep -q "^plugin search path:.* $unpacked/lib/sinew/plugins" <<<"$listing" ||
+  fail "the unpacked sinew-run does not search $unpacked/lib/sinew/plugins"
+
 echo "== install"
 apt-get install -y -qq --no-install-recommends "$runtime" "$dev" >/dev/null
 test "$(command -v sinew-run)" = /usr/bin/sinew-run || fail "sinew-run is not /usr/bin/sinew-run"
@@ -66,7 +74,8 @@ cmp "$work/out/Thalamus_L.vtp" "$work/out2/Thalamus_L.vtp"
 
 echo "== remove"
 apt-get remove --purge -y -qq sinew-dev sinew >/dev/null
-if dpkg -l sinew sinew-dev 2>/dev/null | grep -q '^ii'; then fail "still installed"; fi
+status=$(dpkg -l sinew sinew-dev 2>/dev/null || true)
+if grep -q '^ii' <<<"$status"; then fail "still installed"; fi
 for p in /usr/bin/sinew-run /usr/bin/sinew /usr/include/sinew "$plugins" /usr/share/doc/sinew /usr/share/sinew \
          /usr/share/applications/io.github.sinew.Sinew.desktop; do
   [ ! -e "$p" ] || fail "$p is left after removal"
