@@ -129,16 +129,16 @@ void listPlugins(const PluginLoader& loader, const Registry& registry) {
     std::printf("plugin %s %s (%s, %s): %s\n", p.name.c_str(), p.version.c_str(), pluginKindName(p.kind),
                 p.file.empty() ? "built in" : p.file.c_str(), p.summary.c_str());
     if (p.kind == PluginKind::Tool) std::printf("    (an interaction tool: used by the workstation)\n");
-    for (const std::string& c : p.components) {
-      const std::string kind = c.substr(0, c.find(' ')), name = c.substr(c.find(' ') + 1);
-      if (kind == "force") {
-        std::printf("    force %s: %s\n", name.c_str(), registry.force(name).summary.c_str());
-        printParams(registry.force(name).params);
-      } else if (kind == "integrator") {
-        std::printf("    integrator %s: %s\n", name.c_str(), registry.integrator(name).summary.c_str());
-        printParams(registry.integrator(name).params);
+    for (const PluginComponent& c : p.components) {
+      const char* name = c.name.c_str();
+      if (c.kind == PluginKind::Force) {
+        std::printf("    force %s: %s\n", name, registry.force(c.name).summary.c_str());
+        printParams(registry.force(c.name).params);
+      } else if (c.kind == PluginKind::Integrator) {
+        std::printf("    integrator %s: %s\n", name, registry.integrator(c.name).summary.c_str());
+        printParams(registry.integrator(c.name).params);
       } else {
-        std::printf("    %s\n", c.c_str());
+        std::printf("    %s %s\n", pluginKindName(c.kind), name);
       }
     }
   }
@@ -196,8 +196,14 @@ int main(int argc, char** argv) {
   try {
     SceneDesc scene = readScene(scenePath);
     // Only the run-time plugins the scene names are loaded.
-    for (const std::string& name : scene.plugins) {
-      const PluginRecord& p = plugins.load(name);
+    for (std::size_t i = 0; i < scene.plugins.size(); ++i) {
+      const PluginRecord* loaded = nullptr;
+      try {
+        loaded = &plugins.load(scene.plugins[i]);
+      } catch (const InputError& e) {
+        throw InputError(scenePath + ": /plugins/" + std::to_string(i) + ": " + e.what());
+      }
+      const PluginRecord& p = *loaded;
       if (!quiet)
         std::fprintf(stderr, "plugin %s %s: %s\n", p.name.c_str(), p.version.c_str(),
                      p.file.empty() ? "built in" : ("loaded from " + p.file.string()).c_str());

@@ -96,7 +96,7 @@ PluginRecord PluginLoader::registerChecked(const PluginInfo& info, const std::st
   if (const std::string problem = kindProblem(scratch, info.kind); !problem.empty())
     throw InputError(who + ": " + problem);
   PluginRecord record{info.name, info.version ? info.version : "", info.summary ? info.summary : "", info.kind, {},
-                      scratch.componentNames()};
+                      scratch.components()};
   try {
     registry_.merge(std::move(scratch));
   } catch (const InputError& e) {

@@ -106,13 +106,13 @@ void Registry::merge(Registry&& other) {
   moveAll(meshIOs_, other.meshIOs_);
 }
 
-std::vector<std::string> Registry::componentNames() const {
-  std::vector<std::string> names;
-  for (const auto& d : forces_) names.push_back("force " + d.name);
-  for (const auto& d : integrators_) names.push_back("integrator " + d.name);
-  for (const auto& d : imageIOs_) names.push_back("image-io " + d.name);
-  for (const auto& d : meshIOs_) names.push_back("mesh-io " + d.name);
-  return names;
+std::vector<PluginComponent> Registry::components() const {
+  std::vector<PluginComponent> all;
+  for (const auto& d : forces_) all.push_back({PluginKind::Force, d.name});
+  for (const auto& d : integrators_) all.push_back({PluginKind::Integrator, d.name});
+  for (const auto& d : imageIOs_) all.push_back({PluginKind::ImageIO, d.name});
+  for (const auto& d : meshIOs_) all.push_back({PluginKind::MeshIO, d.name});
+  return all;
 }
 
 }  // namespace sinew

@@ -49,7 +49,7 @@ private Q_SLOTS:
     for (const PluginRecord& p : loader.plugins()) {
       QVERIFY(p.file.empty());
       QCOMPARE(p.components.size(), std::size_t(1));
-      QVERIFY2(p.components[0].starts_with(pluginKindName(p.kind)), p.components[0].c_str());
+      QVERIFY2(p.components[0].kind == p.kind, p.components[0].name.c_str());
     }
     QCOMPARE(loader.find("damped_verlet")->kind, PluginKind::Integrator);
     QCOMPARE(loader.find("image_io_itk")->kind, PluginKind::ImageIO);
@@ -82,7 +82,7 @@ private Q_SLOTS:
     QVERIFY(good);
     QCOMPARE(good->version, std::string("2.5.0"));
     QCOMPARE(good->file, kPluginDir / "sinew-plugin-test_constant.so");
-    QCOMPARE(good->components, std::vector<std::string>{"force test_constant"});
+    QCOMPARE(good->components, (std::vector<PluginComponent>{{PluginKind::Force, "test_constant"}}));
     QCOMPARE(registry.force("test_constant").params[1].name, std::string("value"));
     QCOMPARE(loader.failures().size(), std::size_t(5));
 
@@ -189,7 +189,7 @@ private Q_SLOTS:
       "structures": [{"name": "a", "label": 1, "reference": {"mesh": "a.vtp"}}], "forces": {}, "schedule": [{"iterations": 1}]})";
     const Run r = runSinew({scene, "-o", dir.filePath("out"), "-q"}, QString::fromStdString(kPluginDir.string()));
     QCOMPARE(r.code, 3);
-    QVERIFY2(r.err.contains("plugin 'absent' not found"), qPrintable(r.err));
+    QVERIFY2(r.err.contains(scene + ": /plugins/0: plugin 'absent' not found"), qPrintable(r.err));
     QVERIFY(!QFileInfo::exists(dir.filePath("out")));
   }
 };

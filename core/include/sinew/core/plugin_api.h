@@ -11,6 +11,8 @@
 // refused at load time.
 #define SINEW_PLUGIN_ABI_VERSION 1
 
+#include <string>
+
 namespace sinew {
 
 class Registry;
@@ -25,6 +27,13 @@ const char* pluginKindName(PluginKind kind);
 struct PluginHost {
   Registry& registry;
   ToolRegistry* tools = nullptr;
+};
+
+// One thing a plugin registered: a force, an integrator, an image or mesh IO.
+struct PluginComponent {
+  PluginKind kind;
+  std::string name;
+  bool operator==(const PluginComponent&) const = default;
 };
 
 struct PluginInfo {

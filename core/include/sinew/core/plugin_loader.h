@@ -18,7 +18,7 @@ struct PluginRecord {
   std::string name, version, summary;
   PluginKind kind = PluginKind::Force;
   std::filesystem::path file;           // empty for a built-in plugin
-  std::vector<std::string> components;  // the names it registered (forces, integrators, ...)
+  std::vector<PluginComponent> components;  // what it registered
 };
 
 struct PluginFailure {

@@ -5,6 +5,7 @@
 
 #include "sinew/core/force.h"
 #include "sinew/core/io.h"
+#include "sinew/core/plugin_api.h"
 
 #include <functional>
 #include <memory>
@@ -51,8 +52,8 @@ public:
   // Moves every component of `other` into this registry. Throws InputError naming the first name
   // already taken, before anything is moved.
   void merge(Registry&& other);
-  // "force balloon", "integrator damped_verlet", ... in registration order.
-  std::vector<std::string> componentNames() const;
+  // Every component, forces first, each kind in registration order.
+  std::vector<PluginComponent> components() const;
   bool empty() const { return forces_.empty() && integrators_.empty() && imageIOs_.empty() && meshIOs_.empty(); }
 
 private:
