@@ -1,7 +1,7 @@
 # Installation and packages: `cpack` in the build directory writes sinew_VERSION_ARCH.deb (the
 # programs), sinew-dev_VERSION_ARCH.deb (the plugin SDK) and a .tar.gz of both.
 # Programs find libsinew_core in its private directory through their RUNPATH.
-install(TARGETS sinew-run sinew-make-scene RUNTIME DESTINATION "${CMAKE_INSTALL_BINDIR}" COMPONENT runtime)
+install(TARGETS sinew-run sinew-make-scene sinew-build-model sinew-make-subject RUNTIME DESTINATION "${CMAKE_INSTALL_BINDIR}" COMPONENT runtime)
 if(TARGET sinew)
   install(TARGETS sinew RUNTIME DESTINATION "${CMAKE_INSTALL_BINDIR}" COMPONENT runtime)
 endif()

@@ -48,6 +48,37 @@ void writeReportJson(const std::filesystem::path& path, const RunReport& r, cons
   j["total_seconds"] = r.totalSeconds;
   j["simulation_seconds"] = r.simulationSeconds;
   j["level_start_seconds"] = r.levelStartSeconds;
+  j["stage_seconds"] = Json::object();
+  for (const auto& [name, seconds] : r.stageSeconds) j["stage_seconds"][name] = seconds;
+  {
+    const InitialisationResult& in = r.initialisation;
+    Json init{{"method", in.method}, {"seconds", in.seconds}};
+    Json stages = Json::array();
+    for (const RegistrationStage& st : in.registration)
+      stages.push_back({{"name", st.name}, {"mattes_mi", st.metric}, {"iterations", st.iterations}, {"seconds", st.seconds}});
+    if (!in.registration.empty()) init["registration"] = stages;
+    if (in.hasAffine) {
+      Json m = Json::array();
+      for (int row = 0; row < 4; ++row)
+        for (int c = 0; c < 4; ++c) m.push_back(in.targetToModel(row, c));
+      init["target_to_model"] = m;
+      init["transform_file"] = "subject-to-atlas.tfm";
+    }
+    j["initialisation"] = init;
+  }
+  Json stages = Json::array();
+  for (const StageResult& st : r.stages) {
+    Json per = Json::object();
+    double sum = 0.0;
+    int n = 0;
+    for (size_t i = 0; i < st.assdMm.size() && i < r.structures.size(); ++i) {
+      per[r.structures[i].name] = number(st.assdMm[i]);
+      if (!std::isnan(st.assdMm[i])) sum += st.assdMm[i], ++n;
+    }
+    stages.push_back({{"name", st.name}, {"seconds", st.seconds}, {"mean_assd_mm", n ? Json(sum / n) : Json(nullptr)},
+                      {"assd_mm", per}});
+  }
+  j["stages"] = stages;
   j["status"] = r.numericalFailure.empty() ? "completed" : "numerical_failure";
   if (!r.numericalFailure.empty()) j["numerical_failure"] = r.numericalFailure;
   Json events = Json::array();
@@ -61,10 +92,11 @@ void writeReportJson(const std::filesystem::path& path, const RunReport& r, cons
     structures.push_back({{"name", s.name},
                           {"label", s.label},
                           {"vertices", s.vertices},
-                          {"assd_mm", {{"initial", number(s.assdInitialMm)}, {"final", number(s.assdFinalMm)}}},
+                          {"assd_mm", {{"model", number(s.assdModelMm)}, {"initial", number(s.assdInitialMm)}, {"final", number(s.assdFinalMm)}}},
                           {"hd95_mm", number(s.hd95Mm)},
                           {"dice", number(s.dice)},
                           {"dice_initial", number(s.diceInitial)},
+                          {"dice_model", number(s.diceModel)},
                           {"seconds", s.seconds}});
   }
   j["structures"] = structures;
@@ -84,11 +116,13 @@ void writeReportJson(const std::filesystem::path& path, const RunReport& r, cons
 
 void writeReportCsv(const std::filesystem::path& path, const RunReport& r) {
   std::ostringstream s;
-  s << "structure,label,vertices,assd_initial_mm,assd_final_mm,hd95_mm,dice_initial,dice,seconds\n";
+  s << "structure,label,vertices,assd_model_mm,assd_initial_mm,assd_final_mm,hd95_mm,dice_model,dice_initial,dice,"
+       "seconds\n";
   for (const StructureResult& x : r.structures)
-    s << x.name << ',' << x.label << ',' << x.vertices << ',' << csvNumber(x.assdInitialMm) << ','
-      << csvNumber(x.assdFinalMm) << ',' << csvNumber(x.hd95Mm) << ',' << csvNumber(x.diceInitial) << ','
-      << csvNumber(x.dice) << ',' << csvNumber(x.seconds) << '\n';
+    s << x.name << ',' << x.label << ',' << x.vertices << ',' << csvNumber(x.assdModelMm) << ','
+      << csvNumber(x.assdInitialMm) << ',' << csvNumber(x.assdFinalMm) << ',' << csvNumber(x.hd95Mm) << ','
+      << csvNumber(x.diceModel) << ',' << csvNumber(x.diceInitial) << ',' << csvNumber(x.dice) << ','
+      << csvNumber(x.seconds) << '\n';
   writeText(path, s.str());
 }
 

@@ -1,6 +1,9 @@
-// sinew-make-scene: writes a segmentation scene from an atlas. Reference shapes come from the
-// atlas labels, profiles are trained on one image and another is segmented; each initial mesh is
-// its reference moved by a seeded random similarity transform, and the atlas is the ground truth.
+// sinew-make-scene: writes a segmentation scene from an atlas or a model. Demo mode: reference
+// shapes from the atlas labels, profiles trained on one image and another segmented; each initial
+// mesh is its reference moved by a seeded random similarity, and the atlas is the ground truth.
+// Subject mode (--subject, implied by --model): a new subject's image, the model placed by
+// registering its atlas image to the target, no perturbation, a ground truth only when given.
+#include "label_list.h"
 #include "sinew/core/scene.h"
 #include "sinew/core/io.h"
 #include "sinew/core/types.h"
@@ -16,65 +19,29 @@
 
 namespace fs = std::filesystem;
 using Json = nlohmann::ordered_json;
+using namespace sinew;
 
-namespace {
-
-struct LabelEntry {
-  int value;
-  std::string name;
-};
-
-// Label lists as shipped with atlases (aal.nii.txt): "value name [code]" per line.
-std::vector<LabelEntry> readLabelList(const fs::path& path) {
-  std::ifstream in(path);
-  if (!in) throw sinew::InputError(path.string() + ": cannot open the label list");
-  std::vector<LabelEntry> out;
-  std::string line;
-  int lineNo = 0;
-  while (std::getline(in, line)) {
-    ++lineNo;
-    if (line.find_first_not_of(" \t\r") == std::string::npos || line[0] == '#') continue;
-    std::istringstream s(line);
-    LabelEntry e;
-    if (!(s >> e.value >> e.name))
-      throw sinew::InputError(path.string() + ":" + std::to_string(lineNo) + ": expected 'value name'");
-    out.push_back(e);
-  }
-  return out;
-}
-
-const LabelEntry& findLabel(const std::vector<LabelEntry>& list, const std::string& key, const fs::path& file) {
-  for (const auto& e : list)
-    if (e.name == key || std::to_string(e.value) == key) return e;
-  throw sinew::InputError(file.string() + ": no label named or numbered '" + key + "'");
-}
-
-std::vector<std::string> splitList(const std::string& s) {
-  std::vector<std::string> out;
-  std::stringstream in(s);
-  std::string item;
-  while (std::getline(in, item, ','))
-    if (!item.empty()) out.push_back(item);
-  return out;
-}
-
-}  // namespace
 
 int main(int argc, char** argv) {
-  CLI::App cli{"sinew-make-scene: write a segmentation scene from an atlas label map."};
-  std::string atlas, labelList, training, target, groundTruth, output = "scene.json";
-  std::string structures =
-      "Hippocampus_L,Hippocampus_R,Amygdala_L,Amygdala_R,Caudate_L,Caudate_R,Putamen_L,Putamen_R,Pallidum_L,"
-      "Pallidum_R,Thalamus_L,Thalamus_R";
-  std::string iterations = "150,80,30";
+  CLI::App cli{"sinew-make-scene: write a segmentation scene from an atlas label map or a model."};
+  std::string atlas, labelList, training, target, groundTruth, output = "scene.json", model, transform;
+  std::string structures = kDefaultStructures;
+  std::string iterations = "150,80,30", initialise = "affine";
+  bool subject = false;
   unsigned seed = 1;
   double maxRotation = 8.0, maxTranslation = 3.0, scaleMin = 0.9, scaleMax = 1.1, coarseSpacing = 4.0;
-  cli.add_option("--atlas", atlas, "atlas label map: reference shapes (and ground truth by default)")->required();
-  cli.add_option("--labels", labelList, "label list of the atlas, 'value name' per line")->required();
+  cli.add_option("--atlas", atlas, "atlas label map: reference shapes (and, in demo mode, the ground truth)");
+  cli.add_option("--labels", labelList, "label list of the atlas, 'value name' per line");
+  cli.add_option("--model", model, "a model folder (sinew-build-model) instead of --atlas/--labels/--training; implies --subject");
+  cli.add_flag("--subject", subject, "subject mode: no random perturbation, the model initialised by registration, "
+                                     "a ground truth only from --ground-truth");
+  cli.add_option("--initialise", initialise, "subject mode: registration of the atlas image to the target")
+      ->check(CLI::IsMember({"affine", "rigid", "none"}))->capture_default_str();
+  cli.add_option("--transform", transform, "subject mode: an ITK transform file (target to model) instead of registering");
   cli.add_option("--structures", structures, "comma-separated label names or values")->capture_default_str();
-  cli.add_option("--training", training, "image the intensity profiles are trained on")->required();
+  cli.add_option("--training", training, "image the intensity profiles are trained on (default with --model: its atlas)");
   cli.add_option("--target", target, "image to segment")->required();
-  cli.add_option("--ground-truth", groundTruth, "label map to score against (default: the atlas)");
+  cli.add_option("--ground-truth", groundTruth, "label map to score against (demo mode default: the atlas)");
   cli.add_option("--seed", seed, "seed of the random placement")->capture_default_str();
   cli.add_option("--max-rotation-deg", maxRotation, "largest rotation")->capture_default_str();
   cli.add_option("--max-translation-mm", maxTranslation, "largest translation")->capture_default_str();
@@ -92,10 +59,28 @@ int main(int argc, char** argv) {
   }
   try {
     if (!(scaleMin > 0 && scaleMin <= scaleMax)) throw sinew::InputError("--scale-min/--scale-max: need 0 < min <= max");
+    subject = subject || !model.empty();
+    if (model.empty() && (atlas.empty() || labelList.empty() || training.empty()))
+      throw sinew::InputError("give --atlas, --labels and --training, or --model");
+    if (!model.empty() && !atlas.empty()) throw sinew::InputError("give --atlas or --model, not both");
+    if (!subject && !transform.empty()) throw sinew::InputError("--transform goes with --subject or --model");
     auto absolute = [](const std::string& p) { return fs::absolute(p).lexically_normal().string(); };
-    for (const auto& p : {atlas, labelList, training, target})
-      if (!fs::exists(p)) throw sinew::InputError(p + ": no such file");
-    const auto list = readLabelList(labelList);
+    for (const auto& p : {atlas, labelList, training, target, groundTruth, transform})
+      if (!p.empty() && !fs::exists(p)) throw sinew::InputError(p + ": no such file");
+    if (target.empty()) throw sinew::InputError("--target: the image to segment is required");
+    // In subject mode the structures are those of the model (or the atlas), named as in it.
+    std::vector<LabelEntry> list;
+    if (!model.empty()) {
+      // Only the manifest is read here: the names and labels of the model's structures.
+      std::ifstream in(fs::path(model) / "model.json");
+      if (!in) throw sinew::InputError(model + ": not a Sinew model (no model.json)");
+      const Json m = Json::parse(in, nullptr, false);
+      if (m.is_discarded() || !m.contains("structures"))
+        throw sinew::InputError((fs::path(model) / "model.json").string() + ": not a valid model manifest");
+      for (const auto& s : m["structures"]) list.push_back({s.value("label", 0), s.value("name", std::string())});
+    } else {
+      list = readLabelList(labelList);
+    }
     std::mt19937 rng(seed);
     std::uniform_real_distribution<double> unit(0.0, 1.0);
     std::normal_distribution<double> gauss(0.0, 1.0);
@@ -107,23 +92,32 @@ int main(int argc, char** argv) {
     Json scene;
     scene["version"] = sinew::kSceneVersion;
     std::ostringstream desc;
-    desc << "made by sinew-make-scene --seed " << seed << " --max-rotation-deg " << maxRotation
-         << " --max-translation-mm " << maxTranslation << " --scale-min " << scaleMin << " --scale-max " << scaleMax;
+    if (subject)
+      desc << "made by sinew-make-scene in subject mode (" << (model.empty() ? "atlas " + atlas : "model " + model)
+           << ", initialised by " << (transform.empty() ? initialise : "transform " + transform) << ")";
+    else
+      desc << "made by sinew-make-scene --seed " << seed << " --max-rotation-deg " << maxRotation
+           << " --max-translation-mm " << maxTranslation << " --scale-min " << scaleMin << " --scale-max " << scaleMax;
     scene["description"] = desc.str();
-    scene["images"] = {{"target", absolute(target)}, {"training", absolute(training)}};
+    scene["images"] = {{"target", absolute(target)}};
+    if (!training.empty()) scene["images"]["training"] = absolute(training);
     Json items = Json::array();
+    const fs::path listFile = model.empty() ? fs::path(labelList) : fs::path(model) / "model.json";
     for (const std::string& key : splitList(structures)) {
-      const LabelEntry& e = findLabel(list, key, labelList);
-      const Eigen::Vector3d axis = direction(), shift = direction() * (maxTranslation * unit(rng));
+      const LabelEntry& e = findLabel(list, key, listFile);
       Json s;
       s["name"] = e.name;
       s["label"] = e.value;
-      s["reference"] = {{"label_map", absolute(atlas)}, {"label", e.value}};
-      s["initial"] = {{"rotation_axis", {axis.x(), axis.y(), axis.z()}},
-                      {"rotation_deg", maxRotation * unit(rng)},
-                      {"translation_mm", {shift.x(), shift.y(), shift.z()}},
-                      {"scale", scaleMin + (scaleMax - scaleMin) * unit(rng)}};
-      s["ground_truth"] = {{"label_map", absolute(groundTruth.empty() ? atlas : groundTruth)}, {"label", e.value}};
+      if (model.empty()) s["reference"] = {{"label_map", absolute(atlas)}, {"label", e.value}};
+      if (!subject) {
+        const Eigen::Vector3d axis = direction(), shift = direction() * (maxTranslation * unit(rng));
+        s["initial"] = {{"rotation_axis", {axis.x(), axis.y(), axis.z()}},
+                        {"rotation_deg", maxRotation * unit(rng)},
+                        {"translation_mm", {shift.x(), shift.y(), shift.z()}},
+                        {"scale", scaleMin + (scaleMax - scaleMin) * unit(rng)}};
+      }
+      if (!subject || !groundTruth.empty())
+        s["ground_truth"] = {{"label_map", absolute(groundTruth.empty() ? atlas : groundTruth)}, {"label", e.value}};
       items.push_back(s);
     }
     scene["structures"] = items;
@@ -139,10 +133,18 @@ int main(int argc, char** argv) {
     Json schedule = Json::array();
     for (size_t l = 0; l < counts.size(); ++l) {
       const double depth = std::max(1.0, 4.0 / std::pow(2.0, double(l)));  // search depth decreases (paper 001)
-      schedule.push_back({{"iterations", std::stoi(counts[l])}, {"forces", {{"intensity_profile", {{"search_depth", depth}}}}}});
+      Json level = {{"iterations", std::stoi(counts[l])}, {"forces", {{"intensity_profile", {{"search_depth", depth}}}}}};
+      // Subject mode: the image forces' closest affine field takes 100 % at the coarsest level, down
+      // to 20 % at the finest (paper 001 section 3).
+      if (subject)
+        level["affine_regularisation"] = counts.size() == 1 ? 0.2 : 1.0 - 0.8 * double(l) / double(counts.size() - 1);
+      schedule.push_back(level);
     }
     scene["schedule"] = schedule;
     scene["model"] = {{"coarse_spacing_mm", coarseSpacing}};
+    if (!model.empty()) scene["model"] = absolute(model);
+    if (subject && !transform.empty()) scene["initialise"] = {{"transform", absolute(transform)}};
+    else if (subject && initialise != "none") scene["initialise"] = {{"registration", initialise}};
     scene["report"] = {{"sample_interval", 10}, {"surface_sample_spacing_mm", 0.5}};
     scene["outputs"] = {{"mesh_format", ".vtp"}, {"meshes", true}, {"label_map", "segmentation.nii.gz"}};
 
@@ -155,7 +157,8 @@ int main(int argc, char** argv) {
       if (!f) throw sinew::InputError(output + ": cannot write the scene");
     }
     file.commit();
-    std::cerr << "wrote " << output << " (" << items.size() << " structures, seed " << seed << ")\n";
+    if (subject) std::cerr << "wrote " << output << " (" << items.size() << " structures, subject mode)\n";
+    else std::cerr << "wrote " << output << " (" << items.size() << " structures, seed " << seed << ")\n";
     return 0;
   } catch (const std::exception& e) {
     std::cerr << "sinew-make-scene: error: " << e.what() << "\n";

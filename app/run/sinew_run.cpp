@@ -59,25 +59,44 @@ private:
   std::chrono::steady_clock::time_point last_{};
 };
 
+// NaN (no ground truth) prints as "-".
+std::string cell(double v, int width, int precision = 3) {
+  char b[32];
+  if (std::isnan(v)) std::snprintf(b, sizeof b, "%*s", width, "-");
+  else std::snprintf(b, sizeof b, "%*.*f", width, precision, v);
+  return b;
+}
+
 void printTable(const RunReport& r) {
-  std::printf("%-22s %9s %12s %10s %8s %8s %9s\n", "structure", "vertices", "ASSD before", "ASSD after", "Dice 0",
-              "Dice", "time (s)");
-  double before = 0, after = 0, d0 = 0, d1 = 0;
-  int n = 0;
-  for (const StructureResult& s : r.structures) {
-    std::printf("%-22s %9d %12.3f %10.3f %8.3f %8.3f %9.2f\n", s.name.c_str(), s.vertices, s.assdInitialMm,
-                s.assdFinalMm, s.diceInitial, s.dice, s.seconds);
-    if (!std::isnan(s.assdFinalMm)) {
-      before += s.assdInitialMm;
-      after += s.assdFinalMm;
-      d0 += s.diceInitial;
-      d1 += s.dice;
+  if (!r.hasGroundTruth()) {
+    // Without a ground truth the run reports how far it still moves and how hard it is pushed.
+    std::printf("%-22s %9s %16s %12s\n", "structure", "vertices", "displacement mm", "mean force");
+    const size_t n = r.structures.size();
+    for (size_t i = 0; i < n && r.timeline.size() >= n; ++i) {
+      const TimelineSample& t = r.timeline[r.timeline.size() - n + i];
+      std::printf("%-22s %9d %16.4f %12.4f\n", r.structures[i].name.c_str(), r.structures[i].vertices,
+                  t.meanDisplacementMm, t.meanForce);
+    }
+  } else {
+    std::printf("%-22s %9s %11s %11s %10s %8s %8s %8s\n", "structure", "vertices", "ASSD model", "ASSD start",
+                "ASSD end", "Dice 0", "Dice", "HD95");
+    double sums[6] = {0, 0, 0, 0, 0, 0};
+    int n = 0;
+    for (const StructureResult& s : r.structures) {
+      std::printf("%-22s %9d %s %s %s %s %s %s\n", s.name.c_str(), s.vertices, cell(s.assdModelMm, 11).c_str(),
+                  cell(s.assdInitialMm, 11).c_str(), cell(s.assdFinalMm, 10).c_str(), cell(s.diceInitial, 8).c_str(),
+                  cell(s.dice, 8).c_str(), cell(s.hd95Mm, 8).c_str());
+      if (std::isnan(s.assdFinalMm)) continue;
+      const double v[6] = {s.assdModelMm, s.assdInitialMm, s.assdFinalMm, s.diceInitial, s.dice, s.hd95Mm};
+      for (int k = 0; k < 6; ++k) sums[k] += v[k];
       ++n;
     }
+    if (n > 0)
+      std::printf("%-22s %9s %s %s %s %s %s %s\n", "mean", "", cell(sums[0] / n, 11).c_str(), cell(sums[1] / n, 11).c_str(),
+                  cell(sums[2] / n, 10).c_str(), cell(sums[3] / n, 8).c_str(), cell(sums[4] / n, 8).c_str(),
+                  cell(sums[5] / n, 8).c_str());
   }
-  if (n > 0)
-    std::printf("%-22s %9s %12.3f %10.3f %8.3f %8.3f %9.2f\n", "mean", "", before / n, after / n, d0 / n, d1 / n,
-                r.simulationSeconds);
+  if (r.initialisation.method != "none") std::printf("initialisation: %s, %.2f s\n", r.initialisation.method.c_str(), r.initialisation.seconds);
   std::printf("backend %s, %s; simulation %.2f s, total %.2f s\n", r.backend.c_str(), r.device.c_str(),
               r.simulationSeconds, r.totalSeconds);
 }
@@ -233,6 +252,10 @@ int main(int argc, char** argv) {
     const LabelVolume labelMap = runner.labelMap(report);
     registry.imageIOFor(labels).writeLabels(labels, labelMap);
     writeSliceOverlay(out.file("slices.png"), runner.simulation().scene().targetImage(), labelMap, scene);
+    if (report.initialisation.hasAffine) {
+      const fs::path tfm = out.file("subject-to-atlas.tfm");
+      registry.imageRegistration().writeTransform(tfm, report.initialisation.targetToModel);
+    }
     writeReportJson(out.file("report.json"), report, scene, plugins.plugins());
     writeReportCsv(out.file("report.csv"), report);
     writeTimelineCsv(out.file("timeline.csv"), report, scene);

@@ -42,6 +42,31 @@ BuiltModel buildModel(const TriangleMesh& coarse, const TriangleMesh& surface, i
   return m;
 }
 
+BuiltModel buildModelFromLabel(const Registry& registry, const LabelVolume& labels, const std::filesystem::path& file,
+                               int label, const std::string& name, double coarseSpacingMm, int levelCount,
+                               const Executor& executor) {
+  TriangleMesh coarse, surface;
+  const auto& builder = registry.labelSurfaceBuilder();
+  try {
+    surface = builder.labelSurface(labels, label, {20, 0});
+    coarse = builder.labelSurface(labels, label, {20, trianglesForSpacing(surface, coarseSpacingMm)});
+    validateClosedManifold(coarse);
+  } catch (const InputError& e) {
+    throw InputError(file.string() + ": structure '" + name + "': " + e.what());
+  }
+  return buildModel(coarse, surface, levelCount, executor);
+}
+
+BuiltModel buildModelFromMesh(const TriangleMesh& mesh, const std::filesystem::path& file, int levelCount,
+                              const Executor& executor) {
+  try {
+    validateClosedManifold(mesh);
+  } catch (const InputError& e) {
+    throw InputError(file.string() + ": " + e.what());
+  }
+  return buildModel(mesh, mesh, levelCount, executor);
+}
+
 int trianglesForSpacing(const TriangleMesh& surface, double spacingMm) {
   // One simplex vertex per dual triangle, at its centroid. Centroids of equilateral triangles of
   // side a are a / sqrt(3) apart, so spacing s needs triangles of side s sqrt(3), area 3 sqrt(3)/4 s^2.

@@ -5,6 +5,18 @@
 
 namespace sinew {
 
+const ImageIODescriptor& Registry::imageRegistration() const {
+  for (const auto& d : imageIOs_)
+    if (d.registerImages && d.readTransform && d.writeTransform) return d;
+  throw InputError("no loaded image plugin can register images or read transforms");
+}
+
+const MeshIODescriptor& Registry::exactMeshReaderFor(const std::filesystem::path& path) const {
+  const MeshIODescriptor& d = meshIOFor(path);
+  if (!d.readExact) throw InputError(path.string() + ": mesh plugin '" + d.name + "' cannot read model files");
+  return d;
+}
+
 namespace {
 template <class D>
 const D& find(const std::vector<D>& list, std::string_view name, const char* kind) {

@@ -118,6 +118,8 @@ ForceSettings readForces(const Node& n) {
   return out;
 }
 
+StructureDesc readStructureRest(const Node& n, StructureDesc& s);
+
 StructureDesc readStructure(const Node& n) {
   n.expectObject({"name", "label", "reference", "initial", "forces", "density", "ground_truth", "attraction_points_mm"});
   StructureDesc s;
@@ -125,6 +127,7 @@ StructureDesc readStructure(const Node& n) {
   if (!plainFileName(s.name)) n.at("name").fail("the name names an output file: use letters, digits, '_', '-', '.' only");
   s.label = n.at("label").integer();
   if (s.label < 1 || s.label > 32767) n.at("label").fail("label values run from 1 to 32767");
+  if (!n.has("reference")) return readStructureRest(n, s);
   const Node ref = n.at("reference");
   ref.expectObject({"mesh", "label_map", "label"});
   if (ref.has("mesh") == ref.has("label_map")) ref.fail("give either 'mesh' or 'label_map' with 'label'");
@@ -134,6 +137,10 @@ StructureDesc readStructure(const Node& n) {
   } else {
     s.reference.label = LabelRef{ref.at("label_map").path(), ref.at("label").integer()};
   }
+  return readStructureRest(n, s);
+}
+
+StructureDesc readStructureRest(const Node& n, StructureDesc& s) {
   if (n.has("initial")) {
     const Node init = n.at("initial");
     init.expectObject({"mesh", "matrix", "rotation_axis", "rotation_deg", "translation_mm", "scale"});
@@ -169,6 +176,52 @@ StructureDesc readStructure(const Node& n) {
     }
   return s;
 }
+
+InitialiseDesc readInitialise(const Node& n) {
+  n.expectObject({"registration", "iterations", "levels", "moving_image", "transform", "landmarks", "landmark_fit"});
+  InitialiseDesc d;
+  const int methods = int(n.has("registration")) + int(n.has("transform")) + int(n.has("landmarks"));
+  if (methods != 1) n.fail("give exactly one of 'registration', 'transform' or 'landmarks'");
+  if (n.has("registration")) {
+    d.method = InitialiseDesc::Method::Registration;
+    const std::string kind = n.at("registration").string();
+    if (kind != "rigid" && kind != "affine") n.at("registration").fail("expected \"rigid\" or \"affine\"");
+    d.affine = kind == "affine";
+    if (n.has("iterations")) d.iterations = n.at("iterations").integer();
+    if (d.iterations < 1 || d.iterations > 10000) n.at("iterations").fail("must be in [1, 10000]");
+    if (n.has("levels")) d.levels = n.at("levels").integer();
+    if (d.levels < 1 || d.levels > 4) n.at("levels").fail("must be in [1, 4]");
+    if (n.has("moving_image")) d.movingImage = n.at("moving_image").path();
+  } else {
+    for (const char* k : {"iterations", "levels", "moving_image"})
+      if (n.has(k)) n.at(k).fail("goes with 'registration'");
+  }
+  if (n.has("transform")) {
+    d.method = InitialiseDesc::Method::Transform;
+    d.transform = n.at("transform").path();
+  }
+  if (n.has("landmarks")) {
+    d.method = InitialiseDesc::Method::Landmarks;
+    const Node list = n.at("landmarks");
+    for (const Node& p : list.elements()) {
+      p.expectObject({"model", "target"});
+      d.landmarks.push_back({p.at("model").numbers<3>(), p.at("target").numbers<3>()});
+    }
+    try {
+      checkLandmarks(d.landmarks, "landmark pairs");
+    } catch (const InputError& e) {
+      list.fail(e.what());
+    }
+    if (n.has("landmark_fit")) {
+      const std::string fit = n.at("landmark_fit").string();
+      if (fit != "tps" && fit != "affine") n.at("landmark_fit").fail("expected \"tps\" or \"affine\"");
+      d.thinPlateSpline = fit == "tps";
+    }
+  } else if (n.has("landmark_fit")) {
+    n.at("landmark_fit").fail("goes with 'landmarks'");
+  }
+  return d;
+}
 }  // namespace
 
 SceneDesc parseScene(const std::string& text, const fs::path& file) {
@@ -182,7 +235,7 @@ SceneDesc parseScene(const std::string& text, const fs::path& file) {
   }
   const Node root(json, "", file);
   root.expectObject({"version", "description", "images", "structures", "forces", "integrator", "schedule",
-                     "model", "report", "outputs", "stability", "plugins"});
+                     "model", "initialise", "report", "outputs", "stability", "plugins"});
   SceneDesc s;
   s.file = file;
   s.version = root.at("version").integer();
@@ -229,10 +282,13 @@ SceneDesc parseScene(const std::string& text, const fs::path& file) {
   }
 
   for (const Node& n : root.at("schedule").elements()) {
-    n.expectObject({"iterations", "forces"});
+    n.expectObject({"iterations", "forces", "affine_regularisation"});
     LevelDesc l;
     l.iterations = n.at("iterations").integer();
     if (l.iterations < 0) n.at("iterations").fail("iterations must be >= 0");
+    if (n.has("affine_regularisation")) l.affineRegularisation = n.at("affine_regularisation").number();
+    if (!(l.affineRegularisation >= 0.0 && l.affineRegularisation <= 1.0))
+      n.at("affine_regularisation").fail("must be in [0, 1] (the share of the image forces made affine)");
     if (n.has("forces")) l.forces = readForces(n.at("forces"));
     s.schedule.push_back(std::move(l));
   }
@@ -241,10 +297,19 @@ SceneDesc parseScene(const std::string& text, const fs::path& file) {
 
   if (root.has("model")) {
     const Node m = root.at("model");
-    m.expectObject({"coarse_spacing_mm"});
-    s.coarseSpacingMm = m.at("coarse_spacing_mm").number();
-    if (!(s.coarseSpacingMm > 0.0)) m.at("coarse_spacing_mm").fail("must be positive");
+    if (m.json().is_string()) {
+      s.model = m.path();
+    } else {
+      m.expectObject({"coarse_spacing_mm", "path"});
+      if (m.has("path")) s.model = m.at("path").path();
+      if (m.has("coarse_spacing_mm")) s.coarseSpacingMm = m.at("coarse_spacing_mm").number();
+      if (!(s.coarseSpacingMm > 0.0)) m.at("coarse_spacing_mm").fail("must be positive");
+    }
   }
+  for (size_t i = 0; i < s.structures.size(); ++i)
+    if (!s.model && !s.structures[i].reference.mesh && !s.structures[i].reference.label)
+      root.at("structures").elements()[i].fail("missing required key 'reference' (or name a \"model\" in the scene)");
+  if (root.has("initialise")) s.initialise = readInitialise(root.at("initialise"));
   if (root.has("stability")) {
     const Node g = root.at("stability");
     g.expectObject({"guard", "max_step_mm", "max_retries"});
@@ -299,7 +364,7 @@ std::string sceneToJson(const SceneDesc& s) {
     o["name"] = d.name;
     o["label"] = d.label;
     if (d.reference.mesh) o["reference"]["mesh"] = fs::absolute(*d.reference.mesh).string();
-    else o["reference"] = labelRefJson(*d.reference.label);
+    else if (d.reference.label) o["reference"] = labelRefJson(*d.reference.label);
     const Placement& p = d.initial;
     if (p.mesh) o["initial"]["mesh"] = fs::absolute(*p.mesh).string();
     else if (p.matrix) o["initial"]["matrix"] = *p.matrix;
@@ -321,10 +386,30 @@ std::string sceneToJson(const SceneDesc& s) {
   for (const LevelDesc& l : s.schedule) {
     Json o{{"iterations", l.iterations}};
     if (!l.forces.empty()) o["forces"] = forcesJson(l.forces);
+    if (l.affineRegularisation > 0.0) o["affine_regularisation"] = l.affineRegularisation;
     schedule.push_back(o);
   }
   j["schedule"] = schedule;
   j["model"]["coarse_spacing_mm"] = s.coarseSpacingMm;
+  if (s.model) j["model"]["path"] = fs::absolute(*s.model).string();
+  const InitialiseDesc& init = s.initialise;
+  switch (init.method) {
+    case InitialiseDesc::Method::None: break;
+    case InitialiseDesc::Method::Registration:
+      j["initialise"] = {{"registration", init.affine ? "affine" : "rigid"}, {"levels", init.levels},
+                         {"iterations", init.iterations}};
+      if (init.movingImage) j["initialise"]["moving_image"] = fs::absolute(*init.movingImage).string();
+      break;
+    case InitialiseDesc::Method::Transform:
+      j["initialise"] = {{"transform", fs::absolute(init.transform).string()}};
+      break;
+    case InitialiseDesc::Method::Landmarks: {
+      Json list = Json::array();
+      for (const auto& p : init.landmarks) list.push_back({{"model", p.model}, {"target", p.target}});
+      j["initialise"] = {{"landmarks", list}, {"landmark_fit", init.thinPlateSpline ? "tps" : "affine"}};
+      break;
+    }
+  }
   j["stability"] = {{"guard", s.stability.enabled}, {"max_step_mm", s.stability.maxStepMm},
                     {"max_retries", s.stability.maxRetries}};
   j["report"] = {{"sample_interval", s.sampleInterval}, {"surface_sample_spacing_mm", s.surfaceSampleSpacingMm}};

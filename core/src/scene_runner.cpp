@@ -1,6 +1,7 @@
 #include "sinew/core/scene_runner.h"
 
 #include "sinew/core/model_builder.h"
+#include "sinew/core/model_file.h"
 #include "sinew/core/voxelize.h"
 
 #include <chrono>
@@ -49,8 +50,18 @@ struct SceneRunner::Loaded {
   std::vector<std::vector<std::uint8_t>> truthMask;
   std::vector<const ImageGeometry*> truthGrid;
   std::shared_ptr<Image3D> target;
-  std::vector<double> initialAssd, initialDice;
+  std::optional<Model> model;
+  std::map<fs::path, std::shared_ptr<Image3D>> images;  // each file read once
+  std::vector<std::vector<Vec3>> modelPositions;         // level 0, before the initialisation
+  InitialisationResult init;
+  std::vector<std::pair<std::string, double>> stageSeconds;
   Clock::time_point created = Clock::now();
+
+  std::shared_ptr<Image3D> image(const Registry& registry, const fs::path& p) {
+    auto& slot = images[p];
+    if (!slot) slot = std::make_shared<Image3D>(registry.imageIOFor(p).readImage(p));
+    return slot;
+  }
 };
 
 bool RunReport::hasGroundTruth() const {
@@ -106,51 +117,57 @@ void SceneRunner::load() {
   auto log = [&](const std::string& m) {
     if (options_.log) options_.log(m + " (" + std::to_string(since(L.created)).substr(0, 5) + " s)");
   };
+  auto stage = [&](const char* name, Clock::time_point t0) { L.stageSeconds.emplace_back(name, since(t0)); };
+  auto t0 = Clock::now();
   log("reading " + scene_.targetImage.string());
-  L.target = std::make_shared<Image3D>(registry_.imageIOFor(scene_.targetImage).readImage(scene_.targetImage));
+  L.target = L.image(registry_, scene_.targetImage);
+  stage("read_target", t0);
   auto labels = [&](const fs::path& p) -> const LabelVolume& {
     auto& slot = L.labelMaps[p];
     if (!slot) slot = std::make_shared<LabelVolume>(registry_.imageIOFor(p).readLabels(p));
     return *slot;
   };
+  if (scene_.model) {
+    t0 = Clock::now();
+    log("reading the model " + scene_.model->string());
+    L.model = readModel(registry_, *scene_.model);
+    if (L.model->levelCount() < levels)
+      sceneError(scene_, "/schedule", std::to_string(levels) + " levels, but the model " + scene_.model->string() +
+                                          " has " + std::to_string(L.model->levelCount()));
+    stage("read_model", t0);
+  }
 
   L.sim = std::make_unique<Simulation>(registry_, options_.threads);
+  t0 = Clock::now();
+  std::vector<StructureSpec> specs;
   for (size_t i = 0; i < scene_.structures.size(); ++i) {
     const StructureDesc& d = scene_.structures[i];
     const std::string where = "/structures/" + std::to_string(i);
-    log("structure " + std::to_string(i + 1) + "/" + std::to_string(scene_.structures.size()) + " '" + d.name +
-        "': building the reference shape");
-    TriangleMesh coarse, surface;
-    if (d.reference.mesh) {
-      const fs::path& p = *d.reference.mesh;
-      coarse = registry_.meshIOFor(p).read(p);
-      try {
-        validateClosedManifold(coarse);
-      } catch (const InputError& e) {
-        throw InputError(p.string() + ": " + e.what());
-      }
-      surface = coarse;
-    } else {
-      const LabelRef& ref = *d.reference.label;
-      const auto& builder = registry_.labelSurfaceBuilder();
-      try {
-        surface = builder.labelSurface(labels(ref.labelMap), ref.label, {20, 0});
-        coarse = builder.labelSurface(labels(ref.labelMap), ref.label,
-                                      {20, trianglesForSpacing(surface, scene_.coarseSpacingMm)});
-        validateClosedManifold(coarse);
-      } catch (const InputError& e) {
-        throw InputError(ref.labelMap.string() + ": structure '" + d.name + "': " + e.what());
-      }
-    }
-    log("structure '" + d.name + "': relaxing " + std::to_string(levels) + " levels of detail");
-    BuiltModel model = buildModel(coarse, surface, levels, L.sim->executor());
-
     StructureSpec spec;
     spec.name = d.name;
-    spec.levels = std::move(model.levels);
-    spec.referencePositions = model.positions[0];
-    spec.finerReferences.assign(model.positions.begin() + 1, model.positions.end());
     spec.density = static_cast<float>(d.density);
+    if (!d.reference.mesh && !d.reference.label) {
+      const ModelStructure* ms = L.model->find(d.name);
+      if (!ms) sceneError(scene_, where + "/name", "the model " + scene_.model->string() + " has no structure '" + d.name + "'");
+      spec.levels = ms->levels;
+      spec.levels.levels.resize(levels);
+      spec.levels.prolongations.resize(levels - 1);
+      spec.referencePositions = ms->positions[0];
+      spec.finerReferences.assign(ms->positions.begin() + 1, ms->positions.begin() + levels);
+    } else {
+      log("structure " + std::to_string(i + 1) + "/" + std::to_string(scene_.structures.size()) + " '" + d.name +
+          "': building the reference shape");
+      log("structure '" + d.name + "': relaxing " + std::to_string(levels) + " levels of detail");
+      BuiltModel model =
+          d.reference.mesh
+              ? buildModelFromMesh(registry_.meshIOFor(*d.reference.mesh).read(*d.reference.mesh), *d.reference.mesh,
+                                   levels, L.sim->executor())
+              : buildModelFromLabel(registry_, labels(d.reference.label->labelMap), d.reference.label->labelMap,
+                                    d.reference.label->label, d.name, scene_.coarseSpacingMm, levels, L.sim->executor());
+      spec.levels = std::move(model.levels);
+      spec.referencePositions = model.positions[0];
+      spec.finerReferences.assign(model.positions.begin() + 1, model.positions.end());
+    }
     if (d.initial.mesh) {
       const fs::path& p = *d.initial.mesh;
       SimplexMesh init;
@@ -179,11 +196,6 @@ void SceneRunner::load() {
       for (const Vec3& p : spec.referencePositions)
         spec.initialPositions.push_back(centre + float(d.initial.scale) * (R * (p - centre)) + t);
     }
-    int inside = 0;
-    for (const Vec3& p : spec.initialPositions) inside += L.target->containsIndex(L.target->worldToIndex(p));
-    if (inside == 0)
-      sceneError(scene_, where, "structure '" + d.name + "' lies entirely outside the target image " +
-                                    scene_.targetImage.string());
 
     if (d.groundTruth) {
       log("structure '" + d.name + "': ground-truth surface");
@@ -204,7 +216,20 @@ void SceneRunner::load() {
       L.truthMask.emplace_back();
       L.truthGrid.push_back(nullptr);
     }
-    L.sim->addStructure(std::move(spec));
+    specs.push_back(std::move(spec));
+  }
+  stage(L.model ? "structures" : "build_model", t0);
+
+  t0 = Clock::now();
+  initialise(specs, log);
+  stage("initialisation", t0);
+  for (size_t i = 0; i < specs.size(); ++i) {
+    int inside = 0;
+    for (const Vec3& p : specs[i].initialPositions) inside += L.target->containsIndex(L.target->worldToIndex(p));
+    if (inside == 0)
+      sceneError(scene_, "/structures/" + std::to_string(i),
+                 "structure '" + specs[i].name + "' lies entirely outside the target image " + scene_.targetImage.string());
+    L.sim->addStructure(std::move(specs[i]));
   }
 
   for (size_t f = 0; f < scene_.forces.size(); ++f) {
@@ -222,28 +247,137 @@ void SceneRunner::load() {
   ParamTable& integ = L.sim->setIntegrator(scene_.integrator);
   applyParams(scene_, integ, scene_.integratorParams, -1, "/integrator");
   L.sim->scene().setTargetImage(L.target);
+  L.sim->scene().setTrainingMap(trainingMap_);
+  if (!scene_.schedule.empty()) L.sim->setAffineRegularisation(float(scene_.schedule[0].affineRegularisation));
   for (size_t i = 0; i < scene_.structures.size(); ++i)
     for (const auto& p : scene_.structures[i].attractionPointsMm)
       L.sim->scene().attractionPoints()[i].push_back(Vec3(float(p[0]), float(p[1]), float(p[2])));
-  if (scene_.trainingImage) log("reading " + scene_.trainingImage->string());
-  if (scene_.trainingImage)
-    L.sim->scene().setTrainingImage(
-        std::make_shared<Image3D>(registry_.imageIOFor(*scene_.trainingImage).readImage(*scene_.trainingImage)));
+  // The training image: the scene's, else the model's atlas.
+  const std::optional<fs::path> training =
+      scene_.trainingImage ? scene_.trainingImage : L.model ? std::optional<fs::path>(L.model->atlasImage) : std::nullopt;
+  if (training) {
+    t0 = Clock::now();
+    log("reading " + training->string());
+    L.sim->scene().setTrainingImage(L.image(registry_, *training));
+    stage("read_training", t0);
+  }
+  t0 = Clock::now();
   log("training and initialising the forces");
   L.sim->setStabilityGuard(scene_.stability);
   L.sim->initialize();
+  stage("prepare_forces", t0);
   log("ready");
 }
 
+// The map of the "initialise" stage, applied to every structure's reference shapes (all levels) and
+// initial positions: the model moves into the target as a whole. Initial meshes given as files
+// are in the target already and stay.
+void SceneRunner::initialise(std::vector<StructureSpec>& specs, const std::function<void(const std::string&)>& log) {
+  Loaded& L = *loaded_;
+  for (const auto& s : specs) L.modelPositions.push_back(s.initialPositions);
+  const InitialiseDesc& d = scene_.initialise;
+  InitialisationResult& r = L.init;
+  SpatialMap map, inverse;
+  const auto t0 = Clock::now();
+  switch (d.method) {
+    case InitialiseDesc::Method::None: return;
+    case InitialiseDesc::Method::Registration: {
+      const std::optional<fs::path> moving = d.movingImage ? d.movingImage
+                                             : L.model       ? std::optional<fs::path>(L.model->atlasImage)
+                                                             : scene_.trainingImage;
+      if (!moving)
+        sceneError(scene_, "/initialise/registration",
+                   "registration needs the model's atlas image: name a \"model\", a training image or \"moving_image\"");
+      const ImageIODescriptor* io = nullptr;
+      try {
+        io = &registry_.imageRegistration();
+      } catch (const InputError& e) {
+        sceneError(scene_, "/initialise/registration", e.what());
+      }
+      log("reading " + moving->string());
+      const std::shared_ptr<Image3D> model = L.image(registry_, *moving);
+      log(std::string("registering ") + moving->filename().string() + " to the target (" +
+          (d.affine ? "rigid, then affine" : "rigid") + ")");
+      RegistrationOptions o;
+      o.affine = d.affine;
+      o.levels = d.levels;
+      o.iterations = d.iterations;
+      o.log = options_.log;
+      const auto t1 = Clock::now();
+      RegistrationResult reg;
+      try {
+        reg = io->registerImages(*L.target, *model, o);
+      } catch (const InputError& e) {
+        throw InputError(scene_.file.string() + ": /initialise: " + e.what());
+      }
+      L.stageSeconds.emplace_back("registration", since(t1));
+      r.method = std::string("registration (") + (d.affine ? "affine" : "rigid") + ")";
+      r.registration = reg.stages;
+      r.hasAffine = true;
+      r.targetToModel = reg.targetToModel;
+      map = SpatialMap::affine(reg.targetToModel.inverse());
+      inverse = SpatialMap::affine(reg.targetToModel);
+      break;
+    }
+    case InitialiseDesc::Method::Transform: {
+      try {
+        r.targetToModel = registry_.imageRegistration().readTransform(d.transform);
+      } catch (const InputError& e) {
+        sceneError(scene_, "/initialise/transform", e.what());
+      }
+      r.method = "transform " + d.transform.string();
+      r.hasAffine = true;
+      map = SpatialMap::affine(r.targetToModel.inverse());
+      inverse = SpatialMap::affine(r.targetToModel);
+      break;
+    }
+    case InitialiseDesc::Method::Landmarks:
+      try {
+        // The spline's inverse has no closed form: the spline through the swapped pairs stands in
+        // for it (exact at the landmarks), to train on the atlas image.
+        std::vector<LandmarkPair> swapped;
+        for (const auto& p : d.landmarks) swapped.push_back({p.target, p.model});
+        map = d.thinPlateSpline ? SpatialMap::fitThinPlateSpline(d.landmarks) : SpatialMap::fitAffine(d.landmarks);
+        inverse = d.thinPlateSpline ? SpatialMap::fitThinPlateSpline(swapped)
+                                    : SpatialMap::affine(map.affinePart().inverse());
+      } catch (const InputError& e) {
+        sceneError(scene_, "/initialise/landmarks", e.what());
+      }
+      r.method = "landmarks: " + map.describe();
+      r.hasAffine = !map.hasSpline();
+      r.targetToModel = map.affinePart().inverse();
+      break;
+  }
+  for (size_t i = 0; i < specs.size(); ++i) {
+    StructureSpec& s = specs[i];
+    map.applyInPlace(s.referencePositions);
+    for (auto& level : s.finerReferences) map.applyInPlace(level);
+    if (!scene_.structures[i].initial.mesh) map.applyInPlace(s.initialPositions);
+    for (const Vec3& p : s.initialPositions)
+      if (!p.allFinite())
+        sceneError(scene_, "/initialise", "the initialisation maps structure '" + s.name + "' to non-finite positions");
+  }
+  trainingMap_ = inverse;
+  r.seconds = since(t0);
+  log("initialisation: " + r.method);
+}
+
+const InitialisationResult& SceneRunner::initialisation() const { return loaded_->init; }
+
 StructureResult SceneRunner::evaluate(Index i, bool final) {
+  MeshStore& store = loaded_->sim->store();
+  const auto x = store.mesh(store.positions(), i);
+  return evaluatePositions(i, std::vector<Vec3>(x.begin(), x.end()), final);
+}
+
+StructureResult SceneRunner::evaluatePositions(Index i, const std::vector<Vec3>& positions, bool final) {
   Loaded& L = *loaded_;
   MeshStore& store = L.sim->store();
   StructureResult r;
   r.name = scene_.structures[i].name;
   r.label = scene_.structures[i].label;
   r.vertices = store.range(i).vertexCount();
-  const auto x = store.mesh(store.positions(), i);
-  r.surface = tessellate(store.topologyOf(i), std::vector<Vec3>(x.begin(), x.end()));
+  r.surface = tessellate(store.topologyOf(i), positions);
   if (L.truth[i]) {
     const SurfaceDistanceStats st = L.truth[i]->compare(r.surface, L.sim->executor());
     r.assdFinalMm = st.assd;
@@ -287,8 +421,20 @@ RunReport SceneRunner::run() {
   RunReport report;
   report.threads = sim.executor().threads();
   report.device = cpuDescription(report.threads);
-  std::vector<StructureResult> initial;
+  std::vector<StructureResult> initial, model;
   for (Index i = 0; i < sim.structureCount(); ++i) initial.push_back(evaluate(i, true));
+  report.stageSeconds = L.stageSeconds;
+  report.initialisation = L.init;
+  const bool initialised = scene_.initialise.method != InitialiseDesc::Method::None;
+  for (Index i = 0; i < sim.structureCount(); ++i)
+    model.push_back(initialised && sim.level() == 0 ? evaluatePositions(i, L.modelPositions[i], true) : initial[i]);
+  auto stageOf = [&](std::string name, double seconds, const std::vector<StructureResult>& rs) {
+    StageResult st{std::move(name), seconds, {}};
+    for (const auto& x : rs) st.assdMm.push_back(x.assdFinalMm);
+    report.stages.push_back(std::move(st));
+  };
+  stageOf("model", 0.0, model);
+  if (initialised) stageOf("initialisation", L.init.seconds, initial);
 
   std::unique_ptr<ExecutionBackend> backend = options_.backend ? options_.backend(sim) : nullptr;
   if (backend) {
@@ -342,6 +488,11 @@ RunReport SceneRunner::run() {
       sample(report, simSeconds);
       if (options_.progress) options_.progress({level, levels, it, lv.iterations, done, total, simSeconds});
     }
+    // The level's error is that of its last sample.
+    StageResult st{"level " + std::to_string(level), simSeconds - report.levelStartSeconds.back(), {}};
+    for (Index i = 0; i < sim.structureCount(); ++i)
+      st.assdMm.push_back(report.timeline[report.timeline.size() - sim.structureCount() + i].assdMm);
+    report.stages.push_back(std::move(st));
   }
   report.simulationSeconds = simSeconds;
   report.stability = sim.stabilityEvents();
@@ -349,6 +500,8 @@ RunReport SceneRunner::run() {
     StructureResult r = evaluate(i, true);
     r.assdInitialMm = initial[i].assdFinalMm;
     r.diceInitial = initial[i].dice;
+    r.assdModelMm = model[i].assdFinalMm;
+    r.diceModel = model[i].dice;
     r.seconds = simSeconds;
     report.structures.push_back(std::move(r));
   }
@@ -397,6 +550,7 @@ bool SceneRunner::enterNextLevel() {
   // The level's values first: profile training and the like read them on entering the level.
   for (const auto& [name, values] : scene_.schedule[next].forces)
     applyParams(scene_, sim.forceParams(name), values, -1, "/schedule/" + std::to_string(next) + "/forces/" + name);
+  sim.setAffineRegularisation(float(scene_.schedule[next].affineRegularisation));
   return sim.advanceLevel();
 }
 

@@ -147,12 +147,19 @@ void Simulation::computeForces() {
   store_.refresh();
   auto f = store_.forces();
   executor_.forEach(store_.vertexCount(), [&](Index v) { f[v] = Vec3::Zero(); }, 4096);
+  const bool regularise = affineShare_ > 0.0f;
+  if (regularise) {
+    imageForces_.resize(store_.vertexCount());
+    executor_.forEach(store_.vertexCount(), [&](Index v) { imageForces_[v] = Vec3::Zero(); }, 4096);
+  }
   for (auto& s : forces_) {
     if (!s->params.anyPositive(0)) continue;
     ForceContext ctx{store_, s->params, scene_, executor_};
-    s->force->accumulate(ctx, f);
+    const bool image = regularise && s->force->requirements().imageForce;
+    s->force->accumulate(ctx, image ? std::span<Vec3>(imageForces_) : f);
     ++s->evaluations;
   }
+  if (regularise) regulariseImageForces(f);
   if (!integrator_->requirements().jacobian) return;
   jacobian_.reset(store_.vertexCount());
   for (auto& s : forces_) {
@@ -160,6 +167,35 @@ void Simulation::computeForces() {
     ForceContext ctx{store_, s->params, scene_, executor_};
     s->force->addJacobian(ctx, jacobian_);
   }
+}
+
+void Simulation::setAffineRegularisation(float share) {
+  if (!(share >= 0.0f && share <= 1.0f)) throw InputError("affine regularisation must be in [0, 1]");
+  affineShare_ = share;
+  if (share == 0.0f) std::vector<Vec3>().swap(imageForces_);
+}
+
+void Simulation::regulariseImageForces(std::span<Vec3> forces) {
+  const auto x = store_.positions();
+  const float share = affineShare_;
+  // One structure per task, its sums in a fixed order: deterministic for any thread count. The
+  // normal equations in homogeneous coordinates, in double (as the CUDA backend does).
+  executor_.forEach(structureCount(), [&](Index m) {
+    const MeshRange& r = store_.range(m);
+    Eigen::Matrix4d normal = Eigen::Matrix4d::Zero();
+    Eigen::Matrix<double, 4, 3> rhs = Eigen::Matrix<double, 4, 3>::Zero();
+    for (Index v = r.vertexBegin; v < r.vertexEnd; ++v) {
+      const Eigen::Vector4d h = x[v].cast<double>().homogeneous();
+      normal.noalias() += h * h.transpose();
+      rhs.noalias() += h * imageForces_[v].cast<double>().transpose();
+    }
+    const Eigen::Matrix<double, 4, 3> fit = normal.partialPivLu().solve(rhs);
+    const bool usable = fit.allFinite();
+    for (Index v = r.vertexBegin; v < r.vertexEnd; ++v) {
+      const Vec3 affine = usable ? Vec3((fit.transpose() * x[v].cast<double>().homogeneous()).cast<float>()) : imageForces_[v];
+      forces[v] += share * affine + (1.0f - share) * imageForces_[v];
+    }
+  });
 }
 
 std::string Simulation::checkStep(std::span<const Vec3> before) {

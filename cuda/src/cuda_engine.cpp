@@ -93,6 +93,8 @@ struct CudaEngine::Impl {
   // Image-derived data, only when a force needs it.
   DeviceArray<float> image, profiles;
   DeviceArray<float3> gradient;
+  DeviceArray<float3> imageForce;  // the image forces alone, while the affine regularisation is on
+  DeviceArray<double> affineMoments, affineCoefficients;
   VolumeView imageView{}, gradientView{};
   float gradientSigma = -1.0f;
   // The profile layout the profiles were trained with (read at upload, after training), as the CPU
@@ -279,6 +281,15 @@ struct CudaEngine::Impl {
   // leading per-vertex forces run fused in one kernel; the others follow in order.
   void enqueueStep() {
     launchGeometry(view, stream);
+    // With the affine regularisation on, the image forces add into their own buffer (the gradient
+    // then runs apart from the fused kernel), which is regularised into the force at the end.
+    const float share = sim.affineRegularisation();
+    const bool regularise = share > 0.0f;
+    MeshView imageTarget = view;
+    if (regularise) {
+      imageTarget.force = imageForce.get();
+      SINEW_CUDA(cudaMemsetAsync(imageForce.get(), 0, imageForce.bytes(), stream));
+    }
     FusedTerms fused;
     fused.reference = reference.get();
     fused.gradient = gradient.get();
@@ -288,6 +299,7 @@ struct CudaEngine::Impl {
       const ForceSlot& f = forces[next];
       const ParamTable& t = sim.forceParams(f.name);
       if (f.kind == Kind::Profile || f.kind == Kind::Attraction || f.kind == Kind::Plugin) break;
+      if (regularise && f.kind == Kind::Gradient) break;
       if (!t.anyPositive(0)) continue;
       FusedTerm term{};
       term.params = ParamView{f.params.get(), f.count};
@@ -314,11 +326,11 @@ struct CudaEngine::Impl {
         case Kind::Smoothing: launchSmoothing(view, p, t.indexOf("elevation_term"), stream); break;
         case Kind::ShapePrior: launchShapePrior(view, p, reference.get(), stream); break;
         case Kind::Gradient:
-          launchGradient(view, p, t.indexOf("epsilon"), t.indexOf("search_depth"), t.indexOf("sample_spacing"),
+          launchGradient(imageTarget, p, t.indexOf("epsilon"), t.indexOf("search_depth"), t.indexOf("sample_spacing"),
                          gradientView, gradient.get(), stream);
           break;
         case Kind::Profile:
-          launchProfile(view, p, t.indexOf("search_depth"), imageView, image.get(), profiles.get(), profileInside,
+          launchProfile(imageTarget, p, t.indexOf("search_depth"), imageView, image.get(), profiles.get(), profileInside,
                         profileOutside, profileSpacing, stream);
           break;
         case Kind::Attraction:
@@ -328,6 +340,9 @@ struct CudaEngine::Impl {
         case Kind::Plugin: checkPlugin(f, f.device->enqueue(pluginContext(f)), "enqueue"); break;
       }
     }
+    if (regularise)
+      launchAffineRegularisation(view, imageForce.get(), meshBegin.get(), meshEnd.get(), sim.structureCount(),
+                                 affineMoments.get(), affineCoefficients.get(), share, stream);
     const ParamTable& ip = sim.integratorParams();
     if (!implicit()) {
       launchVerlet(view, ip.getf(0, ip.indexOf("time_step")), 1.0f - ip.getf(0, ip.indexOf("damping")), stream);
@@ -368,6 +383,15 @@ CudaEngine::~CudaEngine() = default;
 
 void CudaEngine::run(int iterations) {
   Impl& I = *impl_;
+  // The affine regularisation's buffers, allocated only while it is on (before any capture).
+  if (I.sim.affineRegularisation() > 0.0f) {
+    const void* before[3] = {I.imageForce.get(), I.affineMoments.get(), I.affineCoefficients.get()};
+    I.imageForce.resize(I.sim.store().vertexCount());
+    I.affineMoments.resize(size_t(I.sim.structureCount()) * 22);
+    I.affineCoefficients.resize(size_t(I.sim.structureCount()) * 12);
+    if (before[0] != I.imageForce.get() || before[1] != I.affineMoments.get() || before[2] != I.affineCoefficients.get())
+      I.invalidateGraph();
+  }
   const int total = iterations;
   I.uploadParams();
   // Per-structure values are read from device memory, but which kernels run (a force weighted 0
@@ -382,6 +406,7 @@ void CudaEngine::run(int iterations) {
   }
   for (size_t p = 0; p < I.sim.integratorParams().decls().size(); ++p)
     signature.push_back(I.sim.integratorParams().getf(0, static_cast<int>(p)));
+  signature.push_back(I.sim.affineRegularisation());
   if (signature != I.graphSignature) I.invalidateGraph();
   I.graphSignature = signature;
   // Batches of up to 32 steps (fewer for implicit Euler, below), each length captured once as a CUDA Graph and replayed (a report

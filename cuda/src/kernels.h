@@ -46,6 +46,11 @@ void launchAttraction(const MeshView& m, ParamView p, int kRing, const float3* p
                       const int* meshBegin, const int* meshEnd, int pointCount, unsigned long long* scratch,
                       cudaStream_t s);
 void launchVerlet(const MeshView& m, float dt, float keep, cudaStream_t s);
+// The affine regularisation (affine_kernels.cu): adds share * (closest affine field of imageForce,
+// per structure) + (1 - share) * imageForce to m.force. moments: 22 doubles per structure;
+// coefficients: 12 per structure.
+void launchAffineRegularisation(const MeshView& m, const float3* imageForce, const int* meshBegin, const int* meshEnd,
+                                int meshes, double* moments, double* coefficients, float share, cudaStream_t s);
 // Implicit Euler (implicit_kernels.cu): per structure, the weights of the forces whose Jacobian is
 // a pull toward the neighbours (smoothing, shape prior) and along the normal (gradient, profile).
 struct ImplicitTerms {

@@ -140,6 +140,34 @@ TriangleMesh readMesh(const fs::path& path) {
   return m;
 }
 
+// Points and triangles exactly as the file stores them (no triangulation, no point merging): model
+// files rely on the order of their points.
+TriangleMesh readMeshExact(const fs::path& path) {
+  std::error_code ec;
+  if (!fs::is_regular_file(path, ec)) fail(path, "no such file");
+  if (ioExtension(path) != ".vtp") fail(path, "model meshes are VTK XML polydata (.vtp)");
+  vtkSmartPointer<vtkPolyData> pd = readWith<vtkXMLPolyDataReader>(path);
+  TriangleMesh m;
+  m.points.resize(pd->GetNumberOfPoints());
+  for (vtkIdType i = 0; i < pd->GetNumberOfPoints(); ++i) {
+    double p[3];
+    pd->GetPoint(i, p);
+    m.points[i] = Vec3(float(p[0]), float(p[1]), float(p[2]));
+    if (!m.points[i].allFinite()) fail(path, "has a non-finite point coordinate");
+  }
+  vtkNew<vtkIdList> ids;
+  vtkCellArray* polys = pd->GetPolys();
+  for (polys->InitTraversal(); polys->GetNextCell(ids);) {
+    if (ids->GetNumberOfIds() != 3) fail(path, "holds a polygon that is not a triangle");
+    m.triangles.push_back({Index(ids->GetId(0)), Index(ids->GetId(1)), Index(ids->GetId(2))});
+    for (int k = 0; k < 3; ++k)
+      if (m.triangles.back()[k] < 0 || m.triangles.back()[k] >= Index(m.points.size()))
+        fail(path, "a triangle refers to a point that does not exist");
+  }
+  if (m.triangles.empty()) fail(path, "holds no triangles (corrupt or truncated?)");
+  return m;
+}
+
 template <class Writer>
 void writeWith(const fs::path& target, const fs::path& temp, vtkPolyData* pd) {
   vtkNew<Writer> writer;
@@ -265,6 +293,7 @@ void registerVtkMeshIO(Registry& registry) {
   d.read = readMesh;
   d.write = writeMesh;
   d.labelSurface = labelSurface;
+  d.readExact = readMeshExact;
   registry.addMeshIO(std::move(d));
 }
 

@@ -16,7 +16,7 @@ const std::string kChannel = "intensity_profile.reference";
 class IntensityProfileForce final : public Force {
 public:
   Requirements requirements() const override {
-    return {{Attribute::Normal, Attribute::ReferenceNormal}, true};
+    return {{Attribute::Normal, Attribute::ReferenceNormal}, true, false, true};
   }
 
   // Trains the reference profiles from the training image and the reference shape (once per level).
@@ -29,7 +29,8 @@ public:
     auto profiles = s.requireChannel(kChannel, length_, MemoryCategory::ImageDerived);
     ctx.executor.forEach(s.vertexCount(), [&](Index v) {
       float* prof = &profiles[static_cast<size_t>(v) * length_];
-      for (int k = 0; k < length_; ++k) prof[k] = training.sample(ref[v] + offset(k) * refNormal[v]);
+      for (int k = 0; k < length_; ++k)
+        prof[k] = training.sample(ctx.scene.toTraining(ref[v] + offset(k) * refNormal[v]));
       normalise(prof);
     });
   }

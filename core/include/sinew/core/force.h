@@ -21,6 +21,9 @@ struct Requirements {
   std::vector<Attribute> attributes;
   bool referenceShape = false;  // every structure where the force is active needs one
   bool jacobian = false;        // an integrator: it needs the forces' Jacobian blocks each step
+  // A force driven by the image (gradient, intensity profile): its field is what the affine
+  // regularisation (Simulation::setAffineRegularisation) replaces in part by its closest affine field.
+  bool imageForce = false;
 };
 
 struct ForceContext {

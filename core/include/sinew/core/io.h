@@ -3,6 +3,7 @@
 #pragma once
 
 #include "sinew/core/image.h"
+#include "sinew/core/spatial_map.h"
 #include "sinew/core/triangle_mesh.h"
 
 #include <cstdint>
@@ -18,6 +19,30 @@ using LabelVolume = Volume<std::int32_t>;
 // Largest image a reader accepts, checked against the header before anything is allocated.
 inline constexpr std::size_t kMaxImageVoxels = std::size_t(1) << 31;
 
+// Intensity-based registration of the model's atlas image to the target (the scene's "initialise"
+// stage). Provided by an image plugin (ITK's v4 framework); core only declares it.
+struct RegistrationOptions {
+  bool affine = true;             // rigid, then affine; false: rigid only
+  int levels = 2;                 // multi-resolution levels on images binned to about 2 mm (4, 2 mm)
+  int iterations = 100;           // per level and stage at most
+  int histogramBins = 32;
+  std::uint32_t seed = 1;         // the metric's random sampling: fixed, so runs repeat exactly
+  std::function<void(const std::string&)> log;
+};
+
+struct RegistrationStage {
+  std::string name;       // "rigid", "affine"
+  double metric = 0.0;    // final Mattes mutual information (negative: lower is better)
+  int iterations = 0;     // at the finest level
+  double seconds = 0.0;
+};
+
+struct RegistrationResult {
+  // ITK's convention: maps a point of the fixed (target) image to the moving (model) image.
+  Eigen::Matrix4d targetToModel = Eigen::Matrix4d::Identity();
+  std::vector<RegistrationStage> stages;
+};
+
 struct ImageIODescriptor {
   std::string name;
   std::string summary;
@@ -26,6 +51,12 @@ struct ImageIODescriptor {
   std::function<LabelVolume(const std::filesystem::path&)> readLabels;
   std::function<void(const std::filesystem::path&, const LabelVolume&)> writeLabels;
   std::function<void(const std::filesystem::path&, const Image3D&)> writeImage;
+  // Optional: registration and affine transform files (ITK's .tfm/.txt/.mat formats), 4x4 in
+  // world millimetres, ITK's fixed-to-moving convention. Errors throw InputError naming the stage
+  // and the metric value (registration) or the file (transforms).
+  std::function<RegistrationResult(const Image3D& target, const Image3D& model, const RegistrationOptions&)> registerImages;
+  std::function<Eigen::Matrix4d(const std::filesystem::path&)> readTransform;
+  std::function<void(const std::filesystem::path&, const Eigen::Matrix4d&)> writeTransform;
 };
 
 // Options for building a surface from a label: the iso-surface of the label's mask, optionally
@@ -43,6 +74,9 @@ struct MeshIODescriptor {
   std::function<void(const std::filesystem::path&, const TriangleMesh&)> write;
   // The closed surface of one label of a label map (largest connected piece), in world mm.
   std::function<TriangleMesh(const LabelVolume&, std::int32_t label, const LabelSurfaceOptions&)> labelSurface;
+  // Optional: the file's points and triangles exactly as stored, in their order (no merging of
+  // points): for files Sinew wrote itself, such as a model's meshes.
+  std::function<TriangleMesh(const std::filesystem::path&)> readExact;
 };
 
 // The file's extension as IO plugins match it: ".nii.gz" for a gzipped NIfTI, "/" for a directory.

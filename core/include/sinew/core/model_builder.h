@@ -5,6 +5,7 @@
 
 #include "sinew/core/executor.h"
 #include "sinew/core/level_of_detail.h"
+#include "sinew/core/registry.h"
 
 namespace sinew {
 
@@ -16,6 +17,16 @@ struct BuiltModel {
 // coarse: the closed triangle mesh whose dual is level 0; surface: where vertices must lie.
 BuiltModel buildModel(const TriangleMesh& coarse, const TriangleMesh& surface, int levelCount,
                       const Executor& executor, int relaxIterations = 10);
+
+// A structure's reference at every level from one label of a label map (the label's surface, smoothed,
+// decimated to about coarseSpacingMm between level-0 vertices, and the dense surface to relax on),
+// through the registry's label-surface builder. Throws InputError naming the label map.
+BuiltModel buildModelFromLabel(const Registry& registry, const LabelVolume& labels, const std::filesystem::path& file,
+                               int label, const std::string& name, double coarseSpacingMm, int levelCount,
+                               const Executor& executor);
+// The same from a closed triangle mesh (its dual is level 0); throws InputError naming the file.
+BuiltModel buildModelFromMesh(const TriangleMesh& mesh, const std::filesystem::path& file, int levelCount,
+                              const Executor& executor);
 
 // Number of dual triangles that gives about `spacing` between simplex vertices on this surface.
 int trianglesForSpacing(const TriangleMesh& surface, double spacingMm);

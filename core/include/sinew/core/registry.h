@@ -46,6 +46,11 @@ public:
   const MeshIODescriptor& meshIOFor(const std::filesystem::path& path) const;
   // A mesh IO plugin that can build surfaces from labels; throws InputError when none is loaded.
   const MeshIODescriptor& labelSurfaceBuilder() const;
+  // The image plugin that registers images and reads/writes transforms; throws InputError when
+  // none is loaded.
+  const ImageIODescriptor& imageRegistration() const;
+  // A mesh IO plugin that reads files exactly as stored (model files), for this path.
+  const MeshIODescriptor& exactMeshReaderFor(const std::filesystem::path& path) const;
   const std::vector<ImageIODescriptor>& imageIOs() const { return imageIOs_; }
   const std::vector<MeshIODescriptor>& meshIOs() const { return meshIOs_; }
 

@@ -3,6 +3,7 @@
 // resources/scene.schema.json; unknown keys and wrong types are errors naming the JSON path.
 #pragma once
 
+#include "sinew/core/spatial_map.h"
 #include "sinew/core/stability.h"
 #include "sinew/core/types.h"
 
@@ -44,7 +45,7 @@ struct Placement {
 struct StructureDesc {
   std::string name;
   int label = 1;  // value in the exported label map
-  ShapeSource reference;
+  ShapeSource reference;  // neither mesh nor label: the scene's model's structure of this name
   Placement initial;
   ForceSettings forces;
   double density = 0.0;
@@ -55,6 +56,23 @@ struct StructureDesc {
 struct LevelDesc {
   int iterations = 0;
   ForceSettings forces;  // parameter changes applied to every structure on entering the level
+  // Share of the image forces replaced by their closest affine field, per structure (paper 001
+  // section 3: 100 % at the coarsest level down to 20 %); 0 turns the regularisation off.
+  double affineRegularisation = 0.0;
+};
+
+// The global initialisation before the first level: the model's structures are mapped into the
+// target by one map (the reference shapes with them, so the shape prior keeps the mapped shape).
+struct InitialiseDesc {
+  enum class Method { None, Registration, Transform, Landmarks };
+  Method method = Method::None;
+  bool affine = true;           // registration: rigid then affine; false: rigid only
+  int levels = 2;               // registration pyramid levels
+  int iterations = 100;         // registration iterations per level and stage
+  std::optional<std::filesystem::path> movingImage;  // default: the model's atlas, else the training image
+  std::filesystem::path transform;                   // an ITK transform file, target -> model
+  std::vector<LandmarkPair> landmarks;
+  bool thinPlateSpline = true;  // landmarks: thin-plate spline, else an affine fit
 };
 
 struct SceneDesc {
@@ -69,6 +87,8 @@ struct SceneDesc {
   std::string integrator = "damped_verlet";
   std::vector<std::pair<std::string, double>> integratorParams;
   std::vector<LevelDesc> schedule;
+  std::optional<std::filesystem::path> model;  // a model folder (sinew-build-model) instead of labels
+  InitialiseDesc initialise;
   double coarseSpacingMm = 4.0;      // target vertex spacing of a reference built at level 0
   StabilityGuard stability;          // "stability": the guard's limits
   int sampleInterval = 10;           // iterations between report samples

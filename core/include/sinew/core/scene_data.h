@@ -4,6 +4,7 @@
 #pragma once
 
 #include "sinew/core/image.h"
+#include "sinew/core/spatial_map.h"
 
 #include <memory>
 #include <vector>
@@ -20,6 +21,12 @@ public:
   // The training image, or the target image when none was given.
   const Image3D& trainingImage() const;
 
+  // Where a point of the target's space lies in the training image: the inverse of the scene's
+  // initialisation (the reference shapes are mapped into the target, the training image is not).
+  // Forces that train on the training image along the reference shape sample it through this.
+  void setTrainingMap(const SpatialMap& targetToTraining) { trainingMap_ = targetToTraining; }
+  Vec3 toTraining(const Vec3& targetPoint) const { return trainingMap_.apply(targetPoint); }
+
   // World-space gradient of the target image smoothed with sigmaMm; built on first request.
   const VectorVolume& targetGradient(float sigmaMm);
 
@@ -35,6 +42,7 @@ private:
   std::unique_ptr<VectorVolume> gradient_;
   float gradientSigma_ = -1.0f;
   std::vector<std::vector<Vec3>> attractionPoints_;
+  SpatialMap trainingMap_;  // identity unless the scene was initialised
 };
 
 }  // namespace sinew

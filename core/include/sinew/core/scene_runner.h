@@ -36,6 +36,10 @@ struct StructureResult {
   std::string name;
   int label = 0;
   Index vertices = 0;  // at the final level
+  // Where the model puts the structure, before the initialisation (equal to the initial values
+  // when the scene has no "initialise" stage).
+  double assdModelMm = std::numeric_limits<double>::quiet_NaN();
+  double diceModel = std::numeric_limits<double>::quiet_NaN();
   double assdInitialMm = std::numeric_limits<double>::quiet_NaN();
   double assdFinalMm = std::numeric_limits<double>::quiet_NaN();
   double hd95Mm = std::numeric_limits<double>::quiet_NaN();
@@ -43,6 +47,22 @@ struct StructureResult {
   double dice = std::numeric_limits<double>::quiet_NaN();
   double seconds = 0.0;  // simulation time; all structures are simulated together
   TriangleMesh surface;  // final Fig. 1b tessellation, world mm
+};
+
+// One stage of a run with its error per structure: "model" (where the model puts the structures),
+// "initialisation", then "level 0", "level 1", ... (the error at the end of each level).
+struct StageResult {
+  std::string name;
+  double seconds = 0.0;        // wall time the stage took (for levels: simulation time)
+  std::vector<double> assdMm;  // per structure; NaN without ground truth
+};
+
+struct InitialisationResult {
+  std::string method = "none";  // "registration (affine)", "transform FILE", "landmarks: thin-plate spline (N landmarks)"
+  double seconds = 0.0;
+  std::vector<RegistrationStage> registration;  // metric per registration stage
+  bool hasAffine = false;       // targetToModel is meaningful (registration, transform, affine landmarks)
+  Eigen::Matrix4d targetToModel = Eigen::Matrix4d::Identity();  // ITK convention
 };
 
 struct RunReport {
@@ -55,6 +75,9 @@ struct RunReport {
   std::vector<StructureResult> structures;
   std::vector<TimelineSample> timeline;
   std::vector<StabilityEvent> stability;  // the stability guard's rollbacks
+  std::vector<StageResult> stages;
+  InitialisationResult initialisation;
+  std::vector<std::pair<std::string, double>> stageSeconds;  // wall time of each set-up stage, in order
   // Why the run stopped early (the guard could not recover; the meshes are the last good ones);
   // empty when it ran its schedule.
   std::string numericalFailure;
@@ -93,16 +116,20 @@ public:
   // (NaN without one) and, when final, Dice.
   StructureResult evaluate(Index structure, bool final);
   bool hasGroundTruth(Index structure) const;
+  const InitialisationResult& initialisation() const;
 
 private:
   void runGuarded(ExecutionBackend& backend, int chunk, RunReport& report);
   struct Loaded;
   void sample(RunReport& report, double seconds);
+  void initialise(std::vector<StructureSpec>& specs, const std::function<void(const std::string&)>& log);
+  StructureResult evaluatePositions(Index structure, const std::vector<Vec3>& positions, bool final);
 
   const Registry& registry_;
   SceneDesc scene_;
   RunOptions options_;
   std::unique_ptr<Loaded> loaded_;
+  SpatialMap trainingMap_;  // target -> training image, the inverse of the initialisation
 };
 
 // A one-line description of the CPU, e.g. "AMD EPYC (2 threads)".

@@ -57,6 +57,11 @@ public:
   std::vector<std::string> forceNames() const;
   std::string integratorName() const { return integratorName_; }
   ParamTable& integratorParams() { return integratorParams_; }
+  // Paper 001 section 3: per structure and step, the image forces' field f is replaced by
+  // share * A(f) + (1 - share) * f, A(f) its closest affine field (least squares over the vertices).
+  // 0 (the default) turns it off and allocates nothing.
+  void setAffineRegularisation(float share);
+  float affineRegularisation() const { return affineShare_; }
   void setStabilityGuard(const StabilityGuard& guard) { guard_ = guard; }
   const StabilityGuard& stabilityGuard() const { return guard_; }
   // Why the current positions are not an acceptable step from `before` (non-finite, or a vertex
@@ -81,6 +86,7 @@ private:
   void applyDensities();
   void prepareForces();
   void computeForces();
+  void regulariseImageForces(std::span<Vec3> forces);
 
   const Registry& registry_;
   Executor executor_;
@@ -97,6 +103,8 @@ private:
   StabilityGuard guard_;
   std::vector<StabilityEvent> events_;
   JacobianBlocks jacobian_;
+  float affineShare_ = 0.0f;
+  std::vector<Vec3> imageForces_;  // the image forces alone, while the affine regularisation is on
   std::vector<Vec3> goodPositions_, goodPrevious_;  // the last good state, for rollbacks
 };
 

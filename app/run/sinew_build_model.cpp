@@ -1,0 +1,113 @@
+// sinew-build-model: builds a reusable model once (docs/model-format.md): the reference shape of
+// every structure at every level of detail, from an atlas (label map + label list) or from closed
+// meshes, with the atlas image it is trained on and the provenance of its inputs. Scenes name the
+// model folder instead of rebuilding the shapes from labels in every run.
+#include "builtin_plugins.h"
+#include "label_list.h"
+#include "sinew/core/executor.h"
+#include "sinew/core/model_builder.h"
+#include "sinew/core/model_file.h"
+
+#include <CLI/CLI.hpp>
+
+#include <chrono>
+#include <cstdio>
+#include <ctime>
+
+namespace fs = std::filesystem;
+using namespace sinew;
+
+namespace {
+std::string utcNow() {
+  const std::time_t t = std::time(nullptr);
+  char b[32];
+  std::strftime(b, sizeof b, "%Y-%m-%dT%H:%M:%SZ", std::gmtime(&t));
+  return b;
+}
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App cli{"sinew-build-model: build a reusable segmentation model from an atlas or from meshes."};
+  std::string atlas, labelList, training, output, structures = kDefaultStructures;
+  std::vector<std::string> meshes;
+  int levels = 3, threads = 0;
+  double coarseSpacing = 4.0;
+  bool quiet = false;
+  cli.add_option("--atlas", atlas, "atlas label map (the reference shapes)");
+  cli.add_option("--labels", labelList, "label list of the atlas, 'value name' per line");
+  cli.add_option("--structures", structures, "comma-separated label names or values")->capture_default_str();
+  cli.add_option("--mesh", meshes, "NAME=FILE[:LABEL]: a structure from a closed triangle mesh instead (repeatable)");
+  cli.add_option("--training", training, "the atlas image: profiles are trained on it, registration uses it")->required();
+  cli.add_option("--levels", levels, "levels of detail")->check(CLI::Range(1, 6))->capture_default_str();
+  cli.add_option("--coarse-spacing-mm", coarseSpacing, "vertex spacing at the coarsest level")
+      ->check(CLI::PositiveNumber)->capture_default_str();
+  cli.add_option("-j,--threads", threads, "CPU threads (0 = all)")->check(CLI::NonNegativeNumber);
+  cli.add_option("-o,--output", output, "model folder to write")->required();
+  cli.add_flag("-q,--quiet", quiet, "no progress output");
+  cli.footer("Exit codes: 0 success, 2 bad command line, 3 bad input (the message names the file).");
+  cli.set_version_flag("--version", std::string("sinew-build-model ") + SINEW_VERSION);
+  try {
+    cli.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return cli.exit(e) == 0 ? 0 : 2;
+  }
+  if (meshes.empty() == atlas.empty() || atlas.empty() != labelList.empty()) {
+    std::fprintf(stderr, "sinew-build-model: give either --atlas with --labels, or one or more --mesh\n");
+    return 2;
+  }
+  const auto start = std::chrono::steady_clock::now();
+  auto log = [&](const std::string& m) {
+    if (!quiet) std::fprintf(stderr, "%s\n", m.c_str());
+  };
+  try {
+    Registry registry;
+    PluginLoader plugins(registry);
+    addBuiltinPlugins(plugins);
+    Executor executor(threads);
+    Model model;
+    model.coarseSpacingMm = coarseSpacing;
+    model.createdBy = std::string("sinew-build-model ") + SINEW_VERSION;
+    model.created = utcNow();
+    model.atlasImage = training;
+    model.inputs.push_back(describeInput("atlas_image", training));
+    registry.imageIOFor(training);  // a format Sinew reads, checked before the long work
+    if (!atlas.empty()) {
+      model.inputs.push_back(describeInput("labels", atlas));
+      model.inputs.push_back(describeInput("label_list", labelList));
+      const auto list = readLabelList(labelList);
+      log("reading " + atlas);
+      const LabelVolume labels = registry.imageIOFor(atlas).readLabels(atlas);
+      for (const std::string& key : splitList(structures)) {
+        const LabelEntry& e = findLabel(list, key, labelList);
+        log("structure '" + e.name + "' (label " + std::to_string(e.value) + "): " + std::to_string(levels) + " levels");
+        BuiltModel b = buildModelFromLabel(registry, labels, atlas, e.value, e.name, coarseSpacing, levels, executor);
+        model.structures.push_back({e.name, e.value, std::move(b.levels), std::move(b.positions)});
+      }
+    } else {
+      int nextLabel = 1;
+      for (const std::string& spec : meshes) {
+        const auto eq = spec.find('=');
+        if (eq == std::string::npos || eq == 0) throw InputError("--mesh " + spec + ": expected NAME=FILE[:LABEL]");
+        std::string file = spec.substr(eq + 1);
+        int label = nextLabel;
+        if (const auto colon = file.rfind(':'); colon != std::string::npos) {
+          label = std::stoi(file.substr(colon + 1));
+          file = file.substr(0, colon);
+        }
+        nextLabel = label + 1;
+        model.inputs.push_back(describeInput("mesh", file));
+        log("structure '" + spec.substr(0, eq) + "' from " + file);
+        BuiltModel b = buildModelFromMesh(registry.meshIOFor(file).read(file), file, levels, executor);
+        model.structures.push_back({spec.substr(0, eq), label, std::move(b.levels), std::move(b.positions)});
+      }
+    }
+    writeModel(registry, model, output);
+    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    std::fprintf(stderr, "wrote the model %s: %zu structures, %d levels (%.2f s)\n", output.c_str(),
+                 model.structures.size(), levels, seconds);
+    return 0;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "sinew-build-model: error: %s\n", e.what());
+    return 3;
+  }
+}

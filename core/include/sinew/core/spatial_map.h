@@ -1,0 +1,56 @@
+// Maps from the model's (atlas) space to the target's: the global initialisation before the first
+// level (paper 001 section 3: landmarks and a thin-plate spline; paper 000 section 5). An affine
+// part, plus an optional thin-plate spline through landmark pairs. World millimetres, LPS.
+#pragma once
+
+#include "sinew/core/types.h"
+
+#include <Eigen/Dense>
+
+#include <array>
+#include <span>
+#include <string>
+#include <vector>
+
+namespace sinew {
+
+struct LandmarkPair {
+  std::array<double, 3> model{};   // in the model's (atlas) space
+  std::array<double, 3> target{};  // the same anatomical point in the target image
+};
+
+class SpatialMap {
+public:
+  SpatialMap() = default;  // the identity
+  static SpatialMap affine(const Eigen::Matrix4d& modelToTarget);
+
+  // Least-squares affine fit through the pairs. Throws InputError (fewer than 4 pairs, coincident
+  // model or target points, coplanar points: the fit is not determined).
+  static SpatialMap fitAffine(std::span<const LandmarkPair> pairs);
+  // Thin-plate spline through the pairs (U(r) = r in 3D, interpolating exactly), with its affine
+  // part; the same checks as fitAffine.
+  static SpatialMap fitThinPlateSpline(std::span<const LandmarkPair> pairs);
+
+  Eigen::Vector3d apply(const Eigen::Vector3d& modelPoint) const;
+  Vec3 apply(const Vec3& modelPoint) const {
+    const Eigen::Vector3d p = modelPoint.cast<double>();
+    return apply(p).cast<float>();
+  }
+  void applyInPlace(std::span<Vec3> points) const;
+
+  const Eigen::Matrix4d& affinePart() const { return affine_; }
+  bool hasSpline() const { return !centres_.empty(); }
+  // "identity", "affine", "thin-plate spline (N landmarks)".
+  std::string describe() const;
+
+private:
+  Eigen::Matrix4d affine_ = Eigen::Matrix4d::Identity();
+  std::vector<Eigen::Vector3d> centres_;  // model landmarks
+  std::vector<Eigen::Vector3d> weights_;  // spline weights, one per centre
+};
+
+// Checks that landmark pairs can determine a map; throws InputError naming the problem (with the
+// pair indices) otherwise. `where` prefixes the message (a file and JSON path).
+void checkLandmarks(std::span<const LandmarkPair> pairs, const std::string& where);
+
+}  // namespace sinew

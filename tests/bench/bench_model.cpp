@@ -1,0 +1,63 @@
+// A reusable model: building it from the atlas (12 AAL structures, 3 levels, Colin27's
+// mricron-data) against loading the saved model, side by side in one run.
+//   bench_model [--benchmark_filter=...]
+#include "builtin_plugins.h"
+#include "sinew/core/model_builder.h"
+#include "sinew/core/model_file.h"
+
+#include <benchmark/benchmark.h>
+
+#include <filesystem>
+
+using namespace sinew;
+namespace fs = std::filesystem;
+
+namespace {
+
+const fs::path kTemplates = "/usr/share/mricron/templates";
+const char* kStructures[] = {"Hippocampus_L", "Hippocampus_R", "Amygdala_L", "Amygdala_R", "Caudate_L", "Caudate_R",
+                             "Putamen_L", "Putamen_R", "Pallidum_L", "Pallidum_R", "Thalamus_L", "Thalamus_R"};
+const int kLabels[] = {37, 38, 41, 42, 71, 72, 73, 74, 75, 76, 77, 78};
+
+const Registry& registry() {
+  static const Registry r = [] {
+    Registry x;
+    registerBuiltinPlugins(x);
+    return x;
+  }();
+  return r;
+}
+
+// What sinew-build-model does, from reading the label map to the finished reference shapes.
+Model buildFromAtlas(const Executor& executor) {
+  Model m;
+  m.atlasImage = kTemplates / "ch2better.nii.gz";
+  const LabelVolume labels = registry().imageIOFor("x.nii.gz").readLabels(kTemplates / "aal.nii.gz");
+  for (int i = 0; i < 12; ++i) {
+    BuiltModel b = buildModelFromLabel(registry(), labels, "aal.nii.gz", kLabels[i], kStructures[i], 4.0, 3, executor);
+    m.structures.push_back({kStructures[i], kLabels[i], std::move(b.levels), std::move(b.positions)});
+  }
+  return m;
+}
+
+void BM_BuildModel(benchmark::State& state) {
+  if (!fs::exists(kTemplates / "aal.nii.gz")) return state.SkipWithError("mricron-data is not installed");
+  Executor executor(0);
+  for (auto _ : state) benchmark::DoNotOptimize(buildFromAtlas(executor));
+}
+
+void BM_LoadModel(benchmark::State& state) {
+  if (!fs::exists(kTemplates / "aal.nii.gz")) return state.SkipWithError("mricron-data is not installed");
+  const fs::path folder = fs::temp_directory_path() / "sinew-bench-model";
+  Executor executor(0);
+  writeModel(registry(), buildFromAtlas(executor), folder);
+  for (auto _ : state) benchmark::DoNotOptimize(readModel(registry(), folder));
+  fs::remove_all(folder);
+}
+
+}  // namespace
+
+BENCHMARK(BM_BuildModel)->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(3);
+BENCHMARK(BM_LoadModel)->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(10);
+
+BENCHMARK_MAIN();

@@ -1,0 +1,235 @@
+// The pieces of the new-subject path that need no image: landmark maps (thin-plate spline and
+// affine fit, and the landmark checks), the affine regularisation of image forces, the scene keys
+// of the initialisation, and the model files (written, read back exactly, damage refused).
+#include "sinew/core/model_builder.h"
+#include "sinew/core/model_file.h"
+#include "sinew/core/scene.h"
+#include "sinew/core/spatial_map.h"
+#include "synthetic.h"
+
+#include <QTemporaryDir>
+#include <QtTest>
+
+#include <fstream>
+#include <random>
+
+using namespace sinew;
+using namespace sinew::testing;
+namespace fs = std::filesystem;
+
+namespace {
+
+Eigen::Matrix4d someAffine() {
+  Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
+  m.topLeftCorner<3, 3>() = Eigen::AngleAxisd(0.1, Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix() *
+                            Eigen::Vector3d(1.05, 0.95, 1.02).asDiagonal();
+  m.topRightCorner<3, 1>() << 3.0, -2.0, 1.5;
+  return m;
+}
+
+std::vector<LandmarkPair> pairsUnder(const std::function<Eigen::Vector3d(const Eigen::Vector3d&)>& f, int n, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(-40.0, 40.0);
+  std::vector<LandmarkPair> out;
+  for (int i = 0; i < n; ++i) {
+    const Eigen::Vector3d p(u(rng), u(rng), u(rng));
+    const Eigen::Vector3d q = f(p);
+    out.push_back({{p.x(), p.y(), p.z()}, {q.x(), q.y(), q.z()}});
+  }
+  return out;
+}
+
+void expectError(const std::function<void()>& f, const QString& fragment) {
+  try {
+    f();
+  } catch (const InputError& e) {
+    QVERIFY2(QString(e.what()).contains(fragment), e.what());
+    return;
+  }
+  QFAIL(qPrintable("no error containing '" + fragment + "'"));
+}
+
+// A force that pretends to be driven by the image: it adds a fixed field, so the regularisation's
+// output can be compared with a least-squares fit computed here.
+struct FieldForce final : Force {
+  std::vector<Vec3> field;
+  Requirements requirements() const override { return {{}, false, false, true}; }
+  void accumulate(ForceContext& ctx, std::span<Vec3> forces) override {
+    forActiveVertices(ctx, [&](Index v, float alpha) { forces[v] += alpha * field[v]; });
+  }
+};
+
+}  // namespace
+
+class TestInitialisation : public QObject {
+  Q_OBJECT
+
+private slots:
+  void affineFitRecoversAnAffineMap() {
+    const Eigen::Matrix4d m = someAffine();
+    const auto pairs = pairsUnder([&](const Eigen::Vector3d& p) { return (m * p.homogeneous()).head<3>(); }, 6, 1);
+    const SpatialMap fit = SpatialMap::fitAffine(pairs);
+    QVERIFY((fit.affinePart() - m).norm() < 1e-9);
+    QVERIFY(!fit.hasSpline());
+  }
+
+  void thinPlateSplineInterpolatesAndKeepsAffineMapsExactly() {
+    const Eigen::Matrix4d m = someAffine();
+    // An affine map: the spline's non-affine part vanishes and every point maps exactly.
+    const auto pairs = pairsUnder([&](const Eigen::Vector3d& p) { return (m * p.homogeneous()).head<3>(); }, 10, 2);
+    const SpatialMap tps = SpatialMap::fitThinPlateSpline(pairs);
+    const Eigen::Vector3d probe(5, -7, 11);
+    QVERIFY((tps.apply(probe) - (m * probe.homogeneous()).head<3>()).norm() < 1e-6);
+    // A bent map: the landmarks are hit exactly, and points between them move smoothly.
+    auto bend = [](const Eigen::Vector3d& p) { return Eigen::Vector3d(p.x() + 0.002 * p.y() * p.y(), p.y(), p.z() + 3.0); };
+    const auto bent = pairsUnder(bend, 10, 3);
+    const SpatialMap spline = SpatialMap::fitThinPlateSpline(bent);
+    QVERIFY(spline.hasSpline());
+    for (const auto& p : bent) {
+      const Eigen::Vector3d at = spline.apply(Eigen::Vector3d(p.model[0], p.model[1], p.model[2]));
+      QVERIFY((at - Eigen::Vector3d(p.target[0], p.target[1], p.target[2])).norm() < 1e-6);
+    }
+    QVERIFY((spline.apply(Eigen::Vector3d(0, 0, 0)) - bend(Eigen::Vector3d(0, 0, 0))).norm() < 2.0);
+  }
+
+  void badLandmarksAreRefused() {
+    auto id = [](const Eigen::Vector3d& p) { return p; };
+    auto three = pairsUnder(id, 3, 4);
+    expectError([&] { SpatialMap::fitThinPlateSpline(three); }, "at least 4");
+    auto same = pairsUnder(id, 5, 5);
+    same[3].model = same[1].model;
+    expectError([&] { SpatialMap::fitAffine(same); }, "landmarks 1 and 3 have the same model point");
+    auto flat = pairsUnder(id, 6, 6);
+    for (auto& p : flat) p.target[2] = 7.0;  // every target point on the plane z = 7
+    expectError([&] { SpatialMap::fitThinPlateSpline(flat); }, "target landmarks are coplanar");
+  }
+
+  void sceneKeysAreReadAndChecked() {
+    const std::string base = R"({"version": 1, "images": {"target": "t.nii.gz"},
+      "structures": [{"name": "a", "label": 1}], "forces": {"smoothing": {}},
+      "schedule": [{"iterations": 5, "affine_regularisation": 0.5}], "model": "m/", )";
+    const SceneDesc s = parseScene(base + R"("initialise": {"registration": "rigid", "levels": 3}})", "/d/s.json");
+    QVERIFY(s.model && *s.model == fs::path("/d/m/"));
+    QCOMPARE(s.schedule[0].affineRegularisation, 0.5);
+    QVERIFY(s.initialise.method == InitialiseDesc::Method::Registration);
+    QVERIFY(!s.initialise.affine);
+    QCOMPARE(s.initialise.levels, 3);
+    // Written and read back, it is the same scene.
+    const SceneDesc again = parseScene(sceneToJson(s), "/d/s.json");
+    QVERIFY(again.initialise.method == InitialiseDesc::Method::Registration && !again.initialise.affine);
+    QCOMPARE(again.schedule[0].affineRegularisation, 0.5);
+    expectError([&] { parseScene(base + R"("initialise": {"registration": "affine", "transform": "x.tfm"}})", "s.json"); },
+                "/initialise: give exactly one of");
+    expectError([&] { parseScene(base + R"("initialise": {"landmarks": [{"model": [0,0,0], "target": [0,0,0]}]}})", "s.json"); },
+                "/initialise/landmarks: landmark pairs: 1 landmark pairs; at least 4");
+    expectError([&] { parseScene(base + R"("initialise": {"transform": "x.tfm", "levels": 2}})", "s.json"); },
+                "/initialise/levels: goes with 'registration'");
+    std::string noModel = base;
+    noModel.replace(noModel.find(R"("model": "m/", )"), 15, "");
+    expectError([&] { parseScene(noModel + R"("report": {}})", "s.json"); }, "missing required key 'reference'");
+  }
+
+  // With share 1 the image forces become their least-squares affine field (here computed apart
+  // with Eigen); an affine field is left as it is at any share; other forces are not touched.
+  void affineRegularisationBlendsTheClosestAffineField() {
+    Registry registry;
+    registerBuiltinForces(registry);
+    auto* field = new FieldForce;
+    registry.addForce({"field", "test", {}, [field] { return std::unique_ptr<Force>(field); }});
+    Simulation sim(registry, 2);
+    sim.addStructure(sphereStructure("s", 2, 10.0f, Vec3(1, 2, 3)));
+    sim.addForce("field");
+    sim.setIntegrator("damped_verlet");
+    sim.initialize();
+    const auto x = sim.store().positions();
+    const Index n = sim.store().vertexCount();
+    std::mt19937 rng(7);
+    std::normal_distribution<float> g(0.0f, 1.0f);
+    field->field.resize(n);
+    for (Index v = 0; v < n; ++v) field->field[v] = Vec3(0.1f * x[v].y(), 1.0f, -0.05f * x[v].z()) + Vec3(g(rng), g(rng), g(rng));
+
+    // The least-squares affine field of the image forces at the positions the step starts from.
+    auto affineFit = [&] {
+      const auto x0 = sim.store().positions();
+      Eigen::MatrixXd A(n, 4), B(n, 3);
+      for (Index v = 0; v < n; ++v) {
+        A.row(v) << x0[v].x(), x0[v].y(), x0[v].z(), 1.0;
+        B.row(v) = field->field[v].cast<double>().transpose();
+      }
+      return Eigen::MatrixXd(A * A.colPivHouseholderQr().solve(B));
+    };
+    auto forcesWith = [&](float share) {
+      sim.setAffineRegularisation(share);
+      sim.step();
+      return std::vector<Vec3>(sim.store().forces().begin(), sim.store().forces().end());
+    };
+    const auto none = forcesWith(0.0f);
+    for (Index v = 0; v < n; ++v) QVERIFY((none[v] - field->field[v]).norm() < 1e-5f);
+    const Eigen::MatrixXd fit = affineFit();
+    const auto full = forcesWith(1.0f);
+    double worst = 0.0;
+    for (Index v = 0; v < n; ++v) worst = std::max(worst, (full[v].cast<double>() - fit.row(v).transpose()).norm());
+    QVERIFY2(worst < 1e-3, qPrintable(QString::number(worst)));
+    const Eigen::MatrixXd fitHalf = affineFit();
+    const auto half = forcesWith(0.5f);
+    for (Index v = 0; v < n; ++v) {
+      const Vec3 expected = 0.5f * (Vec3(fitHalf.row(v).transpose().cast<float>()) + field->field[v]);
+      QVERIFY((half[v] - expected).norm() < 1e-3f);
+    }
+    // An exactly affine field is its own closest affine field.
+    const auto x1 = sim.store().positions();
+    for (Index v = 0; v < n; ++v) field->field[v] = Vec3(0.1f * x1[v].y(), 1.0f, -0.05f * x1[v].z());
+    const auto affine = forcesWith(1.0f);
+    for (Index v = 0; v < n; ++v) QVERIFY((affine[v] - field->field[v]).norm() < 1e-4f);
+  }
+
+  void modelFilesRoundTripAndRefuseDamage() {
+    QTemporaryDir dir;
+    const fs::path folder = fs::path(dir.path().toStdString()) / "model";
+    const fs::path atlas = fs::path(dir.path().toStdString()) / "atlas.nii.gz";
+    { std::ofstream(atlas) << "stand-in for the atlas image"; }
+    Executor executor(2);
+    Model m;
+    m.atlasImage = atlas;
+    m.createdBy = "test";
+    const TriangleMesh shape = ellipsoidSurface(Vec3(0, 0, 0), Vec3(12, 9, 7), 3);
+    BuiltModel b = buildModelFromMesh(shape, "ellipsoid", 3, executor);
+    m.structures.push_back({"Ellipsoid", 5, b.levels, b.positions});
+    const Registry& registry = builtinRegistry();
+    writeModel(registry, m, folder);
+    const Model back = readModel(registry, folder);
+    QCOMPARE(back.structures.size(), size_t(1));
+    QCOMPARE(back.structures[0].label, 5);
+    QCOMPARE(back.levelCount(), 3);
+    for (int l = 0; l < 3; ++l) {
+      QVERIFY(back.structures[0].levels.levels[l].neighbours == b.levels.levels[l].neighbours);
+      QVERIFY(back.structures[0].positions[l] == b.positions[l]);  // float for float
+    }
+    // Damage: one byte of a mesh changed.
+    const fs::path level1 = folder / "structures" / "Ellipsoid" / "level1.vtp";
+    {
+      std::fstream f(level1, std::ios::in | std::ios::out | std::ios::binary);
+      f.seekp(-40, std::ios::end);
+      f.put('#');
+    }
+    expectError([&] { readModel(registry, folder); }, QString::fromStdString(level1.string()) + ": checksum mismatch");
+    // Another format version.
+    writeModel(registry, m, folder);
+    std::string text;
+    {
+      std::ifstream in(folder / "model.json");
+      text.assign(std::istreambuf_iterator<char>(in), {});
+    }
+    text.replace(text.find("\"version\": 1"), 12, "\"version\": 7");
+    { std::ofstream(folder / "model.json") << text; }
+    expectError([&] { readModel(registry, folder); }, "model format version 7 is not supported");
+    // A folder that is not a model is never replaced.
+    const fs::path other = fs::path(dir.path().toStdString()) / "other";
+    fs::create_directories(other);
+    expectError([&] { writeModel(registry, m, other); }, "is not a Sinew model; refusing to replace it");
+    QVERIFY(fs::is_empty(other));
+  }
+};
+
+QTEST_GUILESS_MAIN(TestInitialisation)
+#include "tst_initialisation.moc"

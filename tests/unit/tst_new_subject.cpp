@@ -1,0 +1,212 @@
+// A new subject end to end, as a user would do it, on Colin27 (mricron-data): a model built once
+// with sinew-build-model, a new subject made by sinew-make-subject (a seeded warp, affine, bias,
+// contrast and noise), a subject-mode scene from sinew-make-scene, and sinew-run initialising by
+// registration; then the transform reused, a scene without ground truth, and failures refused.
+#include "synthetic.h"
+
+#include <QJsonArray>
+#include <QJsonDocument>
+#include <QJsonObject>
+#include <QProcess>
+#include <QTemporaryDir>
+#include <QtTest>
+
+#include <fstream>
+
+using namespace sinew;
+using sinew::testing::builtinRegistry;
+namespace fs = std::filesystem;
+
+namespace {
+
+const QString kTemplates = "/usr/share/mricron/templates/";
+
+struct Result {
+  int code = -1;
+  QString err, out;
+};
+
+Result runTool(const QString& program, const QStringList& args) {
+  QProcess p;
+  p.start(program, args);
+  p.waitForFinished(900000);
+  return {p.exitStatus() == QProcess::NormalExit ? p.exitCode() : -1, p.readAllStandardError(), p.readAllStandardOutput()};
+}
+
+QJsonObject readJson(const QString& path) {
+  QFile f(path);
+  if (!f.open(QIODevice::ReadOnly)) return {};
+  return QJsonDocument::fromJson(f.readAll()).object();
+}
+
+void writeJson(const QString& path, const QJsonObject& o) {
+  QFile f(path);
+  QVERIFY(f.open(QIODevice::WriteOnly));
+  f.write(QJsonDocument(o).toJson());
+}
+
+double stageMean(const QJsonObject& report, const QString& name) {
+  for (const auto& s : report["stages"].toArray())
+    if (s.toObject()["name"].toString() == name) return s.toObject()["mean_assd_mm"].toDouble();
+  return -1.0;
+}
+
+}  // namespace
+
+class TestNewSubject : public QObject {
+  Q_OBJECT
+  QTemporaryDir dir_;
+  QString model_, subject_, scene_, run_;
+
+  QString path(const QString& name) const { return dir_.filePath(name); }
+
+private slots:
+  void initTestCase() {
+    if (!QFile::exists(kTemplates + "ch2.nii.gz")) QSKIP("mricron-data is not installed");
+    model_ = path("model");
+    subject_ = path("subject");
+    // Four structures keep the test short; docs/accuracy.md has all twelve on several subjects.
+    Result r = runTool(SINEW_BUILD_MODEL, {"--atlas", kTemplates + "aal.nii.gz", "--labels", kTemplates + "aal.nii.txt",
+                                           "--training", kTemplates + "ch2better.nii.gz", "--structures",
+                                           "Hippocampus_L,Amygdala_L,Putamen_R,Thalamus_R", "-o", model_, "-q"});
+    QVERIFY2(r.code == 0, qPrintable(r.err));
+    r = runTool(SINEW_MAKE_SUBJECT, {"--image", kTemplates + "ch2.nii.gz", "--labels", kTemplates + "aal.nii.gz",
+                                     "--seed", "17", "-o", subject_});
+    QVERIFY2(r.code == 0, qPrintable(r.err));
+  }
+
+  void segmentsANewSubject() {
+    scene_ = path("scene.json");
+    Result r = runTool(SINEW_MAKE_SCENE, {"--model", model_, "--target", subject_ + "/image.nii.gz", "--ground-truth",
+                                          subject_ + "/labels.nii.gz", "--structures",
+                                          "Hippocampus_L,Amygdala_L,Putamen_R,Thalamus_R", "-o", scene_});
+    QVERIFY2(r.code == 0, qPrintable(r.err));
+    const QJsonObject scene = readJson(scene_);
+    QVERIFY(scene["initialise"].toObject()["registration"].toString() == "affine");
+    QVERIFY(!scene["structures"].toArray()[0].toObject().contains("initial"));  // no random perturbation
+    run_ = path("run");
+    r = runTool(SINEW_RUN, {scene_, "-o", run_, "-q", "--backend", "cpu"});
+    QVERIFY2(r.code == 0, qPrintable(r.err));
+    const QJsonObject report = readJson(run_ + "/report.json");
+    const double model = stageMean(report, "model"), init = stageMean(report, "initialisation"),
+                 final = stageMean(report, "level 2");
+    qInfo("mean ASSD: model %.3f, after initialisation %.3f, final %.3f mm", model, init, final);
+    QVERIFY(model > 1.0);         // the subject is not the model's own image
+    QVERIFY(init < 0.8 * model);  // the registration brings the model most of the way
+    QVERIFY(final < 0.8 * init);  // the deformation the rest
+    QVERIFY2(final < 0.7, "regression bound; docs/accuracy.md has the measured values");
+    for (const auto& s : report["structures"].toArray()) {
+      const QJsonObject o = s.toObject(), assd = o["assd_mm"].toObject();
+      QVERIFY2(assd["final"].toDouble() < assd["initial"].toDouble(), qPrintable(o["name"].toString()));
+      QVERIFY2(o["dice"].toDouble() > 0.75, qPrintable(o["name"].toString()));
+    }
+    // The stage times are reported, the registration among them.
+    QVERIFY(report["stage_seconds"].toObject().contains("registration"));
+    QVERIFY(report["stage_seconds"].toObject().contains("read_model"));
+    const QJsonArray reg = report["initialisation"].toObject()["registration"].toArray();
+    QCOMPARE(reg.size(), 2);
+    QVERIFY(reg[1].toObject()["mattes_mi"].toDouble() < reg[0].toObject()["mattes_mi"].toDouble() + 1e-9);
+
+    // The registration found the generator's global affine (the warp aside): the two maps agree
+    // within a few millimetres over the brain's central box.
+    QVERIFY(QFile::exists(run_ + "/subject-to-atlas.tfm"));
+    const Eigen::Matrix4d found = builtinRegistry().imageRegistration().readTransform((run_ + "/subject-to-atlas.tfm").toStdString());
+    const QJsonObject truth = readJson(subject_ + "/subject.json")["affine"].toObject();
+    Eigen::Matrix4d drawn;
+    const QJsonArray rows = truth["matrix"].toArray();
+    for (int i = 0; i < 4; ++i)
+      for (int j = 0; j < 4; ++j) drawn(i, j) = rows[i].toArray()[j].toDouble();
+    double worst = 0.0;
+    for (double x : {-30.0, 30.0})
+      for (double y : {-40.0, 20.0})
+        for (double z : {-10.0, 40.0}) {
+          const Eigen::Vector4d p(x, y, z, 1.0);
+          worst = std::max(worst, (found * p - drawn * p).norm());
+        }
+    qInfo("registration vs the drawn affine: %.2f mm at worst over the box", worst);
+    QVERIFY(worst < 3.0);
+  }
+
+  // The written transform is an input too: the same placement without registering again.
+  void reusesTheTransform() {
+    QJsonObject scene = readJson(scene_);
+    scene["initialise"] = QJsonObject{{"transform", run_ + "/subject-to-atlas.tfm"}};
+    QJsonArray schedule = scene["schedule"].toArray();
+    for (int i = 0; i < schedule.size(); ++i) {
+      QJsonObject l = schedule[i].toObject();
+      l["iterations"] = 0;
+      schedule[i] = l;
+    }
+    scene["schedule"] = schedule;
+    writeJson(path("reuse.json"), scene);
+    const Result r = runTool(SINEW_RUN, {path("reuse.json"), "-o", path("reuse"), "-q", "--backend", "cpu"});
+    QVERIFY2(r.code == 0, qPrintable(r.err));
+    const double again = stageMean(readJson(path("reuse/report.json")), "initialisation");
+    const double before = stageMean(readJson(run_ + "/report.json"), "initialisation");
+    QVERIFY2(std::abs(again - before) < 1e-3, qPrintable(QString("%1 vs %2").arg(again).arg(before)));
+    QVERIFY(!readJson(path("reuse/report.json"))["stage_seconds"].toObject().contains("registration"));
+  }
+
+  // A user's scene has no ground truth: it runs and reports motion and force instead of error.
+  void runsWithoutGroundTruth() {
+    Result r = runTool(SINEW_MAKE_SCENE, {"--model", model_, "--target", subject_ + "/image.nii.gz", "--structures",
+                                          "Amygdala_L", "--iterations", "20,10,5", "-o", path("nogt.json")});
+    QVERIFY2(r.code == 0, qPrintable(r.err));
+    r = runTool(SINEW_RUN, {path("nogt.json"), "-o", path("nogt"), "-q", "--backend", "cpu"});
+    QVERIFY2(r.code == 0, qPrintable(r.err));
+    QVERIFY2(r.out.contains("displacement mm"), qPrintable(r.out));
+    const QJsonObject report = readJson(path("nogt/report.json"));
+    QVERIFY(report["structures"].toArray()[0].toObject()["assd_mm"].toObject()["final"].isNull());
+    const QJsonObject last = report["timeline"].toArray().last().toObject();
+    QVERIFY(last["mean_force"].toDouble() > 0.0);
+  }
+
+  void refusesWhatCannotBeInitialised() {
+    // A target without information (one grey value, as a failed acquisition): the registration
+    // cannot find the atlas in it and stops with exit 3, naming the stage and the metric.
+    const Registry& registry = builtinRegistry();
+    const Image3D subject = registry.imageIOFor("x.nii.gz").readImage((subject_ + "/image.nii.gz").toStdString());
+    registry.imageIOFor("x.nii.gz").writeImage(path("far.nii.gz").toStdString(), Image3D(subject.geometry(), 100.0f));
+    QJsonObject scene = readJson(scene_);
+    QJsonObject images = scene["images"].toObject();
+    images["target"] = path("far.nii.gz");
+    scene["images"] = images;
+    QJsonArray structures;
+    for (const auto& s : scene["structures"].toArray()) {
+      QJsonObject o = s.toObject();
+      o.remove("ground_truth");
+      structures.append(o);
+    }
+    scene["structures"] = structures;
+    writeJson(path("far.json"), scene);
+    Result r = runTool(SINEW_RUN, {path("far.json"), "-o", path("far-out"), "-q", "--backend", "cpu"});
+    QCOMPARE(r.code, 3);
+    QVERIFY2(r.err.contains("/initialise: registration, initial alignment: Mattes MI"), qPrintable(r.err));
+    QVERIFY(!QFile::exists(path("far-out")));
+
+    // Three landmark pairs: refused before anything is read.
+    scene = readJson(scene_);
+    QJsonArray pairs;
+    for (int i = 0; i < 3; ++i)
+      pairs.append(QJsonObject{{"model", QJsonArray{i, 2 * i, 0}}, {"target", QJsonArray{i, 2 * i, 1}}});
+    scene["initialise"] = QJsonObject{{"landmarks", pairs}};
+    writeJson(path("few.json"), scene);
+    r = runTool(SINEW_RUN, {path("few.json"), "-o", path("few-out"), "-q"});
+    QCOMPARE(r.code, 3);
+    QVERIFY2(r.err.contains("/initialise/landmarks") && r.err.contains("at least 4"), qPrintable(r.err));
+    QVERIFY(!QFile::exists(path("few-out")));
+
+    // A damaged model names the file.
+    {
+      std::ofstream f((model_ + "/structures/Amygdala_L/level0.vtp").toStdString(), std::ios::app);
+      f << " ";
+    }
+    r = runTool(SINEW_RUN, {scene_, "-o", path("damaged-out"), "-q"});
+    QCOMPARE(r.code, 3);
+    QVERIFY2(r.err.contains("Amygdala_L/level0.vtp: checksum mismatch"), qPrintable(r.err));
+    QVERIFY(!QFile::exists(path("damaged-out")));
+  }
+};
+
+QTEST_GUILESS_MAIN(TestNewSubject)
+#include "tst_new_subject.moc"
