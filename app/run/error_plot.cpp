@@ -22,6 +22,13 @@ void writeErrorPlot(const std::filesystem::path& path, const RunReport& r, const
     tMax = std::max(tMax, t.seconds);
     if (!std::isnan(value(t))) yMax = std::max(yMax, value(t));
   }
+  // With an initialisation, the plot starts where the model put the structures, the initialisation's
+  // time before simulation time 0: one straight step per structure from the model to the start.
+  const bool initialised = assd && r.stages.size() >= 2 && r.stages[1].name == "initialisation";
+  const double tMin = initialised ? -std::max(r.initialisation.seconds, 1e-3) : 0.0;
+  if (initialised)
+    for (double v : r.stages[0].assdMm)
+      if (!std::isnan(v)) yMax = std::max(yMax, v);
   yMax *= 1.05;
   const int W = 1100, H = 650, left = 80, right = 230, top = 40, bottom = 60;
   QImage image(W, H, QImage::Format_RGB32);
@@ -32,12 +39,12 @@ void writeErrorPlot(const std::filesystem::path& path, const RunReport& r, const
   font.setPixelSize(13);
   p.setFont(font);
   const QRectF plot(left, top, W - left - right, H - top - bottom);
-  auto X = [&](double s) { return plot.left() + plot.width() * s / tMax; };
+  auto X = [&](double s) { return plot.left() + plot.width() * (s - tMin) / (tMax - tMin); };
   auto Y = [&](double v) { return plot.bottom() - plot.height() * v / yMax; };
 
   p.setPen(QPen(QColor(220, 220, 220), 1));
   for (int i = 0; i <= 5; ++i) {
-    const double v = yMax * i / 5, s = tMax * i / 5;
+    const double v = yMax * i / 5, s = tMin + (tMax - tMin) * i / 5;
     p.drawLine(QPointF(plot.left(), Y(v)), QPointF(plot.right(), Y(v)));
     p.drawLine(QPointF(X(s), plot.top()), QPointF(X(s), plot.bottom()));
     p.setPen(Qt::black);
@@ -53,7 +60,13 @@ void writeErrorPlot(const std::filesystem::path& path, const RunReport& r, const
   }
   p.setPen(QPen(Qt::black, 1));
   p.drawRect(plot);
-  p.drawText(QRectF(plot.left(), H - 28, plot.width(), 20), Qt::AlignCenter, "simulation time (s)");
+  if (initialised) {
+    p.drawLine(QPointF(X(0), plot.top()), QPointF(X(0), plot.bottom()));
+    p.drawText(QRectF(X(tMin) + 4, plot.top() + 2, X(0) - X(tMin) - 8, 16), Qt::AlignLeft,
+               QString("initialisation (%1 s)").arg(r.initialisation.seconds, 0, 'f', 2));
+  }
+  p.drawText(QRectF(plot.left(), H - 28, plot.width(), 20), Qt::AlignCenter,
+             initialised ? "run time (s): the initialisation, then simulation time" : "simulation time (s)");
   p.save();
   p.translate(18, plot.center().y());
   p.rotate(-90);
@@ -75,6 +88,11 @@ void writeErrorPlot(const std::filesystem::path& path, const RunReport& r, const
     }
     p.setPen(QPen(c, 2));
     p.drawPath(line);
+    if (initialised && s < r.stages[0].assdMm.size() && !std::isnan(r.stages[0].assdMm[s])) {
+      p.setPen(QPen(c, 1.5, Qt::DashLine));
+      p.drawLine(QPointF(X(tMin), Y(r.stages[0].assdMm[s])), QPointF(X(0), Y(r.stages[1].assdMm[s])));
+      p.setPen(QPen(c, 2));
+    }
     const double y = top + 10 + 20.0 * s;
     p.drawLine(QPointF(W - right + 15, y), QPointF(W - right + 40, y));
     p.setPen(Qt::black);

@@ -132,12 +132,18 @@ int main(int argc, char** argv) {
     if (counts.empty() || counts.size() > 6) throw sinew::InputError("--iterations: give 1 to 6 counts");
     Json schedule = Json::array();
     for (size_t l = 0; l < counts.size(); ++l) {
-      const double depth = std::max(1.0, 4.0 / std::pow(2.0, double(l)));  // search depth decreases (paper 001)
+      // The search depth decreases (paper 001). A registered model starts within a millimetre or two
+      // of the boundary (docs/accuracy.md), so subject mode searches less far: a longer search finds
+      // the wrong edge of a neighbour more often than it finds the right one.
+      const double depth = subject ? 2.0 / std::pow(2.0, double(l)) : std::max(1.0, 4.0 / std::pow(2.0, double(l)));
       Json level = {{"iterations", std::stoi(counts[l])}, {"forces", {{"intensity_profile", {{"search_depth", depth}}}}}};
       // Subject mode: the image forces' closest affine field takes 100 % at the coarsest level, down
       // to 20 % at the finest (paper 001 section 3).
       if (subject)
         level["affine_regularisation"] = counts.size() == 1 ? 0.2 : 1.0 - 0.8 * double(l) / double(counts.size() - 1);
+      // Subject mode: the coarser levels' shape forces carried to the finer ones at half weight
+      // (paper 001 section 2.1; docs/accuracy.md has the sweep).
+      if (subject && l > 0) level["coarse_forces"] = 0.5;
       schedule.push_back(level);
     }
     scene["schedule"] = schedule;

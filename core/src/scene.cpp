@@ -282,13 +282,16 @@ SceneDesc parseScene(const std::string& text, const fs::path& file) {
   }
 
   for (const Node& n : root.at("schedule").elements()) {
-    n.expectObject({"iterations", "forces", "affine_regularisation"});
+    n.expectObject({"iterations", "forces", "affine_regularisation", "coarse_forces"});
     LevelDesc l;
     l.iterations = n.at("iterations").integer();
     if (l.iterations < 0) n.at("iterations").fail("iterations must be >= 0");
     if (n.has("affine_regularisation")) l.affineRegularisation = n.at("affine_regularisation").number();
     if (!(l.affineRegularisation >= 0.0 && l.affineRegularisation <= 1.0))
       n.at("affine_regularisation").fail("must be in [0, 1] (the share of the image forces made affine)");
+    if (n.has("coarse_forces")) l.coarseForces = n.at("coarse_forces").number();
+    if (!(l.coarseForces >= 0.0 && l.coarseForces <= 1.0))
+      n.at("coarse_forces").fail("must be in [0, 1] (the weight of the coarser levels' shape forces)");
     if (n.has("forces")) l.forces = readForces(n.at("forces"));
     s.schedule.push_back(std::move(l));
   }
@@ -387,6 +390,7 @@ std::string sceneToJson(const SceneDesc& s) {
     Json o{{"iterations", l.iterations}};
     if (!l.forces.empty()) o["forces"] = forcesJson(l.forces);
     if (l.affineRegularisation > 0.0) o["affine_regularisation"] = l.affineRegularisation;
+    if (l.coarseForces > 0.0) o["coarse_forces"] = l.coarseForces;
     schedule.push_back(o);
   }
   j["schedule"] = schedule;

@@ -551,6 +551,7 @@ bool SceneRunner::enterNextLevel() {
   for (const auto& [name, values] : scene_.schedule[next].forces)
     applyParams(scene_, sim.forceParams(name), values, -1, "/schedule/" + std::to_string(next) + "/forces/" + name);
   sim.setAffineRegularisation(float(scene_.schedule[next].affineRegularisation));
+  sim.setCoarseForceWeight(float(scene_.schedule[next].coarseForces));
   return sim.advanceLevel();
 }
 

@@ -160,6 +160,7 @@ void Simulation::computeForces() {
     ++s->evaluations;
   }
   if (regularise) regulariseImageForces(f);
+  if (coarseWeight_ > 0.0f && level_ > 0) addCoarseForces(f);
   if (!integrator_->requirements().jacobian) return;
   jacobian_.reset(store_.vertexCount());
   for (auto& s : forces_) {
@@ -173,6 +174,75 @@ void Simulation::setAffineRegularisation(float share) {
   if (!(share >= 0.0f && share <= 1.0f)) throw InputError("affine regularisation must be in [0, 1]");
   affineShare_ = share;
   if (share == 0.0f) std::vector<Vec3>().swap(imageForces_);
+}
+
+void Simulation::setCoarseForceWeight(float weight) {
+  if (!(weight >= 0.0f && weight <= 1.0f)) throw InputError("the coarse-force weight must be in [0, 1]");
+  coarseWeight_ = weight;
+  if (weight == 0.0f) coarse_.clear();
+}
+
+std::vector<Vec3> Simulation::referenceAt(Index m, int level) const {
+  const StructureSpec& s = structures_[m];
+  const std::vector<Vec3>& base = s.referencePositions.empty() ? s.initialPositions : s.referencePositions;
+  // The finest level at or below `level` that has its own reference, carried up from there.
+  for (int l = level; l > 0; --l)
+    if (static_cast<int>(s.finerReferences.size()) >= l && !s.finerReferences[l - 1].empty())
+      return s.levels.carry(s.finerReferences[l - 1], l, level);
+  return s.levels.carry(base, 0, level);
+}
+
+MeshStore& Simulation::coarseStore(int level) {
+  if (level < 0 || level >= level_) throw std::logic_error("coarseStore: not a coarser level");
+  if (static_cast<int>(coarse_.size()) != level_) {
+    // Built on the first request of a level: one store per coarser level, with only what the shape
+    // forces need.
+    coarse_.clear();
+    for (int l = 0; l < level_; ++l) {
+      std::vector<const SimplexTopology*> topologies;
+      for (const auto& s : structures_) topologies.push_back(&s.levels.levels[l]);
+      auto store = std::make_unique<MeshStore>(topologies);
+      store->setExecutor(&executor_);
+      store->require(Attribute::Force);
+      for (const auto& slot : forces_)
+        if (slot->force->requirements().shapeForce)
+          for (Attribute a : slot->force->requirements().attributes) store->require(a);
+      store->require(Attribute::ReferencePosition);
+      auto ref = store->referencePositionsForWrite();
+      for (Index m = 0; m < structureCount(); ++m) {
+        const auto r = referenceAt(m, l);
+        std::copy(r.begin(), r.end(), ref.begin() + store->range(m).vertexBegin);
+      }
+      coarse_.push_back(std::move(store));
+    }
+  }
+  return *coarse_[level];
+}
+
+void Simulation::addCoarseForces(std::span<Vec3> forces) {
+  const auto x = store_.positions();
+  for (int l = 0; l < level_; ++l) {
+    MeshStore& cs = coarseStore(l);
+    const Index stride = Index(1) << (2 * (level_ - l));  // coarse vertex t is fine vertex 4^(L-l) t
+    auto cx = cs.positionsForWrite();
+    for (Index m = 0; m < structureCount(); ++m) {
+      const MeshRange &rc = cs.range(m), &rf = store_.range(m);
+      for (Index t = 0; t < rc.vertexCount(); ++t) cx[rc.vertexBegin + t] = x[rf.vertexBegin + t * stride];
+    }
+    cs.refresh();
+    auto cf = cs.forces();
+    std::fill(cf.begin(), cf.end(), Vec3::Zero());
+    for (auto& slot : forces_) {
+      if (!slot->params.anyPositive(0) || !slot->force->requirements().shapeForce) continue;
+      ForceContext ctx{cs, slot->params, scene_, executor_};
+      slot->force->accumulate(ctx, cf);
+    }
+    executor_.forEach(structureCount(), [&](Index m) {
+      const MeshRange &rc = cs.range(m), &rf = store_.range(m);
+      const auto fine = structures_[m].levels.carry(std::span<const Vec3>(cf).subspan(rc.vertexBegin, rc.vertexCount()), l, level_);
+      for (Index i = 0; i < rf.vertexCount(); ++i) forces[rf.vertexBegin + i] += coarseWeight_ * fine[i];
+    });
+  }
 }
 
 void Simulation::regulariseImageForces(std::span<Vec3> forces) {

@@ -67,6 +67,52 @@ VolumeView viewOf(const ImageGeometry& g) {
 enum class Kind { Smoothing, ShapePrior, Gradient, Profile, Attraction, Plugin };
 }  // namespace
 
+namespace {
+// One prolongation for the whole store, from `level` to level + 1: global fine rows, global coarse
+// indices (coarseBegin: each structure's first vertex at `level`).
+struct GlobalProlongation {
+  std::vector<int> rows{0}, index;
+  std::vector<float> weight;
+};
+GlobalProlongation globalProlongation(const Simulation& sim, int level, const std::vector<int>& coarseBegin) {
+  GlobalProlongation g;
+  for (Index m = 0; m < sim.structureCount(); ++m) {
+    const Prolongation& p = sim.structure(m).levels.prolongations[level];
+    for (Index r = 0; r < p.fineCount(); ++r) {
+      for (Index k = p.rowOffsets[r]; k < p.rowOffsets[r + 1]; ++k) {
+        g.index.push_back(coarseBegin[m] + p.coarseIndex[k]);
+        g.weight.push_back(p.weight[k]);
+      }
+      g.rows.push_back(static_cast<int>(g.index.size()));
+    }
+  }
+  return g;
+}
+
+// Each structure's first vertex at a level, in the store's order.
+std::vector<int> meshBegins(const Simulation& sim, int level) {
+  std::vector<int> begin;
+  int next = 0;
+  for (Index m = 0; m < sim.structureCount(); ++m) {
+    begin.push_back(next);
+    next += sim.structure(m).levels.levels[level].vertexCount();
+  }
+  return begin;
+}
+
+// A coarser level for the multi-resolution forces: its topology, geometry and forces on the device,
+// where its positions are gathered from the current level and whence its forces go up a level.
+struct CoarseLevel {
+  DeviceArray<int3> neighbours, vertexCells;
+  DeviceArray<int> cellOffsets, cellVertices, meshOf, gatherIndex, upRows, upIndex;
+  DeviceArray<float> density, elevation, area, upWeight;
+  DeviceArray<float3> x, force, normal, centre;
+  DeviceArray<float4> reference;
+  MeshView view;
+  int upCount = 0;  // vertices of the level above
+};
+}  // namespace
+
 struct CudaEngine::Impl {
   Simulation& sim;
   cudaStream_t stream = nullptr;
@@ -95,6 +141,8 @@ struct CudaEngine::Impl {
   DeviceArray<float3> gradient;
   DeviceArray<float3> imageForce;  // the image forces alone, while the affine regularisation is on
   DeviceArray<double> affineMoments, affineCoefficients;
+  std::vector<std::unique_ptr<CoarseLevel>> coarseLevels;  // while multi-resolution forces are on
+  int coarseLevelsAt = -1;                                  // the level they were built for
   VolumeView imageView{}, gradientView{};
   float gradientSigma = -1.0f;
   // The profile layout the profiles were trained with (read at upload, after training), as the CPU
@@ -166,6 +214,89 @@ struct CudaEngine::Impl {
     }
     meshPull.upload(pull, stream);
     meshNormalPull.upload(normalPull, stream);
+  }
+
+  // The coarser levels of the current one (multi-resolution forces), from the simulation's host
+  // stores of them: topology, reference parameters, the gather and prolongation indices.
+  void uploadCoarseLevels() {
+    coarseLevels.clear();
+    const int L = sim.level();
+    const std::vector<int> fineBegin = meshBegins(sim, L);
+    for (int l = 0; l < L; ++l) {
+      MeshStore& cs = sim.coarseStore(l);
+      auto c = std::make_unique<CoarseLevel>();
+      uploadAs(c->neighbours, cs.neighbours(), stream);
+      uploadAs(c->vertexCells, cs.vertexCells(), stream);
+      uploadAs(c->cellOffsets, cs.cellOffsets(), stream);
+      uploadAs(c->cellVertices, cs.cellVertices(), stream);
+      uploadAs(c->meshOf, cs.meshOfVertex(), stream);
+      std::vector<int> gather;
+      std::vector<float> dens;
+      const int stride = 1 << (2 * (L - l));
+      for (Index m = 0; m < cs.meshCount(); ++m) {
+        for (Index t = 0; t < cs.range(m).vertexCount(); ++t) gather.push_back(fineBegin[m] + t * stride);
+        dens.push_back(1.0f);
+      }
+      c->gatherIndex.upload(gather, stream);
+      c->density.upload(dens, stream);
+      const Index n = cs.vertexCount();
+      c->x.resize(n);
+      c->force.resize(n);
+      c->normal.resize(n);
+      c->elevation.resize(n);
+      c->area.resize(n);
+      c->centre.resize(cs.cellCount());
+      const auto rp = cs.referenceParams();
+      std::vector<float4> r(rp.size());
+      for (size_t v = 0; v < rp.size(); ++v) r[v] = make_float4(rp[v].eps1, rp[v].eps2, std::sin(rp[v].phi), std::cos(rp[v].phi));
+      c->reference.upload(r, stream);
+      const GlobalProlongation up = globalProlongation(sim, l, meshBegins(sim, l));
+      c->upRows.upload(up.rows, stream);
+      c->upIndex.upload(up.index, stream);
+      c->upWeight.upload(up.weight, stream);
+      c->upCount = static_cast<int>(up.rows.size()) - 1;
+      MeshView& v = c->view;
+      v.vertices = n;
+      v.cells = cs.cellCount();
+      v.neighbours = c->neighbours.get();
+      v.vertexCells = c->vertexCells.get();
+      v.cellOffsets = c->cellOffsets.get();
+      v.cellVertices = c->cellVertices.get();
+      v.meshOf = c->meshOf.get();
+      v.density = c->density.get();
+      v.x = c->x.get();
+      v.force = c->force.get();
+      v.normal = c->normal.get();
+      v.elevation = c->elevation.get();
+      v.area = c->area.get();
+      v.cellCentre = c->centre.get();
+      coarseLevels.push_back(std::move(c));
+    }
+    coarseLevelsAt = L;
+    invalidateGraph();
+  }
+
+  // The shape forces on every coarser level, carried up and added with the weight (Horner: each
+  // level's forces go up one level into the next one's, the last into the current forces).
+  void enqueueCoarseForces(float weight) {
+    for (auto& c : coarseLevels) {
+      launchGather(c->gatherIndex.get(), c->view.vertices, view.x, c->view.x, stream);
+      launchGeometry(c->view, stream);
+      SINEW_CUDA(cudaMemsetAsync(c->force.get(), 0, c->force.bytes(), stream));
+      for (const ForceSlot& f : forces) {
+        const ParamTable& t = sim.forceParams(f.name);
+        if (!t.anyPositive(0)) continue;
+        const ParamView p{f.params.get(), f.count};
+        if (f.kind == Kind::Smoothing) launchSmoothing(c->view, p, t.indexOf("elevation_term"), stream);
+        if (f.kind == Kind::ShapePrior) launchShapePrior(c->view, p, c->reference.get(), stream);
+      }
+    }
+    for (size_t l = 0; l < coarseLevels.size(); ++l) {
+      const CoarseLevel& c = *coarseLevels[l];
+      const bool last = l + 1 == coarseLevels.size();
+      launchProlongAdd(c.upRows.get(), c.upIndex.get(), c.upWeight.get(), c.upCount, c.force.get(),
+                       last ? view.force : coarseLevels[l + 1]->force.get(), last ? weight : 1.0f, stream);
+    }
   }
 
   void invalidateGraph() {
@@ -343,6 +474,7 @@ struct CudaEngine::Impl {
     if (regularise)
       launchAffineRegularisation(view, imageForce.get(), meshBegin.get(), meshEnd.get(), sim.structureCount(),
                                  affineMoments.get(), affineCoefficients.get(), share, stream);
+    if (!coarseLevels.empty()) enqueueCoarseForces(sim.coarseForceWeight());
     const ParamTable& ip = sim.integratorParams();
     if (!implicit()) {
       launchVerlet(view, ip.getf(0, ip.indexOf("time_step")), 1.0f - ip.getf(0, ip.indexOf("damping")), stream);
@@ -383,6 +515,18 @@ CudaEngine::~CudaEngine() = default;
 
 void CudaEngine::run(int iterations) {
   Impl& I = *impl_;
+  // Multi-resolution forces: the coarser levels on the device, built once per level (before capture).
+  const bool coarse = I.sim.coarseForceWeight() > 0.0f && I.sim.level() > 0;
+  if (coarse)
+    for (const auto& f : I.forces)
+      if (f.kind == Kind::Plugin && I.sim.force(f.name).requirements().shapeForce)
+        throw std::runtime_error("force '" + f.name + "': a plugin's shape force on the coarser levels has no CUDA path");
+  if (coarse && I.coarseLevelsAt != I.sim.level()) I.uploadCoarseLevels();
+  if (!coarse && !I.coarseLevels.empty()) {
+    I.coarseLevels.clear();
+    I.coarseLevelsAt = -1;
+    I.invalidateGraph();
+  }
   // The affine regularisation's buffers, allocated only while it is on (before any capture).
   if (I.sim.affineRegularisation() > 0.0f) {
     const void* before[3] = {I.imageForce.get(), I.affineMoments.get(), I.affineCoefficients.get()};
@@ -407,6 +551,7 @@ void CudaEngine::run(int iterations) {
   for (size_t p = 0; p < I.sim.integratorParams().decls().size(); ++p)
     signature.push_back(I.sim.integratorParams().getf(0, static_cast<int>(p)));
   signature.push_back(I.sim.affineRegularisation());
+  signature.push_back(I.sim.coarseForceWeight());
   if (signature != I.graphSignature) I.invalidateGraph();
   I.graphSignature = signature;
   // Batches of up to 32 steps (fewer for implicit Euler, below), each length captured once as a CUDA Graph and replayed (a report
@@ -463,21 +608,11 @@ void CudaEngine::levelChanged() {
   Impl& I = *impl_;
   const Simulation& sim = I.sim;
   const MeshStore& fine = I.sim.store();
-  // One prolongation for the whole store: global fine rows, global coarse indices (the coarse
-  // ranges are those of the last upload).
-  const std::vector<int> coarseBegin = I.hostMeshBegin;
-  std::vector<int> rows{0}, index;
-  std::vector<float> weight;
-  for (Index m = 0; m < fine.meshCount(); ++m) {
-    const Prolongation& p = sim.structure(m).levels.prolongations[sim.level() - 1];
-    for (Index r = 0; r < p.fineCount(); ++r) {
-      for (Index k = p.rowOffsets[r]; k < p.rowOffsets[r + 1]; ++k) {
-        index.push_back(coarseBegin[m] + p.coarseIndex[k]);
-        weight.push_back(p.weight[k]);
-      }
-      rows.push_back(static_cast<int>(index.size()));
-    }
-  }
+  // The coarse ranges are those of the last upload.
+  const GlobalProlongation g = globalProlongation(sim, sim.level() - 1, I.hostMeshBegin);
+  const std::vector<int>& rows = g.rows;
+  const std::vector<int>& index = g.index;
+  const std::vector<float>& weight = g.weight;
   DeviceArray<int> dRows, dIndex;
   DeviceArray<float> dWeight;
   dRows.upload(rows, I.stream);
@@ -490,6 +625,8 @@ void CudaEngine::levelChanged() {
   SINEW_CUDA(cudaStreamSynchronize(I.stream));
   I.x = std::move(x);
   I.prev = std::move(prev);
+  I.coarseLevels.clear();
+  I.coarseLevelsAt = -1;
   I.upload(false);
 }
 

@@ -80,6 +80,11 @@ void launchSurfacePoints(const DrawRange& r, const float3* x, const int* offsets
 void launchContour(int cells, const float3* x, const int* offsets, const int* cellVertices, const int* meshOf,
                    float3 n, float d, const int* segmentBase, float3* out, int* counts, cudaStream_t s);
 
+// Multi-resolution forces (multires_kernels.cu): to[i] = from[index[i]]; fine[i] += scale * (P coarse)[i].
+void launchGather(const int* index, int count, const float3* from, float3* to, cudaStream_t s);
+void launchProlongAdd(const int* rows, const int* index, const float* weight, int count, const float3* coarse,
+                      float3* fine, float scale, cudaStream_t s);
+
 void launchProlong(const int* rowOffsets, const int* index, const float* weight, int rows, const float3* coarse,
                    float3* fine, cudaStream_t s);
 

@@ -183,6 +183,55 @@ private slots:
     for (Index v = 0; v < n; ++v) QVERIFY((affine[v] - field->field[v]).norm() < 1e-4f);
   }
 
+  // Multi-resolution forces (paper 001 section 2.1): at level 2 the shape forces are also computed
+  // on levels 0 and 1 (their vertices are the level-2 vertices 16t and 4t) and carried up by the
+  // prolongation. The added part is checked against simulations of those levels on the same positions.
+  void coarseForcesAreCarriedFromTheCoarserLevel() {
+    auto structure = [] {
+      StructureSpec s = sphereStructure("s", 2, 10.0f, Vec3(1, 2, 3), 3);
+      for (const Vec3& p : s.initialPositions) s.referencePositions.push_back(Vec3(1, 2, 3) + (p - Vec3(1, 2, 3)).cwiseProduct(Vec3(1.3f, 1.0f, 0.8f)));
+      return s;
+    };
+    auto make = [&](int level) {
+      auto sim = std::make_unique<Simulation>(forceRegistry(), 2);
+      sim->addStructure(structure());
+      sim->addForce("smoothing").setAll("weight", 0.3);
+      sim->addForce("shape_prior");
+      sim->setIntegrator("damped_verlet");
+      sim->initialize();
+      for (int l = 0; l < level; ++l) sim->advanceLevel();
+      return sim;
+    };
+    // At level 2 both coarser levels contribute: level 0 (vertices 16t) and level 1 (vertices 4t).
+    auto fine = make(2), plain = make(2), level0 = make(0), level1 = make(1);
+    fine->run(5);  // off the reference's carried shape, so the forces are not zero
+    const auto x = fine->store().positions();
+    std::copy(x.begin(), x.end(), plain->store().positionsForWrite().begin());
+    std::copy(fine->store().previousPositions().begin(), fine->store().previousPositions().end(),
+              plain->store().previousPositions().begin());
+    for (const auto& [c, stride] : {std::pair{level0.get(), 16}, std::pair{level1.get(), 4}}) {
+      auto cx = c->store().positionsForWrite();
+      for (Index t = 0; t < c->store().vertexCount(); ++t) cx[t] = x[stride * t];
+      std::copy(cx.begin(), cx.end(), c->store().previousPositions().begin());
+    }
+    fine->setCoarseForceWeight(0.5f);
+    for (auto* s : {fine.get(), plain.get(), level0.get(), level1.get()}) s->step();
+    const auto& levels = fine->structure(0).levels;
+    const auto from0 = levels.carry(level0->store().forces(), 0, 2), from1 = levels.carry(level1->store().forces(), 1, 2);
+    double worst = 0.0, size = 0.0;
+    for (Index v = 0; v < fine->store().vertexCount(); ++v) {
+      const Vec3 added = fine->store().forces()[v] - plain->store().forces()[v];
+      worst = std::max(worst, double((added - 0.5f * (from0[v] + from1[v])).norm()));
+      size = std::max(size, double((from0[v] + from1[v]).norm()));
+    }
+    qInfo("coarse forces: up to %.3g, carried part off by %.3g", size, worst);
+    QVERIFY(size > 0.05);
+    QVERIFY(worst < 1e-4);
+    // Off, nothing is added and nothing kept.
+    fine->setCoarseForceWeight(0.0f);
+    QCOMPARE(fine->coarseForceWeight(), 0.0f);
+  }
+
   void modelFilesRoundTripAndRefuseDamage() {
     QTemporaryDir dir;
     const fs::path folder = fs::path(dir.path().toStdString()) / "model";

@@ -8,7 +8,7 @@ namespace sinew {
 namespace {
 class ShapePriorForce final : public Force {
 public:
-  Requirements requirements() const override { return {{Attribute::ReferenceParams}, true}; }
+  Requirements requirements() const override { return {{Attribute::ReferenceParams}, true, false, false, true}; }
 
   void accumulate(ForceContext& ctx, std::span<Vec3> forces) override {
     MeshStore& s = ctx.store;

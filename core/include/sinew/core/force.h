@@ -24,6 +24,9 @@ struct Requirements {
   // A force driven by the image (gradient, intensity profile): its field is what the affine
   // regularisation (Simulation::setAffineRegularisation) replaces in part by its closest affine field.
   bool imageForce = false;
+  // A shape force (smoothing, shape prior): it depends only on the mesh and its reference, so it can
+  // also be evaluated on the coarser levels and carried to the current one (Simulation::setCoarseForceWeight).
+  bool shapeForce = false;
 };
 
 struct ForceContext {

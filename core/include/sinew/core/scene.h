@@ -59,6 +59,9 @@ struct LevelDesc {
   // Share of the image forces replaced by their closest affine field, per structure (paper 001
   // section 3: 100 % at the coarsest level down to 20 %); 0 turns the regularisation off.
   double affineRegularisation = 0.0;
+  // Weight of the shape forces of every coarser level, evaluated there and carried to this level
+  // (paper 001 section 2.1); 0 turns it off.
+  double coarseForces = 0.0;
 };
 
 // The global initialisation before the first level: the model's structures are mapped into the

@@ -62,6 +62,18 @@ public:
   // 0 (the default) turns it off and allocates nothing.
   void setAffineRegularisation(float share);
   float affineRegularisation() const { return affineShare_; }
+  // Paper 001 section 2.1, multi-resolution forces: at level L > 0 the shape forces are also
+  // evaluated on every coarser level l (whose vertices are the current vertices 4^(L-l) t), carried
+  // to level L by the prolongation and added with this weight. 0 (the default) turns it off and
+  // allocates nothing.
+  void setCoarseForceWeight(float weight);
+  float coarseForceWeight() const { return coarseWeight_; }
+  // The reference positions of every structure at a level (what the store holds there).
+  std::vector<Vec3> referenceAt(Index structure, int level) const;
+  // The store of a coarser level (< level()) that the multi-resolution forces run on: built on
+  // first request for the current level, with only what the shape forces need and the references;
+  // its positions are those of the last step that used it (for backends: topology and references).
+  MeshStore& coarseStore(int level);
   void setStabilityGuard(const StabilityGuard& guard) { guard_ = guard; }
   const StabilityGuard& stabilityGuard() const { return guard_; }
   // Why the current positions are not an acceptable step from `before` (non-finite, or a vertex
@@ -87,6 +99,7 @@ private:
   void prepareForces();
   void computeForces();
   void regulariseImageForces(std::span<Vec3> forces);
+  void addCoarseForces(std::span<Vec3> forces);
 
   const Registry& registry_;
   Executor executor_;
@@ -105,6 +118,8 @@ private:
   JacobianBlocks jacobian_;
   float affineShare_ = 0.0f;
   std::vector<Vec3> imageForces_;  // the image forces alone, while the affine regularisation is on
+  float coarseWeight_ = 0.0f;
+  std::vector<std::unique_ptr<MeshStore>> coarse_;  // the coarser levels' stores, while multi-resolution forces are on
   std::vector<Vec3> goodPositions_, goodPrevious_;  // the last good state, for rollbacks
 };
 

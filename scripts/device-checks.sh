@@ -1,0 +1,29 @@
+#!/usr/bin/env bash
+# On the device machine (run from the repository root with .device carried): unpacks the bundle of
+# scripts/device-bundle.sh, then runs the GPU tests and the new-subject accuracy on the GPU.
+# Variables: CHECKS (default "parity demo accuracy"), SEEDS (default 201-205). Results go to $OUT.
+set -uo pipefail
+mkdir -p /opt/sinew && tar -C /opt/sinew -xJf .device/bundle.tar.xz
+cp -a /opt/sinew/root/. /
+B=/opt/sinew
+export LD_LIBRARY_PATH=$B/lib:/usr/local/nvidia/lib64:${LD_LIBRARY_PATH:-}
+export QT_PLUGIN_PATH=$B/qt QT_QPA_FONTDIR=$B/fonts
+printf '<?xml version="1.0"?><fontconfig><dir>%s</dir><cachedir>/tmp/fccache</cachedir></fontconfig>\n' "$B/fonts" > /tmp/fonts.conf
+export FONTCONFIG_FILE=/tmp/fonts.conf
+build=$(cat $B/BUILD)  # the programs sit at their build paths (their RUNPATH points there)
+echo "build tree: $build"
+mkdir -p /usr/share/mricron/templates && cp $B/data/* /usr/share/mricron/templates/
+nvidia-smi --query-gpu=name,driver_version,memory.total --format=csv,noheader
+out=${OUT:-/tmp/out}
+for c in ${CHECKS:-parity demo accuracy}; do
+  case $c in
+    parity) "$build/tests/tst_cuda_parity" 2>&1 | tee "$out/parity.txt" | grep -E "PASS|FAIL|QINFO|Totals|SKIP" ;;
+    demo) "$build/tests/tst_backend_demo" 2>&1 | tee "$out/demo.txt" | grep -E "PASS|FAIL|QINFO|Totals|SKIP" ;;
+    accuracy)
+      for backend in cuda cpu; do
+        bash scripts/accuracy.sh "$build" /tmp/acc "$backend" ${SEEDS:-201 202 203 204 205} > "$out/accuracy-$backend.md" 2>"$out/accuracy-$backend.err"
+        tail -25 "$out/accuracy-$backend.md"
+      done
+      for s in ${SEEDS:-201 202 203 204 205}; do cp /tmp/acc/subject-$s/run-cuda/report.json "$out/report-cuda-$s.json"; done 2>/dev/null ;;
+  esac
+done
