@@ -74,15 +74,15 @@ private Q_SLOTS:
   void toolPluginsRegisterOnce() {
     ToolRegistry tools;
     registerBuiltinTools(tools);
-    QCOMPARE(tools.tools().size(), std::size_t(2));
-    QVERIFY(tools.find("navigate") && tools.find("attraction_points"));
+    QCOMPARE(tools.tools().size(), std::size_t(3));
+    QVERIFY(tools.find("navigate") && tools.find("attraction_points") && tools.find("landmarks"));
     try {
       registerBuiltinTools(tools);
       QFAIL("a tool name was registered twice");
     } catch (const std::logic_error& e) {
       QVERIFY2(std::string(e.what()).find("tool 'navigate' is already registered") != std::string::npos, e.what());
     }
-    QCOMPARE(tools.tools().size(), std::size_t(2));
+    QCOMPARE(tools.tools().size(), std::size_t(3));
   }
 
   void init() {
@@ -227,6 +227,62 @@ private Q_SLOTS:
     QVERIFY((session.attractionPoints(display.selected)[0] - first).norm() == 0.0f);
     QVERIFY(session.undo());  // the placement
     QVERIFY(session.attractionPoints(display.selected).empty());
+  }
+
+  // Landmark pairs: a drag in a slice view places one (model end where it starts, image end where it
+  // ends), undo and redo step through placement and move; Simulation > Initialise from Landmarks maps
+  // the model through them (a pure translation here: every vertex moves by it) and starts again.
+  void landmarksPlaceUndoAndInitialise() {
+    SegmentationSession& session = window_->session();
+    window_->selectTool("landmarks");
+    SliceView* axial = window_->sliceView(2);
+    const QPoint centre(axial->width() / 2, axial->height() / 2);
+    QTest::mousePress(axial, Qt::LeftButton, {}, centre);
+    for (int i = 1; i <= 3; ++i) QTest::mouseMove(axial, centre + QPoint(5 * i, 0));
+    QTest::mouseRelease(axial, Qt::LeftButton, {}, centre + QPoint(15, 0));
+    QCOMPARE(session.landmarks().size(), size_t(1));
+    const PlacedLandmark placed = session.landmarks()[0];
+    QVERIFY((placed.to - placed.from).norm() > 1.0f);
+    QVERIFY(std::abs(placed.to.z() - placed.from.z()) < 1e-4f);  // on the axial slice
+    QVERIFY(session.undo());  // the drag
+    QVERIFY((session.landmarks()[0].to - placed.from).norm() == 0.0f);
+    QVERIFY(session.undo());  // the placement
+    QVERIFY(session.landmarks().empty());
+    QVERIFY(session.redo() && session.redo());
+    QVERIFY((session.landmarks()[0].to - placed.to).norm() == 0.0f);
+    // Ctrl + click on the image end removes the pair.
+    QTest::mouseClick(axial, Qt::LeftButton, Qt::ControlModifier, centre + QPoint(15, 0));
+    QVERIFY(session.landmarks().empty());
+
+    QAction* initialise = nullptr;
+    for (QAction* a : window_->findChildren<QAction*>())
+      if (a->text() == "&Initialise from Landmarks") initialise = a;
+    QVERIFY(initialise);
+    window_->refreshViews();
+    QVERIFY(!initialise->isEnabled());  // fewer than 4 pairs
+    // Two pairs on each structure, not coplanar, all moved by the same translation.
+    session.syncHost();
+    const auto x = session.simulation().store().positions();
+    const std::vector<Vec3> before(x.begin(), x.end());
+    const Vec3 shift(2.0f, -1.0f, 1.5f);
+    const MeshStore& store = session.simulation().store();
+    for (Index s = 0; s < session.structureCount(); ++s) {
+      const MeshRange& r = store.range(s);
+      for (Index v : {r.vertexBegin, r.vertexBegin + r.vertexCount() / 2}) session.addLandmark(before[v], before[v] + shift);
+    }
+    window_->refreshViews();
+    QVERIFY(initialise->isEnabled());
+    initialise->trigger();
+    QVERIFY(session.landmarks().empty());
+    QVERIFY(!session.canUndo());
+    QVERIFY(session.scene().initialise.method == InitialiseDesc::Method::Landmarks);
+    QCOMPARE(session.scene().initialise.landmarks.size(), size_t(2 * session.structureCount()));
+    session.syncHost();
+    const auto after = session.simulation().store().positions();
+    double worst = 0.0;
+    for (size_t v = 0; v < before.size(); ++v) worst = std::max(worst, double((after[v] - before[v] - shift).norm()));
+    qInfo("landmarks: every vertex moved by the pairs' translation within %.2g mm", worst);
+    QVERIFY(worst < 1e-3);
   }
 
   // Save Scene keeps the user's points and parameter values and the schedule; the label map export

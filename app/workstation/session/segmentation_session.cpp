@@ -17,7 +17,10 @@ SegmentationSession::SegmentationSession(const Registry& registry) : registry_(r
 SegmentationSession::~SegmentationSession() = default;
 
 void SegmentationSession::open(const fs::path& sceneFile, const SessionOpenOptions& options) {
-  SceneDesc scene = readScene(sceneFile);
+  open(readScene(sceneFile), options);
+}
+
+void SegmentationSession::open(SceneDesc scene, const SessionOpenOptions& options) {
   if (options.requirePlugin)
     for (const std::string& plugin : scene.plugins) options.requirePlugin(plugin);
   bool hasAttraction = false;
@@ -33,6 +36,7 @@ void SegmentationSession::open(const fs::path& sceneFile, const SessionOpenOptio
   backend_ = makeBackend(options.backend, runner->simulation(), notice);
   runner_ = std::move(runner);
   log_ = options.log;
+  landmarks_.clear();
   hostCurrent_ = true;
   levelDone_ = 0;
   simSeconds_ = secondsPerStep_ = 0.0;
@@ -162,6 +166,7 @@ bool SegmentationSession::hasGroundTruth() {
 std::size_t SegmentationSession::Snapshot::bytes() const {
   std::size_t b = sizeof(Snapshot) + label.size() + (positions.size() + previous.size()) * sizeof(Vec3);
   for (const auto& p : points) b += p.size() * sizeof(Vec3);
+  b += landmarks.size() * sizeof(PlacedLandmark);
   for (const auto& t : forceParams) b += t.decls().size() * (sizeof(ParamDecl) + sizeof(double) * t.rows());
   return b;
 }
@@ -177,6 +182,7 @@ SegmentationSession::Snapshot SegmentationSession::capture(std::string label) {
   s.positions.assign(x.begin(), x.end());
   s.previous.assign(prev.begin(), prev.end());
   s.points = sim.scene().attractionPoints();
+  s.landmarks = landmarks_;
   for (const std::string& f : sim.forceNames()) s.forceParams.push_back(sim.forceParams(f));
   s.forceParams.push_back(sim.integratorParams());
   return s;
@@ -190,6 +196,7 @@ void SegmentationSession::restore(const Snapshot& s) {
   std::copy(s.positions.begin(), s.positions.end(), x.begin());
   std::copy(s.previous.begin(), s.previous.end(), prev.begin());
   sim.scene().attractionPoints() = s.points;
+  landmarks_ = s.landmarks;
   const auto names = sim.forceNames();
   for (size_t f = 0; f < names.size(); ++f) sim.forceParams(names[f]) = s.forceParams[f];
   sim.integratorParams() = s.forceParams.back();
@@ -265,6 +272,47 @@ void SegmentationSession::removeAttractionPoint(Index structure, int index) {
   points.erase(points.begin() + index);
   lastEdit_.clear();
   changed();
+}
+
+void SegmentationSession::addLandmark(const Vec3& from, const Vec3& to) {
+  if (!from.allFinite() || !to.allFinite()) throw InputError("a landmark needs finite coordinates");
+  beginEdit("Add landmark", false);
+  landmarks_.push_back({from, to});
+  lastEdit_.clear();
+  changed();
+}
+
+void SegmentationSession::moveLandmark(int index, const Vec3& to, bool continuing) {
+  if (!to.allFinite()) throw InputError("a landmark needs finite coordinates");
+  if (index < 0 || index >= static_cast<int>(landmarks_.size())) throw InputError("no such landmark");
+  beginEdit("Move landmark " + std::to_string(index), continuing);
+  landmarks_[index].to = to;
+  changed();
+}
+
+void SegmentationSession::removeLandmark(int index) {
+  if (index < 0 || index >= static_cast<int>(landmarks_.size())) throw InputError("no such landmark");
+  beginEdit("Delete landmark", false);
+  landmarks_.erase(landmarks_.begin() + index);
+  lastEdit_.clear();
+  changed();
+}
+
+void SegmentationSession::initialiseFromLandmarks(const SessionOpenOptions& options) {
+  // The model points: where the model has them now, taken back through the current initialisation
+  // (the map the profiles are trained through), so the new map replaces the old one.
+  const SceneData& data = simulation().scene();
+  std::vector<LandmarkPair> pairs;
+  for (const auto& l : landmarks_) {
+    const Vec3 model = data.toTraining(l.from);
+    pairs.push_back({{model.x(), model.y(), model.z()}, {l.to.x(), l.to.y(), l.to.z()}});
+  }
+  checkLandmarks(pairs, "landmarks");
+  SceneDesc scene = currentScene();
+  scene.initialise = InitialiseDesc{};
+  scene.initialise.method = InitialiseDesc::Method::Landmarks;
+  scene.initialise.landmarks = std::move(pairs);
+  open(std::move(scene), options);
 }
 
 ParamTable& SegmentationSession::params(const std::string& owner) {

@@ -22,6 +22,12 @@ struct SessionSample {
   double displacementMm = 0.0;   // mean |x - x_prev| of the last step over all vertices
 };
 
+// A landmark pair placed by the user (paper 000 section 5, paper 001 section 3): where the model
+// has an anatomical point now (from) and where that point is in the image (to), world mm.
+struct PlacedLandmark {
+  Vec3 from = Vec3::Zero(), to = Vec3::Zero();
+};
+
 struct SessionOpenOptions {
   int threads = 0;              // 0: all hardware threads
   std::string backend = "auto";  // auto | cuda | cpu
@@ -39,6 +45,8 @@ public:
   // Loads a scene; the attraction-point force is added (weight 1) when the scene lacks it, so the
   // attraction tool always works. Throws InputError naming the file and problem.
   void open(const std::filesystem::path& sceneFile, const SessionOpenOptions& options = {});
+  // The same from a scene description (relative paths resolved against scene.file).
+  void open(SceneDesc scene, const SessionOpenOptions& options = {});
   bool isOpen() const { return runner_ != nullptr; }
   void close();
   const SceneDesc& scene() const;
@@ -83,6 +91,18 @@ public:
   void addAttractionPoint(Index structure, const Vec3& point);
   void moveAttractionPoint(Index structure, int index, const Vec3& point, bool continuing);
   void removeAttractionPoint(Index structure, int index);
+  // Landmark pairs, undoable like the points above.
+  const std::vector<PlacedLandmark>& landmarks() const { return landmarks_; }
+  void addLandmark(const Vec3& from, const Vec3& to);
+  void moveLandmark(int index, const Vec3& to, bool continuing);
+  void removeLandmark(int index);
+  // Starts the segmentation again from the model mapped by a thin-plate spline through the pairs
+  // (at least 4, not coplanar): the scene's "initialise" becomes these landmarks (their model
+  // points taken back through the current initialisation), and the scene is loaded anew, as
+  // sinew-run would load it. Like a level change, it clears the undo history; the pairs are then
+  // part of the scene (saved with it) and the list is empty. Throws InputError, leaving the
+  // session as it was, when the pairs cannot determine a map.
+  void initialiseFromLandmarks(const SessionOpenOptions& options = {});
   // force: a force's name, or the integrator's name for its parameters. structure -1: every
   // structure (shared parameters are always set on all).
   void setParameter(const std::string& force, Index structure, const std::string& param, double value,
@@ -112,6 +132,7 @@ private:
     int level = 0;
     std::vector<Vec3> positions, previous;
     std::vector<std::vector<Vec3>> points;
+    std::vector<PlacedLandmark> landmarks;
     std::vector<ParamTable> forceParams;  // the forces', then the integrator's
     std::size_t bytes() const;
   };
@@ -129,6 +150,7 @@ private:
   std::unique_ptr<SceneRunner> runner_;
   std::unique_ptr<ExecutionBackend> backend_;
   std::function<void(const std::string&)> log_;
+  std::vector<PlacedLandmark> landmarks_;
   bool hostCurrent_ = true;
   int levelDone_ = 0;
   double simSeconds_ = 0.0, secondsPerStep_ = 0.0;

@@ -104,6 +104,7 @@ void MainWindow::buildViews() {
     view->setProviders(
         [this](const SlicePlane& plane) { return drawing_->contours(session_, plane); },
         [this](Index s) { return session_.isOpen() ? session_.attractionPoints(s) : std::vector<Vec3>{}; });
+    view->setLandmarksProvider([this] { return landmarkPairs(); });
     connect(view, &SliceView::toolPressed, this, [this](const ViewPointerEvent& e) {
       if (!tool_) return;
       auto ctx = toolContext();
@@ -138,6 +139,7 @@ void MainWindow::buildViews() {
   volume_ = new VolumeView(display_, central);
   volume_->setPointsProvider(
       [this](Index s) { return session_.isOpen() ? session_.attractionPoints(s) : std::vector<Vec3>{}; });
+  volume_->setLandmarksProvider([this] { return landmarkPairs(); });
   volume_->setMapperFactory([this](Index s) { return drawing_->makeMapper(s); });
   volume_->beforeRender = [this] {
     if (session_.isOpen()) drawing_->beforeRender(session_, display_);
@@ -220,6 +222,7 @@ void MainWindow::buildActions() {
   run_ = sim->addAction(tr("&Run"), QKeySequence(tr("Space")), this, [this] { setRunning(!isRunning()); });
   step_ = sim->addAction(tr("&Step"), QKeySequence(tr("S")), this, &MainWindow::stepOnce);
   nextLevel_ = sim->addAction(tr("&Next Level"), QKeySequence(tr("L")), this, &MainWindow::nextLevel);
+  initialiseLandmarks_ = sim->addAction(tr("&Initialise from Landmarks"), this, &MainWindow::initialiseFromLandmarks);
 
   QMenu* view = menuBar()->addMenu(tr("&View"));
   resetViews_ = view->addAction(tr("&Reset Views"), QKeySequence(tr("R")), this, [this] {
@@ -271,17 +274,8 @@ bool MainWindow::openScene(const QString& file) {
   QProgressDialog progress(tr("Opening %1...").arg(QFileInfo(file).fileName()), QString(), 0, 0, this);
   progress.setWindowModality(Qt::WindowModal);
   progress.setMinimumDuration(300);
-  SessionOpenOptions o;
-  o.threads = options_.threads;
-  o.backend = options_.backend;
-  o.requirePlugin = options_.requirePlugin;
-  o.log = [&](const std::string& m) {
-    progress.setLabelText(QString::fromStdString(m));
-    statusBar()->showMessage(QString::fromStdString(m));
-    QCoreApplication::processEvents(QEventLoop::ExcludeUserInputEvents);
-  };
   try {
-    session_.open(file.toStdString(), o);
+    session_.open(file.toStdString(), sessionOptions(progress));
   } catch (const std::exception& e) {
     progress.close();
     showError(tr("Open scene"), QString::fromUtf8(e.what()));
@@ -290,15 +284,7 @@ bool MainWindow::openScene(const QString& file) {
   progress.close();
   imageOnly_.reset();
   sceneFile_ = file;
-  drawing_ = chooseDrawing(options_, session_);
-  display_.reset(session_);
-  for (auto* v : slices_) v->resetScene();
-  volume_->resetScene();
-  scenePanel_->rebuild();
-  paramsPanel_->rebuild();
-  schedulePanel_->rebuild();
-  shownRevision_ = 0;
-  plottedSamples_ = 0;
+  sessionReplaced();
   addRecent(file);
   if (options_.persistSettings) QSettings().setValue("dirs/scene", QFileInfo(file).absolutePath());
   setWindowTitle(QString("Sinew - %1").arg(QFileInfo(file).fileName()));
@@ -434,6 +420,63 @@ void MainWindow::stepOnce() {
   refreshViews();
 }
 
+// How sessions open: the window's threads, backend and plugins, loading steps shown in `progress`.
+SessionOpenOptions MainWindow::sessionOptions(QProgressDialog& progress) {
+  SessionOpenOptions o;
+  o.threads = options_.threads;
+  o.backend = options_.backend;
+  o.requirePlugin = options_.requirePlugin;
+  o.log = [this, &progress](const std::string& m) {
+    progress.setLabelText(QString::fromStdString(m));
+    statusBar()->showMessage(QString::fromStdString(m));
+    QCoreApplication::processEvents(QEventLoop::ExcludeUserInputEvents);
+  };
+  return o;
+}
+
+void MainWindow::sessionReplaced() {
+  drawing_ = chooseDrawing(options_, session_);
+  display_.reset(session_);
+  for (auto* v : slices_) v->resetScene();
+  volume_->resetScene();
+  scenePanel_->rebuild();
+  paramsPanel_->rebuild();
+  schedulePanel_->rebuild();
+  shownRevision_ = 0;
+  plottedSamples_ = 0;
+}
+
+std::vector<std::pair<Vec3, Vec3>> MainWindow::landmarkPairs() {
+  std::vector<std::pair<Vec3, Vec3>> out;
+  if (session_.isOpen())
+    for (const PlacedLandmark& l : session_.landmarks()) out.emplace_back(l.from, l.to);
+  return out;
+}
+
+// The model mapped through the landmark pairs; the segmentation starts again from there.
+void MainWindow::initialiseFromLandmarks() {
+  if (!session_.isOpen()) return;
+  setRunning(false);
+  drawing_ = makeHostDrawing();  // the interop path is bound to the backend being replaced
+  QProgressDialog progress(tr("Initialising from landmarks..."), QString(), 0, 0, this);
+  progress.setWindowModality(Qt::WindowModal);
+  progress.setMinimumDuration(300);
+  try {
+    session_.initialiseFromLandmarks(sessionOptions(progress));
+  } catch (const std::exception& e) {
+    progress.close();
+    drawing_ = chooseDrawing(options_, session_);
+    showError(tr("Initialise from landmarks"), QString::fromUtf8(e.what()));
+    return;
+  }
+  progress.close();
+  sessionReplaced();
+  statusBar()->showMessage(tr("Initialised from %1 landmark pairs").arg(session_.scene().initialise.landmarks.size()), 5000);
+  refreshViews();
+  updateActions();
+  updateStatus();
+}
+
 void MainWindow::nextLevel() {
   if (!session_.isOpen()) return;
   if (!session_.nextLevel()) {
@@ -548,6 +591,7 @@ void MainWindow::selectTool(const std::string& name) {
 void MainWindow::updateActions() {
   const bool open = session_.isOpen();
   for (QAction* a : {saveScene_, saveSceneAs_, saveMeshes_, exportLabels_, run_, step_, nextLevel_}) a->setEnabled(open);
+  initialiseLandmarks_->setEnabled(open && session_.landmarks().size() >= 4);
   run_->setText(isRunning() ? tr("Pause") : tr("Run"));
   undo_->setEnabled(open && session_.canUndo());
   redo_->setEnabled(open && session_.canRedo());

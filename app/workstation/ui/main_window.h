@@ -20,6 +20,8 @@ class QActionGroup;
 class QLabel;
 class QMenu;
 
+class QProgressDialog;
+
 namespace sinew {
 
 class ParametersPanel;
@@ -95,6 +97,10 @@ private:
   void saveMeshes();
   void exportLabelMap();
   void nextLevel();
+  void initialiseFromLandmarks();
+  void sessionReplaced();  // the views, panels and plot rebuilt for a newly loaded session
+  std::vector<std::pair<Vec3, Vec3>> landmarkPairs();
+  SessionOpenOptions sessionOptions(QProgressDialog& progress);
   ToolContext toolContext();
 
   const Registry& registry_;
@@ -126,7 +132,7 @@ private:
   bool followSchedule_ = true, sampling_ = true;
   QString sceneFile_;
   QAction *openScene_, *openImage_, *saveScene_, *saveSceneAs_, *saveMeshes_, *exportLabels_, *quit_;
-  QAction *undo_, *redo_, *deletePoint_, *run_, *step_, *nextLevel_, *resetViews_, *maximise_;
+  QAction *undo_, *redo_, *deletePoint_, *run_, *step_, *nextLevel_, *initialiseLandmarks_, *resetViews_, *maximise_;
   QMenu* recentMenu_ = nullptr;
   QActionGroup* toolGroup_ = nullptr;
 };

@@ -172,4 +172,27 @@ void fillPointCloud(DisplayScene& scene, const std::function<std::vector<Vec3>(I
   out->GetPointData()->SetScalars(colours);
 }
 
+void appendLandmarks(DisplayScene& scene, const LandmarksProvider& pairs, const std::function<bool(Vec3&)>& place,
+                     vtkPolyData* out) {
+  if (!pairs || !out->GetPoints()) return;
+  vtkPoints* points = out->GetPoints();
+  auto* colours = vtkUnsignedCharArray::SafeDownCast(out->GetPointData()->GetScalars());
+  auto lines = vtkSmartPointer<vtkCellArray>::New();
+  for (const auto& [from, to] : pairs()) {
+    vtkIdType ids[2] = {-1, -1};
+    const Vec3 ends[2] = {from, to};
+    const unsigned char rgb[2][3] = {{80, 230, 255}, {255, 230, 40}};
+    for (int k = 0; k < 2; ++k) {
+      Vec3 p = scene.toDisplay(ends[k]);
+      if (!place(p)) continue;
+      ids[k] = points->InsertNextPoint(p.x(), p.y(), p.z());
+      out->GetVerts()->InsertNextCell(1, &ids[k]);
+      colours->InsertNextTuple3(rgb[k][0], rgb[k][1], rgb[k][2]);
+    }
+    if (ids[0] >= 0 && ids[1] >= 0) lines->InsertNextCell(2, ids);
+  }
+  out->SetLines(lines);
+  out->Modified();
+}
+
 }  // namespace sinew

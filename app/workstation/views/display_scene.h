@@ -86,4 +86,11 @@ private:
 void fillPointCloud(DisplayScene& scene, const std::function<std::vector<Vec3>(Index)>& worldPoints,
                     const std::function<bool(Vec3&)>& place, double brighten, vtkPolyData* out);
 
+// Landmark pairs (world mm): where the model has a point, where it is in the image.
+using LandmarksProvider = std::function<std::vector<std::pair<Vec3, Vec3>>()>;
+// Appends each pair to a cloud filled by fillPointCloud: the model end in cyan, the image end in
+// yellow, a line between them where both ends are placed.
+void appendLandmarks(DisplayScene& scene, const LandmarksProvider& pairs, const std::function<bool(Vec3&)>& place,
+                     vtkPolyData* out);
+
 }  // namespace sinew

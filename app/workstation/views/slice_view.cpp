@@ -241,11 +241,13 @@ void SliceView::rebuildOverlays() {
   // Attraction points within one voxel of the slice, brightened, pinned just above it.
   const double half = scene_.geometry().spacing[axis_];
   const float pinned = float(scene_.cursor[axis_] - 2 * lift * d[axis_]);
-  fillPointCloud(scene_, points_, [&](Vec3& p) {
+  auto onSlice = [&](Vec3& p) {
     if (std::abs(p[axis_] - scene_.cursor[axis_]) > half) return false;
     p[axis_] = pinned;
     return true;
-  }, 0.3, points_data_);
+  };
+  fillPointCloud(scene_, points_, onSlice, 0.3, points_data_);
+  appendLandmarks(scene_, landmarks_, onSlice, points_data_);
 }
 
 void SliceView::prepareRender() {

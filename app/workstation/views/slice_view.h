@@ -38,6 +38,7 @@ public:
   static const char* axisName(int axis);
 
   void setProviders(ContourProvider contours, PointsProvider points);
+  void setLandmarksProvider(LandmarksProvider landmarks) { landmarks_ = std::move(landmarks); }
   // Rebuilds actors for a new scene (image, structures) and frames the slice.
   void resetScene();
   void resetCamera();
@@ -70,6 +71,7 @@ private:
   DisplayScene& scene_;
   ContourProvider contours_;
   PointsProvider points_;
+  LandmarksProvider landmarks_;
   vtkSmartPointer<vtkImageSliceMapper> sliceMapper_;
   vtkSmartPointer<vtkImageSlice> slice_;
   std::vector<vtkSmartPointer<vtkPolyData>> contourData_;

@@ -102,6 +102,7 @@ void VolumeView::prepareRender() {
   if (beforeRender) beforeRender();
   if (dirty_) {
     fillPointCloud(scene_, points_, [](Vec3&) { return true; }, 0.0, pointsData_);
+    appendLandmarks(scene_, landmarks_, [](Vec3&) { return true; }, pointsData_);
     dirty_ = false;
   }
   renderer()->ResetCameraClippingRange();

@@ -28,6 +28,7 @@ public:
   // The surfaces' mappers come from here (the CUDA interop mapper, or VTK's own by default).
   void setMapperFactory(MapperFactory factory) { mapperFactory_ = std::move(factory); }
   void setPointsProvider(PointsProvider points) { points_ = std::move(points); }
+  void setLandmarksProvider(LandmarksProvider landmarks) { landmarks_ = std::move(landmarks); }
   void resetScene();
   void resetCamera();
   void invalidate() { dirty_ = true; update(); }
@@ -46,6 +47,7 @@ private:
   DisplayScene& scene_;
   MapperFactory mapperFactory_;
   PointsProvider points_;
+  LandmarksProvider landmarks_;
   std::vector<vtkSmartPointer<vtkActor>> surfaces_;
   vtkSmartPointer<vtkImageSliceMapper> sliceMappers_[3];
   vtkSmartPointer<vtkImageSlice> slices_[3];
