@@ -4,6 +4,7 @@
 #include "builtin_plugins.h"
 #include "sinew/core/model_builder.h"
 #include "sinew/core/model_file.h"
+#include "sinew/core/simulation.h"
 
 #include <benchmark/benchmark.h>
 
@@ -55,8 +56,42 @@ void BM_LoadModel(benchmark::State& state) {
   fs::remove_all(folder);
 }
 
+// Entering levels 1 and 2 with the loaded model's 12 structures, with the intensity-profile force
+// (profiles trained on the atlas image at each level) and without it (range(0) = 1 / 0): what
+// storing trained profiles in the model could save.
+void BM_EnterLevels(benchmark::State& state) {
+  if (!fs::exists(kTemplates / "aal.nii.gz")) return state.SkipWithError("mricron-data is not installed");
+  const fs::path folder = fs::temp_directory_path() / "sinew-bench-model-levels";
+  Executor executor(0);
+  writeModel(registry(), buildFromAtlas(executor), folder);
+  const Model model = readModel(registry(), folder);
+  const auto atlas = std::make_shared<Image3D>(registry().imageIOFor(model.atlasImage).readImage(model.atlasImage));
+  for (auto _ : state) {
+    state.PauseTiming();
+    Simulation sim(registry(), 0);
+    for (const ModelStructure& m : model.structures) {
+      StructureSpec spec;
+      spec.name = m.name;
+      spec.levels = m.levels;
+      spec.referencePositions = spec.initialPositions = m.positions[0];
+      spec.finerReferences.assign(m.positions.begin() + 1, m.positions.end());
+      sim.addStructure(std::move(spec));
+    }
+    sim.addForce("shape_prior");
+    if (state.range(0)) sim.addForce("intensity_profile");
+    sim.setIntegrator("damped_verlet");
+    sim.scene().setTargetImage(atlas);
+    sim.initialize();
+    state.ResumeTiming();
+    sim.advanceLevel();
+    sim.advanceLevel();
+  }
+  fs::remove_all(folder);
+}
+
 }  // namespace
 
+BENCHMARK(BM_EnterLevels)->Arg(1)->Arg(0)->ArgName("profiles")->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(5);
 BENCHMARK(BM_BuildModel)->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(3);
 BENCHMARK(BM_LoadModel)->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(10);
 
