@@ -28,7 +28,7 @@ dpkg-deb -f "$runtime" Package Version Depends Recommends
 dpkg-deb -f "$dev" Package Depends
 dpkg-deb -c "$runtime" > "$work/runtime-contents.txt"
 dpkg-deb -c "$dev" > "$work/dev-contents.txt"
-for f in usr/bin/sinew-run usr/bin/sinew usr/share/applications/io.github.sinew.Sinew.desktop \
+for f in usr/bin/sinew-run usr/bin/sinew usr/bin/sinew-build-model usr/bin/sinew-make-subject usr/share/applications/io.github.sinew.Sinew.desktop \
          usr/share/icons/hicolor/scalable/apps/io.github.sinew.Sinew.svg \
          usr/share/metainfo/io.github.sinew.Sinew.metainfo.xml usr/share/mime/packages/io.github.sinew.Sinew.xml \
          usr/share/man/man1/sinew-run.1.gz usr/share/doc/sinew/plugins.md; do
@@ -51,6 +51,15 @@ echo "== install"
 apt-get install -y -qq --no-install-recommends "$runtime" "$dev" >/dev/null
 test "$(command -v sinew-run)" = /usr/bin/sinew-run || fail "sinew-run is not /usr/bin/sinew-run"
 sinew-run --version
+sinew-build-model --version
+sinew-make-subject --version
+[ ! -d /usr/share/mricron/templates ] || {
+  # The installed model builder finds its libraries and plugins: a one-structure model, loaded back.
+  t=/usr/share/mricron/templates
+  sinew-build-model --atlas $t/aal.nii.gz --labels $t/aal.nii.txt --training $t/ch2.nii.gz --structures Putamen_L \
+    --levels 2 -o "$work/model" -q
+  grep -q '"name": "Putamen_L"' "$work/model/model.json" || fail "the installed sinew-build-model wrote no model"
+}
 
 echo "== example plugin, out of tree against the installed SDK"
 export XDG_DATA_HOME="$work/data"  # no user plugins
