@@ -66,6 +66,16 @@ std::string firstLine(std::string s) {
   return nl == std::string::npos ? s : s.substr(nl + 1);
 }
 
+std::vector<Vec3> pointsOf(vtkPolyData* pd) {
+  std::vector<Vec3> points(pd->GetNumberOfPoints());
+  for (vtkIdType i = 0; i < pd->GetNumberOfPoints(); ++i) {
+    double p[3];
+    pd->GetPoint(i, p);
+    points[i] = Vec3(float(p[0]), float(p[1]), float(p[2]));
+  }
+  return points;
+}
+
 TriangleMesh fromPolyData(vtkPolyData* input) {
   vtkNew<vtkTriangleFilter> tri;
   tri->SetInputData(input);
@@ -78,12 +88,7 @@ TriangleMesh fromPolyData(vtkPolyData* input) {
   clean->Update();
   vtkPolyData* pd = clean->GetOutput();
   TriangleMesh m;
-  m.points.resize(pd->GetNumberOfPoints());
-  for (vtkIdType i = 0; i < pd->GetNumberOfPoints(); ++i) {
-    double p[3];
-    pd->GetPoint(i, p);
-    m.points[i] = Vec3(float(p[0]), float(p[1]), float(p[2]));
-  }
+  m.points = pointsOf(pd);
   vtkNew<vtkIdList> ids;
   vtkCellArray* polys = pd->GetPolys();
   for (polys->InitTraversal(); polys->GetNextCell(ids);)
@@ -148,13 +153,9 @@ TriangleMesh readMeshExact(const fs::path& path) {
   if (ioExtension(path) != ".vtp") fail(path, "model meshes are VTK XML polydata (.vtp)");
   vtkSmartPointer<vtkPolyData> pd = readWith<vtkXMLPolyDataReader>(path);
   TriangleMesh m;
-  m.points.resize(pd->GetNumberOfPoints());
-  for (vtkIdType i = 0; i < pd->GetNumberOfPoints(); ++i) {
-    double p[3];
-    pd->GetPoint(i, p);
-    m.points[i] = Vec3(float(p[0]), float(p[1]), float(p[2]));
-    if (!m.points[i].allFinite()) fail(path, "has a non-finite point coordinate");
-  }
+  m.points = pointsOf(pd);
+  for (const Vec3& p : m.points)
+    if (!p.allFinite()) fail(path, "has a non-finite point coordinate");
   vtkNew<vtkIdList> ids;
   vtkCellArray* polys = pd->GetPolys();
   for (polys->InitTraversal(); polys->GetNextCell(ids);) {

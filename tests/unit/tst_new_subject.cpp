@@ -3,6 +3,8 @@
 // contrast and noise), a subject-mode scene from sinew-make-scene, and sinew-run initialising by
 // registration; then the transform reused, a scene without ground truth, and failures refused.
 #include "synthetic.h"
+// After the engine headers: a Qt macro (emit) breaks TBB headers included after it.
+#include "run_tool.h"
 
 #include <QJsonArray>
 #include <QJsonDocument>
@@ -14,24 +16,14 @@
 #include <fstream>
 
 using namespace sinew;
-using sinew::testing::builtinRegistry;
+using namespace sinew::testing;
 namespace fs = std::filesystem;
 
 namespace {
 
 const QString kTemplates = "/usr/share/mricron/templates/";
 
-struct Result {
-  int code = -1;
-  QString err, out;
-};
-
-Result runTool(const QString& program, const QStringList& args) {
-  QProcess p;
-  p.start(program, args);
-  p.waitForFinished(900000);
-  return {p.exitStatus() == QProcess::NormalExit ? p.exitCode() : -1, p.readAllStandardError(), p.readAllStandardOutput()};
-}
+using Result = ToolResult;
 
 QJsonObject readJson(const QString& path) {
   QFile f(path);

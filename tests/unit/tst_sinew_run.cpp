@@ -3,6 +3,8 @@
 // output left behind, and a reduced Colin27 demo on real MRI.
 #include "sinew/core/scene_runner.h"
 #include "synthetic.h"
+// After the engine headers: a Qt macro (emit) breaks TBB headers included after it.
+#include "run_tool.h"
 
 #include <QJsonArray>
 #include <QJsonDocument>
@@ -28,17 +30,7 @@ namespace fs = std::filesystem;
 
 namespace {
 
-struct Result {
-  int code = -1;
-  QString err, out;
-};
-
-Result runTool(const QString& program, const QStringList& args) {
-  QProcess p;
-  p.start(program, args);
-  p.waitForFinished(600000);
-  return {p.exitStatus() == QProcess::NormalExit ? p.exitCode() : -1, p.readAllStandardError(), p.readAllStandardOutput()};
-}
+using Result = ToolResult;
 
 Result sinewRun(const QStringList& args) { return runTool(SINEW_RUN, args); }
 

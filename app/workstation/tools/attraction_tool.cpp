@@ -46,23 +46,8 @@ public:
   }
 
 private:
-  // The selected structure's point nearest to the click on this slice, within the pick radius.
   static int nearest(ToolContext& ctx, Index s, const ViewPointerEvent& e) {
-    const auto& points = ctx.session.attractionPoints(s);
-    const double sliceHalf = ctx.display.geometry().spacing[e.axis];
-    int best = -1;
-    double bestD = e.pickRadiusMm;
-    for (size_t i = 0; i < points.size(); ++i) {
-      const Vec3 p = ctx.display.toDisplay(points[i]);
-      if (std::abs(p[e.axis] - e.display[e.axis]) > sliceHalf) continue;
-      Vec3 d = p - e.display;
-      d[e.axis] = 0;
-      if (d.norm() <= bestD) {
-        bestD = d.norm();
-        best = static_cast<int>(i);
-      }
-    }
-    return best;
+    return nearestOnSlice(ctx.display, ctx.session.attractionPoints(s), e);
   }
 
   int selected_ = -1;

@@ -46,21 +46,9 @@ public:
 private:
   // The pair whose image end is nearest the click on this slice, within the pick radius.
   static int nearest(ToolContext& ctx, const ViewPointerEvent& e) {
-    const auto& pairs = ctx.session.landmarks();
-    const double sliceHalf = ctx.display.geometry().spacing[e.axis];
-    int best = -1;
-    double bestD = e.pickRadiusMm;
-    for (size_t i = 0; i < pairs.size(); ++i) {
-      const Vec3 p = ctx.display.toDisplay(pairs[i].to);
-      if (std::abs(p[e.axis] - e.display[e.axis]) > sliceHalf) continue;
-      Vec3 d = p - e.display;
-      d[e.axis] = 0;
-      if (d.norm() <= bestD) {
-        bestD = d.norm();
-        best = static_cast<int>(i);
-      }
-    }
-    return best;
+    std::vector<Vec3> ends;
+    for (const PlacedLandmark& l : ctx.session.landmarks()) ends.push_back(l.to);
+    return nearestOnSlice(ctx.display, ends, e);
   }
 
   int selected_ = -1;

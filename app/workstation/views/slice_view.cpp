@@ -62,6 +62,23 @@ SliceView::SliceView(int axis, DisplayScene& scene, QWidget* parent)
 
 SliceView::~SliceView() = default;
 
+int nearestOnSlice(const DisplayScene& scene, const std::vector<Vec3>& worldPoints, const ViewPointerEvent& e) {
+  const double sliceHalf = scene.geometry().spacing[e.axis];
+  int best = -1;
+  double bestD = e.pickRadiusMm;
+  for (size_t i = 0; i < worldPoints.size(); ++i) {
+    const Vec3 p = scene.toDisplay(worldPoints[i]);
+    if (std::abs(p[e.axis] - e.display[e.axis]) > sliceHalf) continue;
+    Vec3 d = p - e.display;
+    d[e.axis] = 0;
+    if (d.norm() <= bestD) {
+      bestD = d.norm();
+      best = static_cast<int>(i);
+    }
+  }
+  return best;
+}
+
 void SliceView::setProviders(ContourProvider contours, PointsProvider points) {
   contours_ = std::move(contours);
   points_ = std::move(points);

@@ -25,6 +25,11 @@ struct ViewPointerEvent {
   bool control = false;
 };
 
+class DisplayScene;
+// The index of the point (world mm) nearest the click on its slice (within a voxel of it), within
+// the pick radius, or -1: what the point-placing tools pick.
+int nearestOnSlice(const DisplayScene& scene, const std::vector<Vec3>& worldPoints, const ViewPointerEvent& e);
+
 class SliceView : public VtkViewWidget {
   Q_OBJECT
 public:
