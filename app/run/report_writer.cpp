@@ -79,6 +79,18 @@ void writeReportJson(const std::filesystem::path& path, const RunReport& r, cons
                       {"assd_mm", per}});
   }
   j["stages"] = stages;
+  if (r.structures.size() > 1) {
+    double before = 0.0, after = 0.0;
+    Json pairs = Json::array();
+    for (const OverlapResult& o : r.overlaps) {
+      before += o.beforeMm3;
+      after += o.afterMm3;
+      pairs.push_back({{"a", r.structures[o.a].name}, {"b", r.structures[o.b].name}, {"before_mm3", o.beforeMm3},
+                       {"after_mm3", o.afterMm3}});
+    }
+    j["overlaps"] = {{"grid_spacing_mm", kOverlapSpacingMm}, {"total_before_mm3", before}, {"total_after_mm3", after},
+                     {"pairs", pairs}};
+  }
   j["status"] = r.numericalFailure.empty() ? "completed" : "numerical_failure";
   if (!r.numericalFailure.empty()) j["numerical_failure"] = r.numericalFailure;
   Json events = Json::array();

@@ -96,6 +96,17 @@ void printTable(const RunReport& r) {
                   cell(sums[2] / n, 10).c_str(), cell(sums[3] / n, 8).c_str(), cell(sums[4] / n, 8).c_str(),
                   cell(sums[5] / n, 8).c_str());
   }
+  if (r.structures.size() > 1) {
+    double before = 0.0, after = 0.0;
+    int overlapping = 0;
+    for (const OverlapResult& o : r.overlaps) {
+      before += o.beforeMm3;
+      after += o.afterMm3;
+      overlapping += o.afterMm3 > 0.0;
+    }
+    std::printf("overlap between structures: %.1f mm^3 at the start, %.1f mm^3 at the end (%d pairs)\n", before, after,
+                overlapping);
+  }
   if (r.initialisation.method != "none") std::printf("initialisation: %s, %.2f s\n", r.initialisation.method.c_str(), r.initialisation.seconds);
   std::printf("backend %s, %s; simulation %.2f s, total %.2f s\n", r.backend.c_str(), r.device.c_str(),
               r.simulationSeconds, r.totalSeconds);

@@ -505,6 +505,22 @@ RunReport SceneRunner::run() {
     r.seconds = simSeconds;
     report.structures.push_back(std::move(r));
   }
+  if (sim.structureCount() > 1) {
+    const auto t0 = Clock::now();
+    std::vector<const TriangleMesh*> start, end;
+    for (Index i = 0; i < sim.structureCount(); ++i) {
+      start.push_back(&initial[i].surface);
+      end.push_back(&report.structures[i].surface);
+    }
+    std::map<std::pair<int, int>, OverlapResult> pairs;
+    for (const PairOverlap& o : pairwiseOverlaps(start, kOverlapSpacingMm)) pairs[{o.a, o.b}] = {o.a, o.b, o.volumeMm3, 0.0};
+    for (const PairOverlap& o : pairwiseOverlaps(end, kOverlapSpacingMm)) {
+      auto& r = pairs[{o.a, o.b}];
+      r.a = o.a, r.b = o.b, r.afterMm3 = o.volumeMm3;
+    }
+    for (const auto& [key, r] : pairs) report.overlaps.push_back(r);
+    report.stageSeconds.emplace_back("overlaps", since(t0));
+  }
   report.totalSeconds = since(L.created);
   return report;
 }

@@ -45,6 +45,35 @@ std::vector<std::uint8_t> voxelize(const TriangleMesh& mesh, const ImageGeometry
   return mask;
 }
 
+namespace {
+Eigen::AlignedBox3d boundsOf(const TriangleMesh& m) {
+  Eigen::AlignedBox3d box;
+  for (const Vec3& p : m.points) box.extend(p.cast<double>());
+  return box;
+}
+}  // namespace
+
+double overlapVolume(const TriangleMesh& a, const TriangleMesh& b, double spacingMm) {
+  const Eigen::AlignedBox3d box = boundsOf(a).intersection(boundsOf(b));
+  if (box.isEmpty()) return 0.0;
+  ImageGeometry grid;
+  grid.spacing = Eigen::Vector3d::Constant(spacingMm);
+  grid.origin = box.min() + grid.spacing / 2;
+  for (int d = 0; d < 3; ++d) grid.size[d] = std::max(1, int(std::ceil(box.sizes()[d] / spacingMm)));
+  const auto ma = voxelize(a, grid), mb = voxelize(b, grid);
+  std::size_t both = 0;
+  for (std::size_t i = 0; i < ma.size(); ++i) both += ma[i] && mb[i];
+  return double(both) * spacingMm * spacingMm * spacingMm;
+}
+
+std::vector<PairOverlap> pairwiseOverlaps(const std::vector<const TriangleMesh*>& meshes, double spacingMm) {
+  std::vector<PairOverlap> out;
+  for (int i = 0; i < int(meshes.size()); ++i)
+    for (int j = i + 1; j < int(meshes.size()); ++j)
+      if (const double v = overlapVolume(*meshes[i], *meshes[j], spacingMm); v > 0.0) out.push_back({i, j, v});
+  return out;
+}
+
 double dice(const std::vector<std::uint8_t>& a, const std::vector<std::uint8_t>& b) {
   std::size_t both = 0, na = 0, nb = 0;
   for (std::size_t i = 0; i < a.size(); ++i) {

@@ -57,6 +57,14 @@ struct StageResult {
   std::vector<double> assdMm;  // per structure; NaN without ground truth
 };
 
+// Where two structures overlap, measured by rasterising both meshes on a 0.5 mm grid
+// (overlapVolume): at the start of the run and at its end.
+struct OverlapResult {
+  int a = 0, b = 0;  // structure indices, a < b
+  double beforeMm3 = 0.0, afterMm3 = 0.0;
+};
+inline constexpr double kOverlapSpacingMm = 0.5;
+
 struct InitialisationResult {
   std::string method = "none";  // "registration (affine)", "transform FILE", "landmarks: thin-plate spline (N landmarks)"
   double seconds = 0.0;
@@ -78,6 +86,7 @@ struct RunReport {
   std::vector<StageResult> stages;
   InitialisationResult initialisation;
   std::vector<std::pair<std::string, double>> stageSeconds;  // wall time of each set-up stage, in order
+  std::vector<OverlapResult> overlaps;  // every pair that overlaps before or after (two structures or more)
   // Why the run stopped early (the guard could not recover; the meshes are the last good ones);
   // empty when it ran its schedule.
   std::string numericalFailure;

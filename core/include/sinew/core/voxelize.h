@@ -13,6 +13,18 @@ namespace sinew {
 // grid's first axis), 0 elsewhere; in the grid's voxel order. Works for any direction matrix.
 std::vector<std::uint8_t> voxelize(const TriangleMesh& mesh, const ImageGeometry& grid);
 
+// Volume (mm^3) where two closed meshes overlap: both rasterised on an axis-aligned grid of this
+// spacing over the intersection of their bounding boxes (0 when the boxes do not meet). An
+// independent measure of inter-penetration, as the issue on collisions asks.
+double overlapVolume(const TriangleMesh& a, const TriangleMesh& b, double spacingMm);
+
+struct PairOverlap {
+  int a = 0, b = 0;      // indices into the meshes given, a < b
+  double volumeMm3 = 0;  // only pairs with a positive overlap are listed
+};
+// Every overlapping pair of the meshes, in order of (a, b).
+std::vector<PairOverlap> pairwiseOverlaps(const std::vector<const TriangleMesh*>& meshes, double spacingMm);
+
 // Dice coefficient of two masks of the same size.
 double dice(const std::vector<std::uint8_t>& a, const std::vector<std::uint8_t>& b);
 
