@@ -139,6 +139,45 @@ private slots:
     QVERIFY(!readJson(path("reuse/report.json"))["stage_seconds"].toObject().contains("registration"));
   }
 
+  // Landmarks instead of the registration: eight pairs where the generator's drawn affine puts
+  // points of the model (warp aside). An affine fit through them places the model about as well as
+  // the registration did.
+  void initialisesFromLandmarks() {
+    const QJsonObject truth = readJson(subject_ + "/subject.json")["affine"].toObject();
+    Eigen::Matrix4d drawn;  // subject -> model
+    const QJsonArray rows = truth["matrix"].toArray();
+    for (int i = 0; i < 4; ++i)
+      for (int j = 0; j < 4; ++j) drawn(i, j) = rows[i].toArray()[j].toDouble();
+    const Eigen::Matrix4d toSubject = drawn.inverse();
+    QJsonArray pairs;
+    for (double x : {-25.0, 25.0})
+      for (double y : {-30.0, 10.0})
+        for (double z : {-15.0, 20.0}) {
+          const Eigen::Vector4d m(x, y, z, 1.0), t = toSubject * m;
+          pairs.append(QJsonObject{{"model", QJsonArray{x, y, z}}, {"target", QJsonArray{t.x(), t.y(), t.z()}}});
+        }
+    QJsonObject scene = readJson(scene_);
+    scene["initialise"] = QJsonObject{{"landmarks", pairs}, {"landmark_fit", "affine"}};
+    QJsonArray schedule = scene["schedule"].toArray();
+    for (int i = 0; i < schedule.size(); ++i) {
+      QJsonObject l = schedule[i].toObject();
+      l["iterations"] = 0;
+      schedule[i] = l;
+    }
+    scene["schedule"] = schedule;
+    writeJson(path("landmarks.json"), scene);
+    const Result r = runTool(SINEW_RUN, {path("landmarks.json"), "-o", path("landmarks"), "-q", "--backend", "cpu"});
+    QVERIFY2(r.code == 0, qPrintable(r.err));
+    const QJsonObject report = readJson(path("landmarks/report.json"));
+    const double byLandmarks = stageMean(report, "initialisation");
+    const double byRegistration = stageMean(readJson(run_ + "/report.json"), "initialisation");
+    qInfo("mean ASSD after the initialisation: %.3f mm by landmarks, %.3f mm by registration", byLandmarks,
+          byRegistration);
+    QVERIFY(report["initialisation"].toObject()["method"].toString().startsWith("landmarks: affine"));
+    QVERIFY(byLandmarks < stageMean(report, "model"));
+    QVERIFY(std::abs(byLandmarks - byRegistration) < 0.3);
+  }
+
   // A user's scene has no ground truth: it runs and reports motion and force instead of error.
   void runsWithoutGroundTruth() {
     Result r = runTool(SINEW_MAKE_SCENE, {"--model", model_, "--target", subject_ + "/image.nii.gz", "--structures",
