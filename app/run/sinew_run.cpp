@@ -2,6 +2,7 @@
 // documented exit codes (see --help and docs/sinew-run.md).
 #include "backend_choice.h"
 #include "builtin_plugins.h"
+#include "output_lock.h"
 #include "report_writer.h"
 #include "sinew/core/scene_runner.h"
 
@@ -112,19 +113,18 @@ void printTable(const RunReport& r) {
               r.simulationSeconds, r.totalSeconds);
 }
 
-// Every output is written into a staging folder inside the output directory and moved into place
-// only when all of them were written, so a failed run leaves no partial outputs.
+// Every output is written into a staging folder inside the output directory (which the run's
+// OutputLock created and holds) and moved into place only when all of them were written, so a
+// failed run leaves no partial outputs.
 class Staging {
 public:
   explicit Staging(const fs::path& out) : out_(out) {
-    createdOut_ = fs::create_directories(out_);
     dir_ = out_ / (".sinew-staging-" + std::to_string(::getpid()));
     fs::create_directories(dir_);
   }
   ~Staging() {
     std::error_code ec;
     fs::remove_all(dir_, ec);
-    if (!committed_ && createdOut_) fs::remove(out_, ec);  // only if still empty
   }
   fs::path file(const std::string& name) {
     names_.push_back(name);
@@ -135,13 +135,11 @@ public:
     for (const auto& n : names_)
       if (fs::is_directory(out_ / n)) throw InputError((out_ / n).string() + ": a directory is in the way of an output");
     for (const auto& n : names_) fs::rename(dir_ / n, out_ / n);
-    committed_ = true;
   }
 
 private:
   fs::path out_, dir_;
   std::vector<std::string> names_;
-  bool createdOut_ = false, committed_ = false;
 };
 
 void printParams(const std::vector<ParamDecl>& params) {
@@ -246,6 +244,11 @@ int main(int argc, char** argv) {
       if (!quiet || backendChoice == "cuda") std::fprintf(stderr, "%s\n", m.c_str());
     };
     options.backend = [&](Simulation& sim) { return makeBackend(backendChoice, sim, notice); };
+    // The output directory is this run's from here on: a second run writing there is refused now,
+    // not after the work, and what killed runs left in it is cleared.
+    const OutputLock lock(outDir);
+    if (lock.staleRemoved() && !quiet)
+      std::fprintf(stderr, "removed %d staging folder(s) a killed run left in %s\n", lock.staleRemoved(), outDir.c_str());
     SceneRunner runner(registry, scene, options);
     if (!quiet) std::fprintf(stderr, "loading %s\n", scenePath.c_str());
     runner.load();

@@ -279,6 +279,36 @@ private slots:
     QVERIFY(report.structures[0].assdFinalMm < report.structures[0].assdInitialMm);
   }
 
+  // One run at a time per output directory: a second one is refused at once, naming the first; a
+  // killed run blocks nothing (the kernel drops its lock) and what it left is cleared by the next.
+  void outputDirectoryIsHeldByOneRun() {
+    const fs::path out = path("held");
+    fs::create_directories(out / ".sinew-staging-424242");
+    std::ofstream(out / ".sinew-staging-424242" / "partial.vtp") << "half";
+    const QString longScene = QString::fromStdString(writeScene("long.json", [](std::string& t) {
+      replace(t, R"("iterations": 80)", R"("iterations": 100000)");
+    }).string());
+    QProcess first;
+    first.start(SINEW_RUN, {longScene, "-q", "-o", QString::fromStdString(out.string())});
+    QVERIFY(first.waitForStarted());
+    for (int i = 0; i < 200 && fs::exists(out / ".sinew-staging-424242"); ++i) QTest::qWait(50);
+    QVERIFY2(!fs::exists(out / ".sinew-staging-424242"), "the stale staging folder is still there");
+    QVERIFY(fs::exists(out / ".sinew.lock"));
+    const Result second = sinewRun({QString::fromStdString(writeScene("scene.json").string()), "-q", "-o",
+                                    QString::fromStdString(out.string())});
+    QCOMPARE(second.code, 3);
+    QVERIFY2(second.err.contains("another sinew-run (process " + QString::number(first.processId()) + ")"),
+             qPrintable(second.err));
+    first.kill();  // SIGKILL: no destructor runs
+    QVERIFY(first.waitForFinished());
+    const Result third = sinewRun({QString::fromStdString(writeScene("scene.json").string()), "-q", "-o",
+                                   QString::fromStdString(out.string())});
+    QVERIFY2(third.code == 0, qPrintable(third.err));
+    QVERIFY(fs::exists(out / "report.json"));
+    for (const auto& e : fs::directory_iterator(out))
+      QVERIFY2(e.path().filename().string()[0] != '.', qPrintable(QString::fromStdString(e.path().string())));
+  }
+
   void refusesBadInputs() {
     expectBadInput(writeScene("missing_image.json", [](std::string& t) { replace(t, "image.nii.gz", "nothere.nii.gz"); }),
                    "nothere.nii.gz", "no such file");
