@@ -73,9 +73,23 @@ struct SurfaceDistanceQuery::Impl {
     return id;
   }
 
-  Vec3 query(const Vec3& p) const {
+  // Children follow their parent in `nodes`, so a backward pass refits every box from below.
+  void refit() {
+    for (int id = static_cast<int>(nodes.size()) - 1; id >= 0; --id) {
+      Node& n = nodes[id];
+      n.box.setEmpty();
+      if (n.left < 0) {
+        for (int i = n.begin; i < n.end; ++i) n.box.extend(a[order[i]]).extend(b[order[i]]).extend(c[order[i]]);
+      } else {
+        n.box.extend(nodes[n.left].box).extend(nodes[n.right].box);
+      }
+    }
+  }
+
+  SurfaceDistanceQuery::Closest query(const Vec3& p) const {
     float best2 = std::numeric_limits<float>::max();
     Vec3 bestPoint = p;
+    int bestTriangle = -1;
     int stack[128];
     int top = 0;
     stack[top++] = 0;
@@ -90,6 +104,7 @@ struct SurfaceDistanceQuery::Impl {
           if (d2 < best2) {
             best2 = d2;
             bestPoint = q;
+            bestTriangle = t;
           }
         }
         continue;
@@ -105,7 +120,7 @@ struct SurfaceDistanceQuery::Impl {
         stack[top++] = n.right;
       }
     }
-    return bestPoint;
+    return {bestPoint, bestTriangle};
   }
 };
 
@@ -124,8 +139,19 @@ SurfaceDistanceQuery::SurfaceDistanceQuery(const TriangleMesh& mesh) : impl_(std
 SurfaceDistanceQuery::~SurfaceDistanceQuery() = default;
 SurfaceDistanceQuery::SurfaceDistanceQuery(SurfaceDistanceQuery&&) noexcept = default;
 
-float SurfaceDistanceQuery::distance(const Vec3& p) const { return (impl_->query(p) - p).norm(); }
-Vec3 SurfaceDistanceQuery::closestPoint(const Vec3& p) const { return impl_->query(p); }
+float SurfaceDistanceQuery::distance(const Vec3& p) const { return (impl_->query(p).point - p).norm(); }
+Vec3 SurfaceDistanceQuery::closestPoint(const Vec3& p) const { return impl_->query(p).point; }
+SurfaceDistanceQuery::Closest SurfaceDistanceQuery::closest(const Vec3& p) const { return impl_->query(p); }
+
+void SurfaceDistanceQuery::refit(const TriangleMesh& mesh) {
+  if (mesh.triangles.size() != impl_->a.size()) throw std::logic_error("SurfaceDistanceQuery::refit: other triangles");
+  for (size_t t = 0; t < mesh.triangles.size(); ++t) {
+    impl_->a[t] = mesh.points[mesh.triangles[t][0]];
+    impl_->b[t] = mesh.points[mesh.triangles[t][1]];
+    impl_->c[t] = mesh.points[mesh.triangles[t][2]];
+  }
+  impl_->refit();
+}
 
 std::vector<SurfaceSample> sampleSurface(const TriangleMesh& mesh, float spacing) {
   std::vector<SurfaceSample> out;

@@ -6,13 +6,14 @@ const sinew::PluginInfo* sinew_plugin_info_shape_prior();
 const sinew::PluginInfo* sinew_plugin_info_gradient();
 const sinew::PluginInfo* sinew_plugin_info_intensity_profile();
 const sinew::PluginInfo* sinew_plugin_info_attraction_points();
+const sinew::PluginInfo* sinew_plugin_info_collision();
 const sinew::PluginInfo* sinew_plugin_info_damped_verlet();
 const sinew::PluginInfo* sinew_plugin_info_implicit_euler();
 
 namespace sinew {
 void addBuiltinForces(PluginLoader& loader) {
   for (auto entry : {sinew_plugin_info_smoothing, sinew_plugin_info_shape_prior, sinew_plugin_info_gradient,
-                     sinew_plugin_info_intensity_profile, sinew_plugin_info_attraction_points,
+                     sinew_plugin_info_intensity_profile, sinew_plugin_info_attraction_points, sinew_plugin_info_collision,
                      sinew_plugin_info_damped_verlet, sinew_plugin_info_implicit_euler})
     loader.addBuiltin(*entry());
 }
