@@ -37,6 +37,17 @@ void writeJson(const QString& path, const QJsonObject& o) {
   f.write(QJsonDocument(o).toJson());
 }
 
+// Every level of the scene runs no iteration: only the initialisation is measured.
+void withoutIterations(QJsonObject& scene) {
+  QJsonArray schedule = scene["schedule"].toArray();
+  for (int i = 0; i < schedule.size(); ++i) {
+    QJsonObject l = schedule[i].toObject();
+    l["iterations"] = 0;
+    schedule[i] = l;
+  }
+  scene["schedule"] = schedule;
+}
+
 double stageMean(const QJsonObject& report, const QString& name) {
   for (const auto& s : report["stages"].toArray())
     if (s.toObject()["name"].toString() == name) return s.toObject()["mean_assd_mm"].toDouble();
@@ -123,13 +134,7 @@ private slots:
   void reusesTheTransform() {
     QJsonObject scene = readJson(scene_);
     scene["initialise"] = QJsonObject{{"transform", run_ + "/subject-to-atlas.tfm"}};
-    QJsonArray schedule = scene["schedule"].toArray();
-    for (int i = 0; i < schedule.size(); ++i) {
-      QJsonObject l = schedule[i].toObject();
-      l["iterations"] = 0;
-      schedule[i] = l;
-    }
-    scene["schedule"] = schedule;
+    withoutIterations(scene);
     writeJson(path("reuse.json"), scene);
     const Result r = runTool(SINEW_RUN, {path("reuse.json"), "-o", path("reuse"), "-q", "--backend", "cpu"});
     QVERIFY2(r.code == 0, qPrintable(r.err));
@@ -158,13 +163,7 @@ private slots:
         }
     QJsonObject scene = readJson(scene_);
     scene["initialise"] = QJsonObject{{"landmarks", pairs}, {"landmark_fit", "affine"}};
-    QJsonArray schedule = scene["schedule"].toArray();
-    for (int i = 0; i < schedule.size(); ++i) {
-      QJsonObject l = schedule[i].toObject();
-      l["iterations"] = 0;
-      schedule[i] = l;
-    }
-    scene["schedule"] = schedule;
+    withoutIterations(scene);
     writeJson(path("landmarks.json"), scene);
     const Result r = runTool(SINEW_RUN, {path("landmarks.json"), "-o", path("landmarks"), "-q", "--backend", "cpu"});
     QVERIFY2(r.code == 0, qPrintable(r.err));
