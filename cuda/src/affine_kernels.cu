@@ -1,7 +1,8 @@
 // The affine regularisation of the image forces (paper 001 section 3) on the device, as
 // Simulation::regulariseImageForces on the CPU: per structure the least-squares affine field of the
-// image forces g at the positions x (normal equations in double, one block per structure, a fixed
-// reduction order so runs repeat exactly), then f += share * (A x + t) + (1 - share) * g.
+// image forces g at the positions x (normal equations in double: blocks of kAffineChunk vertices sum
+// their share, the solve adds the blocks' sums in order, so runs repeat exactly), then
+// f += share * (A x + t) + (1 - share) * g.
 #include "kernels.h"
 
 namespace sinew::cuda {
@@ -11,13 +12,16 @@ constexpr int kMomentThreads = 128;
 // Per structure: the upper triangle of sum h h^T (10 values, h = (x, y, z, 1)) and sum h g^T (12).
 constexpr int kMoments = 22;
 
+// Block (part, mesh) sums vertices [begin + part * kAffineChunk, ...) of its structure.
 __global__ void affineMoments(const float3* x, const float3* g, const int* meshBegin, const int* meshEnd,
                               double* moments) {
   __shared__ double partial[kMoments][kMomentThreads];
-  const int mesh = blockIdx.x;
+  const int mesh = blockIdx.y;
+  const int begin = meshBegin[mesh] + blockIdx.x * kAffineChunk;
+  const int end = min(meshEnd[mesh], begin + kAffineChunk);
   double acc[kMoments];
   for (int k = 0; k < kMoments; ++k) acc[k] = 0.0;
-  for (int v = meshBegin[mesh] + threadIdx.x; v < meshEnd[mesh]; v += kMomentThreads) {
+  for (int v = begin + threadIdx.x; v < end; v += kMomentThreads) {
     const double h[4] = {x[v].x, x[v].y, x[v].z, 1.0};
     const double f[3] = {g[v].x, g[v].y, g[v].z};
     int k = 0;
@@ -33,15 +37,18 @@ __global__ void affineMoments(const float3* x, const float3* g, const int* meshB
       for (int k = 0; k < kMoments; ++k) partial[k][threadIdx.x] += partial[k][threadIdx.x + stride];
     __syncthreads();
   }
-  if (threadIdx.x < kMoments) moments[mesh * kMoments + threadIdx.x] = partial[threadIdx.x][0];
+  if (threadIdx.x < kMoments) moments[(mesh * gridDim.x + blockIdx.x) * kMoments + threadIdx.x] = partial[threadIdx.x][0];
 }
 
 // One thread per structure: solves the 4x4 normal equations for the 4x3 coefficients by Gaussian
 // elimination with partial pivoting; a singular system leaves NaN, and the blend then keeps g.
-__global__ void affineSolve(const double* moments, double* coefficients, int meshes) {
+__global__ void affineSolve(const double* moments, int parts, double* coefficients, int meshes) {
   const int mesh = blockIdx.x * blockDim.x + threadIdx.x;
   if (mesh >= meshes) return;
-  const double* m = moments + mesh * kMoments;
+  double m[kMoments];
+  for (int k = 0; k < kMoments; ++k) m[k] = 0.0;
+  for (int part = 0; part < parts; ++part)  // in order: the same sum on every run
+    for (int k = 0; k < kMoments; ++k) m[k] += moments[(mesh * parts + part) * kMoments + k];
   double a[4][7];
   int k = 0;
   for (int i = 0; i < 4; ++i)
@@ -86,9 +93,10 @@ __global__ void affineBlend(MeshView m, const float3* g, const double* coefficie
 }  // namespace
 
 void launchAffineRegularisation(const MeshView& m, const float3* imageForce, const int* meshBegin, const int* meshEnd,
-                                int meshes, double* moments, double* coefficients, float share, cudaStream_t s) {
-  affineMoments<<<meshes, kMomentThreads, 0, s>>>(m.x, imageForce, meshBegin, meshEnd, moments);
-  affineSolve<<<(meshes + 63) / 64, 64, 0, s>>>(moments, coefficients, meshes);
+                                int meshes, int parts, double* moments, double* coefficients, float share,
+                                cudaStream_t s) {
+  affineMoments<<<dim3(parts, meshes), kMomentThreads, 0, s>>>(m.x, imageForce, meshBegin, meshEnd, moments);
+  affineSolve<<<(meshes + 63) / 64, 64, 0, s>>>(moments, parts, coefficients, meshes);
   affineBlend<<<(m.vertices + 255) / 256, 256, 0, s>>>(m, imageForce, coefficients, share);
 }
 

@@ -141,6 +141,7 @@ struct CudaEngine::Impl {
   DeviceArray<float3> gradient;
   DeviceArray<float3> imageForce;  // the image forces alone, while the affine regularisation is on
   DeviceArray<double> affineMoments, affineCoefficients;
+  int affineParts = 1;  // blocks per structure summing the normal equations
   std::vector<std::unique_ptr<CoarseLevel>> coarseLevels;  // while multi-resolution forces are on
   int coarseLevelsAt = -1;                                  // the level they were built for
   VolumeView imageView{}, gradientView{};
@@ -473,7 +474,7 @@ struct CudaEngine::Impl {
     }
     if (regularise)
       launchAffineRegularisation(view, imageForce.get(), meshBegin.get(), meshEnd.get(), sim.structureCount(),
-                                 affineMoments.get(), affineCoefficients.get(), share, stream);
+                                 affineParts, affineMoments.get(), affineCoefficients.get(), share, stream);
     if (!coarseLevels.empty()) enqueueCoarseForces(sim.coarseForceWeight());
     const ParamTable& ip = sim.integratorParams();
     if (!implicit()) {
@@ -531,7 +532,10 @@ void CudaEngine::run(int iterations) {
   if (I.sim.affineRegularisation() > 0.0f) {
     const void* before[3] = {I.imageForce.get(), I.affineMoments.get(), I.affineCoefficients.get()};
     I.imageForce.resize(I.sim.store().vertexCount());
-    I.affineMoments.resize(size_t(I.sim.structureCount()) * 22);
+    Index largest = 1;
+    for (Index m = 0; m < I.sim.store().meshCount(); ++m) largest = std::max(largest, I.sim.store().range(m).vertexCount());
+    I.affineParts = static_cast<int>((largest + kAffineChunk - 1) / kAffineChunk);
+    I.affineMoments.resize(size_t(I.sim.structureCount()) * I.affineParts * 22);
     I.affineCoefficients.resize(size_t(I.sim.structureCount()) * 12);
     if (before[0] != I.imageForce.get() || before[1] != I.affineMoments.get() || before[2] != I.affineCoefficients.get())
       I.invalidateGraph();

@@ -47,10 +47,13 @@ void launchAttraction(const MeshView& m, ParamView p, int kRing, const float3* p
                       cudaStream_t s);
 void launchVerlet(const MeshView& m, float dt, float keep, cudaStream_t s);
 // The affine regularisation (affine_kernels.cu): adds share * (closest affine field of imageForce,
-// per structure) + (1 - share) * imageForce to m.force. moments: 22 doubles per structure;
-// coefficients: 12 per structure.
+// per structure) + (1 - share) * imageForce to m.force. parts: blocks per structure, each summing
+// kAffineChunk vertices (at least the largest structure's vertices / kAffineChunk); moments: 22
+// doubles per structure and part; coefficients: 12 per structure.
+constexpr int kAffineChunk = 4096;
 void launchAffineRegularisation(const MeshView& m, const float3* imageForce, const int* meshBegin, const int* meshEnd,
-                                int meshes, double* moments, double* coefficients, float share, cudaStream_t s);
+                                int meshes, int parts, double* moments, double* coefficients, float share,
+                                cudaStream_t s);
 // Implicit Euler (implicit_kernels.cu): per structure, the weights of the forces whose Jacobian is
 // a pull toward the neighbours (smoothing, shape prior) and along the normal (gradient, profile).
 struct ImplicitTerms {

@@ -1,7 +1,9 @@
 // CPU and CUDA backends side by side, per iteration, at the seed's sizes and beyond: four closed
 // meshes of 2,656 vertices refined 1-to-4 up to ~11 M vertices, on a 128^3 synthetic image.
 // Cases: (a) the seed's full set (smoothing, shape prior, intensity profile, damped Verlet);
-// (b) smoothing, shape prior, damped Verlet. Plain program (no Google Benchmark) so it runs on a
+// (b) smoothing, shape prior, damped Verlet; (c) (a) with what subject scenes add: the affine
+// regularisation of the image forces (share 0.6) and, from level 1, the coarser levels' shape
+// forces (weight 0.5). Plain program (no Google Benchmark) so it runs on a
 // GPU machine with nothing but the CUDA driver.   bench_cuda [max_level=6] [cpu_max_level=3] [min_level=0]
 #include "sinew/core/scene_runner.h"
 #include "sinew/cuda/cuda_engine.h"
@@ -21,7 +23,10 @@ namespace {
 
 std::string integrator = "damped_verlet";
 
-std::unique_ptr<Simulation> seedScene(const std::vector<StructureSpec>& specs, bool profile) {
+enum class Case { Seed, ShapeOnly, Subject };
+
+std::unique_ptr<Simulation> seedScene(const std::vector<StructureSpec>& specs, Case c, int level) {
+  const bool profile = c != Case::ShapeOnly;
   auto sim = std::make_unique<Simulation>(forceRegistry(), 0);
   for (const auto& s : specs) sim->addStructure(s);
   sim->addForce("smoothing");
@@ -30,6 +35,11 @@ std::unique_ptr<Simulation> seedScene(const std::vector<StructureSpec>& specs, b
   sim->setIntegrator(integrator);
   sim->scene().setTargetImage(seedImage());
   sim->initialize();
+  for (int l = 0; l < level; ++l) sim->advanceLevel();
+  if (c == Case::Subject) {
+    sim->setAffineRegularisation(0.6f);
+    if (level > 0) sim->setCoarseForceWeight(0.5f);
+  }
   return sim;
 }
 
@@ -66,15 +76,13 @@ int main(int argc, char** argv) {
   std::printf("| case | vertices | CUDA us/iter | CUDA G vertex-iter/s | CPU ms/iter | CPU M vertex-iter/s | CUDA/CPU |\n");
   std::printf("| --- | ---: | ---: | ---: | ---: | ---: | ---: |\n");
   const auto specs = seedStructures(maxLevel + 1).structures;
-  for (bool profile : {true, false}) {
+  for (Case c : {Case::Seed, Case::ShapeOnly, Case::Subject}) {
     for (int level = minLevel; level <= maxLevel; ++level) {
-      auto sim = seedScene(specs, profile);
-      for (int l = 0; l < level; ++l) sim->advanceLevel();
+      auto sim = seedScene(specs, c, level);
       const Index n = sim->store().vertexCount();
       double cpuMs = 0;
       if (level <= cpuMaxLevel) {
-        auto cpu = seedScene(specs, profile);
-        for (int l = 0; l < level; ++l) cpu->advanceLevel();
+        auto cpu = seedScene(specs, c, level);
         cpu->run(2);
         const int iters = level < 2 ? 50 : 5;
         const auto t0 = Clock::now();
@@ -93,7 +101,8 @@ int main(int argc, char** argv) {
         iters *= 4;
       }
       const double us = 1e6 * seconds / iters;
-      std::printf("| %s | %d | %.2f | %.2f | ", profile ? "(a) seed set" : "(b) smooth+prior", n, us, n / us * 1e-3);
+      const char* name = c == Case::Seed ? "(a) seed set" : c == Case::ShapeOnly ? "(b) smooth+prior" : "(c) seed set + affine + coarse";
+      std::printf("| %s | %d | %.2f | %.2f | ", name, n, us, n / us * 1e-3);
       if (cpuMs > 0)
         std::printf("%.2f | %.2f | %.0fx |\n", cpuMs, n / cpuMs * 1e-3, cpuMs * 1e3 / us);
       else
