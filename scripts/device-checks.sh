@@ -21,7 +21,7 @@ for c in ${CHECKS:-parity demo accuracy}; do
     bench) "$build/tests/bench/bench_cuda" ${BENCH_ARGS:-5 2} 2>&1 | tee "$out/bench_cuda.txt" ;;
     demo) "$build/tests/tst_backend_demo" 2>&1 | tee "$out/demo.txt" | grep -E "PASS|FAIL|QINFO|Totals|SKIP" ;;
     accuracy)
-      for backend in cuda cpu; do
+      for backend in ${ACC_BACKENDS:-cuda cpu}; do
         bash scripts/accuracy.sh "$build" /tmp/acc "$backend" ${SEEDS:-201 202 203 204 205} > "$out/accuracy-$backend.md" 2>"$out/accuracy-$backend.err"
         tail -25 "$out/accuracy-$backend.md"
       done
