@@ -54,6 +54,7 @@ struct SceneRunner::Loaded {
   std::map<fs::path, std::shared_ptr<Image3D>> images;  // each file read once
   std::vector<std::vector<Vec3>> modelPositions;         // level 0, before the initialisation
   InitialisationResult init;
+  SpatialMap trainingMap;  // target -> training image: the inverse of the initialisation
   std::vector<std::pair<std::string, double>> stageSeconds;
   Clock::time_point created = Clock::now();
 
@@ -156,8 +157,7 @@ void SceneRunner::load() {
       spec.finerReferences.assign(ms->positions.begin() + 1, ms->positions.begin() + levels);
     } else {
       log("structure " + std::to_string(i + 1) + "/" + std::to_string(scene_.structures.size()) + " '" + d.name +
-          "': building the reference shape");
-      log("structure '" + d.name + "': relaxing " + std::to_string(levels) + " levels of detail");
+          "': building the reference shape at " + std::to_string(levels) + " levels of detail");
       BuiltModel model =
           d.reference.mesh
               ? buildModelFromMesh(registry_.meshIOFor(*d.reference.mesh).read(*d.reference.mesh), *d.reference.mesh,
@@ -247,7 +247,7 @@ void SceneRunner::load() {
   ParamTable& integ = L.sim->setIntegrator(scene_.integrator);
   applyParams(scene_, integ, scene_.integratorParams, -1, "/integrator");
   L.sim->scene().setTargetImage(L.target);
-  L.sim->scene().setTrainingMap(trainingMap_);
+  L.sim->scene().setTrainingMap(L.trainingMap);
   if (!scene_.schedule.empty()) L.sim->setAffineRegularisation(float(scene_.schedule[0].affineRegularisation));
   for (size_t i = 0; i < scene_.structures.size(); ++i)
     for (const auto& p : scene_.structures[i].attractionPointsMm)
@@ -274,13 +274,14 @@ void SceneRunner::load() {
 // are in the target already and stay.
 void SceneRunner::initialise(std::vector<StructureSpec>& specs, const std::function<void(const std::string&)>& log) {
   Loaded& L = *loaded_;
-  for (const auto& s : specs) L.modelPositions.push_back(s.initialPositions);
   const InitialiseDesc& d = scene_.initialise;
+  if (d.method == InitialiseDesc::Method::None) return;
+  for (const auto& s : specs) L.modelPositions.push_back(s.initialPositions);
   InitialisationResult& r = L.init;
   SpatialMap map, inverse;
   const auto t0 = Clock::now();
   switch (d.method) {
-    case InitialiseDesc::Method::None: return;
+    case InitialiseDesc::Method::None: break;
     case InitialiseDesc::Method::Registration: {
       const std::optional<fs::path> moving = d.movingImage ? d.movingImage
                                              : L.model       ? std::optional<fs::path>(L.model->atlasImage)
@@ -357,7 +358,7 @@ void SceneRunner::initialise(std::vector<StructureSpec>& specs, const std::funct
       if (!p.allFinite())
         sceneError(scene_, "/initialise", "the initialisation maps structure '" + s.name + "' to non-finite positions");
   }
-  trainingMap_ = inverse;
+  L.trainingMap = inverse;
   r.seconds = since(t0);
   log("initialisation: " + r.method);
 }

@@ -15,7 +15,7 @@ namespace sinew {
 namespace {
 class CollisionForce final : public Force {
 public:
-  Requirements requirements() const override { return {{Attribute::PreviousPosition}, false}; }
+  Requirements requirements() const override { return {.attributes = {Attribute::PreviousPosition}}; }
 
   // Per structure: its tessellation's triangles (fixed for the level) and the tree over them.
   void prepare(ForceContext& ctx) override {

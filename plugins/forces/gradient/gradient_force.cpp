@@ -9,7 +9,7 @@ namespace sinew {
 namespace {
 class GradientForce final : public Force {
 public:
-  Requirements requirements() const override { return {{Attribute::Normal}, false, false, true}; }
+  Requirements requirements() const override { return {.attributes = {Attribute::Normal}, .imageForce = true}; }
 
   void accumulate(ForceContext& ctx, std::span<Vec3> forces) override {
     MeshStore& s = ctx.store;

@@ -16,7 +16,7 @@ const std::string kChannel = "intensity_profile.reference";
 class IntensityProfileForce final : public Force {
 public:
   Requirements requirements() const override {
-    return {{Attribute::Normal, Attribute::ReferenceNormal}, true, false, true};
+    return {.attributes = {Attribute::Normal, Attribute::ReferenceNormal}, .referenceShape = true, .imageForce = true};
   }
 
   // Trains the reference profiles from the training image and the reference shape (once per level).

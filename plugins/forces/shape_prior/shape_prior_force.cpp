@@ -8,7 +8,7 @@ namespace sinew {
 namespace {
 class ShapePriorForce final : public Force {
 public:
-  Requirements requirements() const override { return {{Attribute::ReferenceParams}, true, false, false, true}; }
+  Requirements requirements() const override { return {.attributes = {Attribute::ReferenceParams}, .referenceShape = true, .shapeForce = true}; }
 
   void accumulate(ForceContext& ctx, std::span<Vec3> forces) override {
     MeshStore& s = ctx.store;

@@ -8,7 +8,7 @@ namespace {
 class SmoothingForce final : public Force {
 public:
   Requirements requirements() const override {
-    return {{Attribute::Normal, Attribute::Elevation, Attribute::Area}, false, false, false, true};
+    return {.attributes = {Attribute::Normal, Attribute::Elevation, Attribute::Area}, .shapeForce = true};
   }
 
   void accumulate(ForceContext& ctx, std::span<Vec3> forces) override {

@@ -138,7 +138,6 @@ private:
   SceneDesc scene_;
   RunOptions options_;
   std::unique_ptr<Loaded> loaded_;
-  SpatialMap trainingMap_;  // target -> training image, the inverse of the initialisation
 };
 
 // A one-line description of the CPU, e.g. "AMD EPYC (2 threads)".
