@@ -3,6 +3,7 @@
 #include "sinew/cuda/cuda_engine.h"
 
 #include "cuda_check.h"
+#include "device_store.h"
 #include "kernels.h"
 
 #include <algorithm>
@@ -43,12 +44,6 @@ DeviceStatus probeDevice() {
 }
 
 namespace {
-template <class T, class U>
-void uploadAs(DeviceArray<T>& dst, std::span<const U> src, cudaStream_t stream) {
-  static_assert(sizeof(T) == sizeof(U));
-  dst.upload(reinterpret_cast<const T*>(src.data()), src.size(), stream);
-}
-
 VolumeView viewOf(const ImageGeometry& g) {
   VolumeView v{};
   v.sx = g.size[0];
@@ -67,52 +62,6 @@ VolumeView viewOf(const ImageGeometry& g) {
 enum class Kind { Smoothing, ShapePrior, Gradient, Profile, Attraction, Plugin };
 }  // namespace
 
-namespace {
-// One prolongation for the whole store, from `level` to level + 1: global fine rows, global coarse
-// indices (coarseBegin: each structure's first vertex at `level`).
-struct GlobalProlongation {
-  std::vector<int> rows{0}, index;
-  std::vector<float> weight;
-};
-GlobalProlongation globalProlongation(const Simulation& sim, int level, const std::vector<int>& coarseBegin) {
-  GlobalProlongation g;
-  for (Index m = 0; m < sim.structureCount(); ++m) {
-    const Prolongation& p = sim.structure(m).levels.prolongations[level];
-    for (Index r = 0; r < p.fineCount(); ++r) {
-      for (Index k = p.rowOffsets[r]; k < p.rowOffsets[r + 1]; ++k) {
-        g.index.push_back(coarseBegin[m] + p.coarseIndex[k]);
-        g.weight.push_back(p.weight[k]);
-      }
-      g.rows.push_back(static_cast<int>(g.index.size()));
-    }
-  }
-  return g;
-}
-
-// Each structure's first vertex at a level, in the store's order.
-std::vector<int> meshBegins(const Simulation& sim, int level) {
-  std::vector<int> begin;
-  int next = 0;
-  for (Index m = 0; m < sim.structureCount(); ++m) {
-    begin.push_back(next);
-    next += sim.structure(m).levels.levels[level].vertexCount();
-  }
-  return begin;
-}
-
-// A coarser level for the multi-resolution forces: its topology, geometry and forces on the device,
-// where its positions are gathered from the current level and whence its forces go up a level.
-struct CoarseLevel {
-  DeviceArray<int3> neighbours, vertexCells;
-  DeviceArray<int> cellOffsets, cellVertices, meshOf, gatherIndex, upRows, upIndex;
-  DeviceArray<float> density, elevation, area, upWeight;
-  DeviceArray<float3> x, force, normal, centre;
-  DeviceArray<float4> reference;
-  MeshView view;
-  int upCount = 0;  // vertices of the level above
-};
-}  // namespace
-
 struct CudaEngine::Impl {
   Simulation& sim;
   cudaStream_t stream = nullptr;
@@ -126,8 +75,8 @@ struct CudaEngine::Impl {
   };
   std::vector<ForceSlot> forces;
   // Mesh store mirror.
-  DeviceArray<int3> neighbours, vertexCells;
-  DeviceArray<int> cellOffsets, cellVertices, meshOf, meshBegin, meshEnd;
+  DeviceTopology topology;
+  DeviceArray<int> meshBegin, meshEnd;
   std::vector<int> hostMeshBegin;  // the current level's vertex ranges, for the next level change
   DeviceArray<float> density, elevation, area, mass;
   DeviceArray<float3> x, prev, force, normal, centre;
@@ -226,11 +175,7 @@ struct CudaEngine::Impl {
     for (int l = 0; l < L; ++l) {
       MeshStore& cs = sim.coarseStore(l);
       auto c = std::make_unique<CoarseLevel>();
-      uploadAs(c->neighbours, cs.neighbours(), stream);
-      uploadAs(c->vertexCells, cs.vertexCells(), stream);
-      uploadAs(c->cellOffsets, cs.cellOffsets(), stream);
-      uploadAs(c->cellVertices, cs.cellVertices(), stream);
-      uploadAs(c->meshOf, cs.meshOfVertex(), stream);
+      c->topology.upload(cs, stream);
       std::vector<int> gather;
       std::vector<float> dens;
       const int stride = 1 << (2 * (L - l));
@@ -257,13 +202,7 @@ struct CudaEngine::Impl {
       c->upWeight.upload(up.weight, stream);
       c->upCount = static_cast<int>(up.rows.size()) - 1;
       MeshView& v = c->view;
-      v.vertices = n;
-      v.cells = cs.cellCount();
-      v.neighbours = c->neighbours.get();
-      v.vertexCells = c->vertexCells.get();
-      v.cellOffsets = c->cellOffsets.get();
-      v.cellVertices = c->cellVertices.get();
-      v.meshOf = c->meshOf.get();
+      c->topology.bind(cs, v);
       v.density = c->density.get();
       v.x = c->x.get();
       v.force = c->force.get();
@@ -322,11 +261,7 @@ struct CudaEngine::Impl {
     invalidateGraph();
     MeshStore& s = sim.store();
     s.refresh();  // reference parameters and trained profiles are computed on the host, once per level
-    uploadAs(neighbours, s.neighbours(), stream);
-    uploadAs(vertexCells, s.vertexCells(), stream);
-    uploadAs(cellOffsets, s.cellOffsets(), stream);
-    uploadAs(cellVertices, s.cellVertices(), stream);
-    uploadAs(meshOf, s.meshOfVertex(), stream);
+    topology.upload(s, stream);
     std::vector<int> begin, end;
     std::vector<float> dens;
     for (Index m = 0; m < s.meshCount(); ++m) {
@@ -379,13 +314,7 @@ struct CudaEngine::Impl {
       }
     }
     view = MeshView{};
-    view.vertices = s.vertexCount();
-    view.cells = s.cellCount();
-    view.neighbours = neighbours.get();
-    view.vertexCells = vertexCells.get();
-    view.cellOffsets = cellOffsets.get();
-    view.cellVertices = cellVertices.get();
-    view.meshOf = meshOf.get();
+    topology.bind(s, view);
     view.density = density.get();
     view.x = x.get();
     view.prev = prev.get();
@@ -643,7 +572,7 @@ DrawRange drawRange(const MeshStore& s, Index mesh) {
 
 void CudaEngine::writeSurfacePoints(Index mesh, float* out) {
   Impl& I = *impl_;
-  launchSurfacePoints(drawRange(I.sim.store(), mesh), I.x.get(), I.cellOffsets.get(), I.cellVertices.get(), out,
+  launchSurfacePoints(drawRange(I.sim.store(), mesh), I.x.get(), I.topology.cellOffsets.get(), I.topology.cellVertices.get(), out,
                       I.stream);
   SINEW_CUDA(cudaGetLastError());
 }
@@ -664,7 +593,7 @@ std::vector<std::vector<Vec3>> CudaEngine::contourSegments(const Vec3& normal, f
   if (I.contourOut.size() < 2 * std::size_t(base[meshes])) I.contourOut.resize(2 * std::size_t(base[meshes]));
   I.contourCount.resize(meshes);
   SINEW_CUDA(cudaMemsetAsync(I.contourCount.get(), 0, meshes * sizeof(int), I.stream));
-  launchContour(int(s.cellCount()), I.x.get(), I.cellOffsets.get(), I.cellVertices.get(), I.meshOf.get(),
+  launchContour(int(s.cellCount()), I.x.get(), I.topology.cellOffsets.get(), I.topology.cellVertices.get(), I.topology.meshOf.get(),
                 make_float3(normal.x(), normal.y(), normal.z()), offset, I.contourBase.get(), I.contourOut.get(),
                 I.contourCount.get(), I.stream);
   std::vector<int> counts(meshes);
@@ -686,8 +615,7 @@ std::string CudaEngine::device() const { return impl_->device; }
 
 std::size_t CudaEngine::deviceBytes() const {
   const Impl& I = *impl_;
-  return I.neighbours.bytes() + I.vertexCells.bytes() + I.cellOffsets.bytes() + I.cellVertices.bytes() +
-         I.meshOf.bytes() + I.density.bytes() + I.elevation.bytes() + I.area.bytes() + I.mass.bytes() + I.x.bytes() +
+  return I.topology.bytes() + I.density.bytes() + I.elevation.bytes() + I.area.bytes() + I.mass.bytes() + I.x.bytes() +
          I.prev.bytes() + I.force.bytes() + I.normal.bytes() + I.centre.bytes() + I.reference.bytes() +
          I.image.bytes() + I.profiles.bytes() + I.gradient.bytes() + I.contourOut.bytes() + I.implicitA.bytes() +
          I.implicitB.bytes() + I.implicitOff.bytes() + I.implicitVel.bytes() + I.implicitRhs.bytes() +

@@ -1,0 +1,90 @@
+// Host-side pieces of the engine's device mirror of a mesh store (cuda_engine.cpp): typed uploads,
+// the connectivity as the kernels read it, the global prolongation between levels, and the coarser
+// levels of the multi-resolution forces. Host C++ only; no device code.
+#pragma once
+
+#include "cuda_check.h"
+#include "kernels.h"
+#include "sinew/core/simulation.h"
+
+#include <span>
+#include <vector>
+
+namespace sinew::cuda {
+
+template <class T, class U>
+void uploadAs(DeviceArray<T>& dst, std::span<const U> src, cudaStream_t stream) {
+  static_assert(sizeof(T) == sizeof(U));
+  dst.upload(reinterpret_cast<const T*>(src.data()), src.size(), stream);
+}
+
+// One prolongation for the whole store, from `level` to level + 1: global fine rows, global coarse
+// indices (coarseBegin: each structure's first vertex at `level`).
+struct GlobalProlongation {
+  std::vector<int> rows{0}, index;
+  std::vector<float> weight;
+};
+inline GlobalProlongation globalProlongation(const Simulation& sim, int level, const std::vector<int>& coarseBegin) {
+  GlobalProlongation g;
+  for (Index m = 0; m < sim.structureCount(); ++m) {
+    const Prolongation& p = sim.structure(m).levels.prolongations[level];
+    for (Index r = 0; r < p.fineCount(); ++r) {
+      for (Index k = p.rowOffsets[r]; k < p.rowOffsets[r + 1]; ++k) {
+        g.index.push_back(coarseBegin[m] + p.coarseIndex[k]);
+        g.weight.push_back(p.weight[k]);
+      }
+      g.rows.push_back(static_cast<int>(g.index.size()));
+    }
+  }
+  return g;
+}
+
+// Each structure's first vertex at a level, in the store's order.
+inline std::vector<int> meshBegins(const Simulation& sim, int level) {
+  std::vector<int> begin;
+  int next = 0;
+  for (Index m = 0; m < sim.structureCount(); ++m) {
+    begin.push_back(next);
+    next += sim.structure(m).levels.levels[level].vertexCount();
+  }
+  return begin;
+}
+
+// A store's connectivity on the device, as the kernels read it through a MeshView.
+struct DeviceTopology {
+  DeviceArray<int3> neighbours, vertexCells;
+  DeviceArray<int> cellOffsets, cellVertices, meshOf;
+
+  void upload(const MeshStore& s, cudaStream_t stream) {
+    uploadAs(neighbours, s.neighbours(), stream);
+    uploadAs(vertexCells, s.vertexCells(), stream);
+    uploadAs(cellOffsets, s.cellOffsets(), stream);
+    uploadAs(cellVertices, s.cellVertices(), stream);
+    uploadAs(meshOf, s.meshOfVertex(), stream);
+  }
+  void bind(const MeshStore& s, MeshView& v) const {
+    v.vertices = s.vertexCount();
+    v.cells = s.cellCount();
+    v.neighbours = neighbours.get();
+    v.vertexCells = vertexCells.get();
+    v.cellOffsets = cellOffsets.get();
+    v.cellVertices = cellVertices.get();
+    v.meshOf = meshOf.get();
+  }
+  std::size_t bytes() const {
+    return neighbours.bytes() + vertexCells.bytes() + cellOffsets.bytes() + cellVertices.bytes() + meshOf.bytes();
+  }
+};
+
+// A coarser level for the multi-resolution forces: its topology, geometry and forces on the device,
+// where its positions are gathered from the current level and whence its forces go up a level.
+struct CoarseLevel {
+  DeviceTopology topology;
+  DeviceArray<int> gatherIndex, upRows, upIndex;
+  DeviceArray<float> density, elevation, area, upWeight;
+  DeviceArray<float3> x, force, normal, centre;
+  DeviceArray<float4> reference;
+  MeshView view;
+  int upCount = 0;  // vertices of the level above
+};
+}  // namespace sinew::cuda
