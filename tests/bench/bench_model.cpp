@@ -1,7 +1,7 @@
 // A reusable model: building it from the atlas (12 AAL structures, 3 levels, Colin27's
 // mricron-data) against loading the saved model, side by side in one run.
 //   bench_model [--benchmark_filter=...]
-#include "builtin_plugins.h"
+#include "synthetic.h"
 #include "sinew/core/model_builder.h"
 #include "sinew/core/model_file.h"
 #include "sinew/core/simulation.h"
@@ -20,14 +20,7 @@ const char* kStructures[] = {"Hippocampus_L", "Hippocampus_R", "Amygdala_L", "Am
                              "Putamen_L", "Putamen_R", "Pallidum_L", "Pallidum_R", "Thalamus_L", "Thalamus_R"};
 const int kLabels[] = {37, 38, 41, 42, 71, 72, 73, 74, 75, 76, 77, 78};
 
-const Registry& registry() {
-  static const Registry r = [] {
-    Registry x;
-    registerBuiltinPlugins(x);
-    return x;
-  }();
-  return r;
-}
+const Registry& registry() { return sinew::testing::builtinRegistry(); }
 
 // What sinew-build-model does, from reading the label map to the finished reference shapes.
 Model buildFromAtlas(const Executor& executor) {
