@@ -3,6 +3,7 @@
 #include "sinew/cuda/cuda_engine.h"
 
 #include "cuda_check.h"
+#include "device_collision.h"
 #include "device_store.h"
 #include "kernels.h"
 
@@ -59,7 +60,7 @@ VolumeView viewOf(const ImageGeometry& g) {
 }
 
 // Built-in forces have kernels here; a plugin's force brings its own (DeviceForce).
-enum class Kind { Smoothing, ShapePrior, Gradient, Profile, Attraction, Plugin };
+enum class Kind { Smoothing, ShapePrior, Gradient, Profile, Attraction, Collision, Plugin };
 }  // namespace
 
 struct CudaEngine::Impl {
@@ -103,6 +104,7 @@ struct CudaEngine::Impl {
   DeviceArray<float3> points;
   DeviceArray<int> pointMesh;
   DeviceArray<unsigned long long> keys;
+  DeviceCollision collision;  // built while the collision force is active, per level
   // Drawing: contour segments and their count.
   DeviceArray<float3> contourOut;
   DeviceArray<int> contourCount, contourBase;
@@ -147,6 +149,23 @@ struct CudaEngine::Impl {
   }
 
   bool implicit() const { return sim.integratorName() == "implicit_euler"; }
+
+  bool collisionActive() const {
+    for (const ForceSlot& f : forces)
+      if (f.kind == Kind::Collision) return collision.built() && sim.forceParams(f.name).anyPositive(0);
+    return false;
+  }
+  // The collision hierarchies, built on first use at each level (before any capture) and only for
+  // two or more structures.
+  void prepareCollision() {
+    for (const ForceSlot& f : forces)
+      if (f.kind == Kind::Collision && !collision.built() && sim.store().meshCount() >= 2 &&
+          sim.forceParams(f.name).anyPositive(0)) {
+        const ParamTable& t = sim.forceParams(f.name);
+        collision.build(sim.store(), sim.scene(), t.getf(0, t.indexOf("margin_mm")), implicit(), stream);
+        invalidateGraph();
+      }
+  }
 
   // As the CPU forces' addJacobian: smoothing and the shape prior pull toward the neighbours, the
   // image forces along the normal; a force weighted 0 everywhere adds nothing.
@@ -280,10 +299,9 @@ struct CudaEngine::Impl {
     force.resize(s.vertexCount());
     if (s.has(Attribute::Normal)) normal.resize(s.vertexCount());
     if (s.has(Attribute::Elevation)) elevation.resize(s.vertexCount());
-    if (s.has(Attribute::Area)) {
-      area.resize(s.vertexCount());
-      centre.resize(s.cellCount());
-    }
+    if (s.has(Attribute::Area)) area.resize(s.vertexCount());
+    if (s.has(Attribute::CellCentre)) centre.resize(s.cellCount());
+    collision.clear();  // the level's topology: built again when the force runs
     if (s.has(Attribute::Mass)) mass.resize(s.vertexCount());
     if (implicit()) {
       for (auto* a : {&implicitA, &implicitB, &implicitOff}) a->resize(s.vertexCount());
@@ -323,7 +341,7 @@ struct CudaEngine::Impl {
     view.elevation = s.has(Attribute::Elevation) ? elevation.get() : nullptr;
     view.area = s.has(Attribute::Area) ? area.get() : nullptr;
     view.mass = s.has(Attribute::Mass) ? mass.get() : nullptr;
-    view.cellCentre = s.has(Attribute::Area) ? centre.get() : nullptr;
+    view.cellCentre = s.has(Attribute::CellCentre) ? centre.get() : nullptr;
     uploadParams();
     for (ForceSlot& f : forces)
       if (f.kind == Kind::Plugin) checkPlugin(f, f.device->prepare(pluginContext(f)), "prepare");
@@ -359,7 +377,8 @@ struct CudaEngine::Impl {
     for (; next < forces.size() && fused.count < 4; ++next) {
       const ForceSlot& f = forces[next];
       const ParamTable& t = sim.forceParams(f.name);
-      if (f.kind == Kind::Profile || f.kind == Kind::Attraction || f.kind == Kind::Plugin) break;
+      if (f.kind == Kind::Profile || f.kind == Kind::Attraction || f.kind == Kind::Collision || f.kind == Kind::Plugin)
+        break;
       if (regularise && f.kind == Kind::Gradient) break;
       if (!t.anyPositive(0)) continue;
       FusedTerm term{};
@@ -398,6 +417,11 @@ struct CudaEngine::Impl {
           launchAttraction(view, p, t.indexOf("ring"), points.get(), pointMesh.get(), meshBegin.get(), meshEnd.get(),
                            pointCount, keys.get(), stream);
           break;
+        case Kind::Collision:
+          if (collision.built())
+            launchCollision(view, p, collision.view(), t.getf(0, t.indexOf("margin_mm")),
+                            t.getf(0, t.indexOf("contact_damping")), t.getf(0, t.indexOf("reach_mm")), stream);
+          break;
         case Kind::Plugin: checkPlugin(f, f.device->enqueue(pluginContext(f)), "enqueue"); break;
       }
     }
@@ -410,7 +434,7 @@ struct CudaEngine::Impl {
       launchVerlet(view, ip.getf(0, ip.indexOf("time_step")), 1.0f - ip.getf(0, ip.indexOf("damping")), stream);
       return;
     }
-    const ImplicitTerms terms{meshPull.get(), meshNormalPull.get()};
+    const ImplicitTerms terms{meshPull.get(), meshNormalPull.get(), collisionActive() ? collision.stiffness() : nullptr};
     const ImplicitWork work{implicitA.get(), implicitB.get(), implicitOff.get(), implicitVel.get(), implicitRhs.get(),
                             implicitR.get(), implicitZ.get(), implicitP.get(), implicitAp.get(), implicitScalars.get()};
     launchImplicitEuler(view, terms, work, ip.getf(0, ip.indexOf("time_step")), ip.getf(0, ip.indexOf("damping_rate")),
@@ -429,7 +453,8 @@ CudaEngine::CudaEngine(Simulation& simulation) : impl_(std::make_unique<Impl>(si
                                                     {"shape_prior", Kind::ShapePrior},
                                                     {"gradient", Kind::Gradient},
                                                     {"intensity_profile", Kind::Profile},
-                                                    {"attraction_points", Kind::Attraction}};
+                                                    {"attraction_points", Kind::Attraction},
+                                                    {"collision", Kind::Collision}};
   for (const std::string& name : simulation.forceNames()) {
     auto it = kinds.find(name);
     DeviceForce* device = it == kinds.end() ? simulation.force(name).deviceForce() : nullptr;
@@ -471,6 +496,7 @@ void CudaEngine::run(int iterations) {
   }
   const int total = iterations;
   I.uploadParams();
+  I.prepareCollision();
   // Per-structure values are read from device memory, but which kernels run (a force weighted 0
   // everywhere is skipped) and the values passed by value are baked into the captured graph: it is
   // captured again when any of them changed.
@@ -619,7 +645,7 @@ std::size_t CudaEngine::deviceBytes() const {
          I.prev.bytes() + I.force.bytes() + I.normal.bytes() + I.centre.bytes() + I.reference.bytes() +
          I.image.bytes() + I.profiles.bytes() + I.gradient.bytes() + I.contourOut.bytes() + I.implicitA.bytes() +
          I.implicitB.bytes() + I.implicitOff.bytes() + I.implicitVel.bytes() + I.implicitRhs.bytes() +
-         I.implicitR.bytes() + I.implicitZ.bytes() + I.implicitP.bytes() + I.implicitAp.bytes();
+         I.implicitR.bytes() + I.implicitZ.bytes() + I.implicitP.bytes() + I.implicitAp.bytes() + I.collision.bytes();
 }
 
 }  // namespace sinew::cuda

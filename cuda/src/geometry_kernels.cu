@@ -42,7 +42,7 @@ __global__ void vertexGeometry(MeshView m) {
 }  // namespace
 
 void launchGeometry(const MeshView& m, cudaStream_t s) {
-  if (m.area) cellCentres<<<(m.cells + kThreads - 1) / kThreads, kThreads, 0, s>>>(m);
+  if (m.cellCentre) cellCentres<<<(m.cells + kThreads - 1) / kThreads, kThreads, 0, s>>>(m);
   if (m.normal || m.elevation || m.area) vertexGeometry<<<(m.vertices + kThreads - 1) / kThreads, kThreads, 0, s>>>(m);
 }
 

@@ -6,6 +6,12 @@
 
 #include <cuda_runtime.h>
 
+namespace sinew::collision {
+struct Node;
+struct Box;
+struct Tri;
+}  // namespace sinew::collision
+
 namespace sinew::cuda {
 
 // A volume in linear device memory with the host Volume's world-to-index transform.
@@ -59,6 +65,7 @@ void launchAffineRegularisation(const MeshView& m, const float3* imageForce, con
 struct ImplicitTerms {
   const float* meshPull = nullptr;
   const float* meshNormalPull = nullptr;
+  const float* contactPull = nullptr;  // per vertex (collisions: self block -contactPull I), or null
 };
 // Work arrays, one entry per vertex, and the solve's scalars.
 constexpr int kImplicitScalars = 8;
@@ -87,6 +94,23 @@ void launchContour(int cells, const float3* x, const int* offsets, const int* ce
 void launchGather(const int* index, int count, const float3* from, float3* to, cudaStream_t s);
 void launchProlongAdd(const int* rows, const int* index, const float* weight, int count, const float3* coarse,
                       float3* fine, float scale, cudaStream_t s);
+
+// Collisions (collision_kernels.cu): the hierarchies of core/collision_tree.h in device memory.
+// stiffness (per vertex, may be null): each vertex's summed contact pull, for implicit Euler.
+struct CollisionDevice {
+  const collision::Node* nodes = nullptr;
+  collision::Box* boxes = nullptr;
+  const collision::Tri* tris = nullptr;
+  const int* roots = nullptr;
+  const int* leaves = nullptr;
+  int* visits = nullptr;  // per node, the refit's arrival counters
+  float* stiffness = nullptr;
+  float* depth = nullptr;  // per vertex, the last penetration (collision::contactResponse)
+  int meshes = 0, nodeCount = 0, leafCount = 0;
+};
+// Refits the hierarchies (needs m.cellCentre) and adds the contact response to m.force.
+void launchCollision(const MeshView& m, ParamView p, const CollisionDevice& c, float margin, float damping, float reach,
+                     cudaStream_t s);
 
 void launchProlong(const int* rowOffsets, const int* index, const float* weight, int rows, const float3* coarse,
                    float3* fine, cudaStream_t s);

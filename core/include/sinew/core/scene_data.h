@@ -7,6 +7,7 @@
 #include "sinew/core/spatial_map.h"
 
 #include <memory>
+#include <string>
 #include <vector>
 
 namespace sinew {
@@ -37,12 +38,19 @@ public:
   std::vector<std::vector<Vec3>>& attractionPoints() { return attractionPoints_; }
   const std::vector<std::vector<Vec3>>& attractionPoints() const { return attractionPoints_; }
 
+  // The structures' names in store order, for messages that name them.
+  void addStructureName(const std::string& name) { structureNames_.push_back(name); }
+  std::string structureName(Index m) const {
+    return m >= 0 && m < Index(structureNames_.size()) ? structureNames_[m] : "#" + std::to_string(m);
+  }
+
 private:
   std::shared_ptr<const Image3D> target_, training_;
   std::unique_ptr<VectorVolume> gradient_;
   float gradientSigma_ = -1.0f;
   std::vector<std::vector<Vec3>> attractionPoints_;
   SpatialMap trainingMap_;  // identity unless the scene was initialised
+  std::vector<std::string> structureNames_;
 };
 
 }  // namespace sinew

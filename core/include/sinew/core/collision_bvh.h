@@ -1,0 +1,208 @@
+// Collision detection between structures (the issue on collisions; paper 001 section 2.1, paper
+// 002's two stages), shared by the CPU force and the CUDA kernels: this header's inline functions
+// compile for both, so the backends find the same contacts.
+//
+// Two stages. The hierarchy's leaves are groups of four consecutive vertices: at a refined level
+// they are the four children of one coarser vertex, so the leaves are the coarse proxy (001 2.1)
+// and the tree above them a hierarchy over it. A leaf holds its vertices' triangles of the
+// paper-000 Fig. 1b tessellation (three per vertex: vertex, its successor in the cell, the cell
+// centre), so the fine test is exact on the surface the outputs are made of. The tree is built once
+// per level on the host (median splits) and refitted every step (bottom up; on the device by the
+// last child to arrive), never rebuilt.
+#pragma once
+
+#include <cmath>
+
+#if defined(__CUDACC__)
+#define SINEW_HD __host__ __device__ __forceinline__
+#else
+#define SINEW_HD inline
+#endif
+
+namespace sinew::collision {
+
+constexpr int kLeafVertices = 4;
+constexpr int kStackDepth = 64;  // a median-split tree over 2^31 leaves is 32 deep
+
+struct P3 {  // the layout of Vec3 and float3
+  float x, y, z;
+};
+struct Box {
+  P3 lo, hi;
+};
+// Leaves have left == -1 and hold vertices [first, first + count).
+struct Node {
+  int left, right, parent, first, count;
+};
+// A tessellation triangle: vertex a, its successor b in the cell, the cell (whose centre is the
+// third corner). Vertex v's three are tris[3 v .. 3 v + 2].
+struct Tri {
+  int a, b, cell;
+};
+
+// All structures' trees in one array; roots[m] is structure m's. Host or device pointers.
+struct BvhView {
+  const Node* nodes = nullptr;
+  Box* boxes = nullptr;
+  const Tri* tris = nullptr;
+  const int* roots = nullptr;
+  int meshes = 0;
+};
+
+SINEW_HD P3 sub(P3 a, P3 b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
+SINEW_HD P3 add(P3 a, P3 b) { return {a.x + b.x, a.y + b.y, a.z + b.z}; }
+SINEW_HD P3 scale(P3 a, float s) { return {a.x * s, a.y * s, a.z * s}; }
+SINEW_HD float dot3(P3 a, P3 b) { return a.x * b.x + (a.y * b.y + a.z * b.z); }
+SINEW_HD P3 cross3(P3 a, P3 b) { return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x}; }
+SINEW_HD float fmin3(float a, float b) { return a < b ? a : b; }
+SINEW_HD float fmax3(float a, float b) { return a > b ? a : b; }
+
+SINEW_HD Box emptyBox() { return {{3.0e38f, 3.0e38f, 3.0e38f}, {-3.0e38f, -3.0e38f, -3.0e38f}}; }
+SINEW_HD void extend(Box& b, P3 p) {
+  b.lo = {fmin3(b.lo.x, p.x), fmin3(b.lo.y, p.y), fmin3(b.lo.z, p.z)};
+  b.hi = {fmax3(b.hi.x, p.x), fmax3(b.hi.y, p.y), fmax3(b.hi.z, p.z)};
+}
+SINEW_HD Box merge(Box a, const Box& b) {
+  extend(a, b.lo);
+  extend(a, b.hi);
+  return a;
+}
+SINEW_HD float squaredDistance(const Box& b, P3 p) {
+  const float dx = fmax3(fmax3(b.lo.x - p.x, p.x - b.hi.x), 0.0f);
+  const float dy = fmax3(fmax3(b.lo.y - p.y, p.y - b.hi.y), 0.0f);
+  const float dz = fmax3(fmax3(b.lo.z - p.z, p.z - b.hi.z), 0.0f);
+  return dx * dx + (dy * dy + dz * dz);
+}
+
+// A leaf's box: its vertices' triangles (the vertices, their successors, the cell centres).
+SINEW_HD Box leafBox(const BvhView& v, const Node& n, const P3* x, const P3* centres) {
+  Box b = emptyBox();
+  for (int i = n.first; i < n.first + n.count; ++i)
+    for (int k = 0; k < 3; ++k) {
+      const Tri t = v.tris[3 * i + k];
+      extend(b, x[t.a]);
+      extend(b, x[t.b]);
+      extend(b, centres[t.cell]);
+    }
+  return b;
+}
+
+// Closest point on triangle (Ericson, Real-Time Collision Detection, 5.1.5).
+SINEW_HD P3 closestOnTriangle(P3 p, P3 a, P3 b, P3 c) {
+  const P3 ab = sub(b, a), ac = sub(c, a), ap = sub(p, a);
+  const float d1 = dot3(ab, ap), d2 = dot3(ac, ap);
+  if (d1 <= 0 && d2 <= 0) return a;
+  const P3 bp = sub(p, b);
+  const float d3 = dot3(ab, bp), d4 = dot3(ac, bp);
+  if (d3 >= 0 && d4 <= d3) return b;
+  const float vc = d1 * d4 - d3 * d2;
+  if (vc <= 0 && d1 >= 0 && d3 <= 0) return add(a, scale(ab, d1 / (d1 - d3)));
+  const P3 cp = sub(p, c);
+  const float d5 = dot3(ab, cp), d6 = dot3(ac, cp);
+  if (d6 >= 0 && d5 <= d6) return c;
+  const float vb = d5 * d2 - d1 * d6;
+  if (vb <= 0 && d2 >= 0 && d6 <= 0) return add(a, scale(ac, d2 / (d2 - d6)));
+  const float va = d3 * d6 - d5 * d4;
+  if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0) return add(b, scale(sub(c, b), (d4 - d3) / ((d4 - d3) + (d5 - d6))));
+  const float denom = 1.0f / (va + vb + vc);
+  return add(a, add(scale(ab, vb * denom), scale(ac, vc * denom)));
+}
+
+struct Hit {
+  float d2;       // squared distance to the closest point
+  P3 point;       // the closest point
+  P3 normal;      // its triangle's outward unit normal
+  float side;     // (p - point) . normal: negative inside
+};
+
+SINEW_HD P3 unitNormal(P3 a, P3 b, P3 c) {
+  const P3 n = cross3(sub(b, a), sub(c, a));
+  const float len2 = dot3(n, n);
+  return len2 > 0.0f ? scale(n, 1.0f / sqrtf(len2)) : P3{0, 0, 0};
+}
+
+// Squared distances this close to the best count as the same point (an edge or corner shared by
+// several triangles, computed from each).
+SINEW_HD float tieBound(float d2) { return d2 * (1.0f + 1e-4f) + 1e-12f; }
+
+// The closest point on structure `mesh`'s tessellation to p within sqrt(maxD2) (branch and bound,
+// nearer child first); d2 stays maxD2 when there is none. Where the closest point is shared by
+// several triangles (an edge or a corner), the triangle facing p most squarely gives the side: one
+// face's normal alone can put a point outside a sharp edge inside.
+SINEW_HD Hit closestPoint(const BvhView& v, int mesh, P3 p, const P3* x, const P3* centres, float maxD2) {
+  Hit best{maxD2, p, {0, 0, 0}, 0.0f};
+  bool found = false;
+  int stack[kStackDepth];
+  int top = 0;
+  stack[top++] = v.roots[mesh];
+  while (top > 0) {
+    const int id = stack[--top];
+    if (squaredDistance(v.boxes[id], p) > (found ? tieBound(best.d2) : best.d2)) continue;
+    const Node n = v.nodes[id];
+    if (n.left < 0) {
+      for (int i = n.first; i < n.first + n.count; ++i)
+        for (int k = 0; k < 3; ++k) {
+          const Tri t = v.tris[3 * i + k];
+          const P3 a = x[t.a], b = x[t.b], c = centres[t.cell];
+          const P3 q = closestOnTriangle(p, a, b, c);
+          const P3 d = sub(p, q);
+          const float d2 = dot3(d, d);
+          const bool better = found ? d2 < best.d2 * (1.0f - 1e-4f) : d2 < best.d2;
+          const bool tie = found && !better && d2 <= tieBound(best.d2);
+          if (!better && !tie) continue;
+          const P3 n = unitNormal(a, b, c);
+          const float side = dot3(d, n);
+          if (tie && fabsf(side) <= fabsf(best.side)) continue;
+          best = {d2, q, n, side};
+          found = true;
+        }
+      continue;
+    }
+    const float dl = squaredDistance(v.boxes[n.left], p), dr = squaredDistance(v.boxes[n.right], p);
+    const int nearer = dl < dr ? n.left : n.right, farther = dl < dr ? n.right : n.left;
+    if (top + 2 > kStackDepth) continue;  // unreachable for median-split trees; never overrun
+    stack[top++] = farther;
+    stack[top++] = nearer;
+  }
+  return best;
+}
+
+// Marks a vertex whose contacts are not known yet: its next search is unbounded.
+constexpr float kUnknownDepth = 1.0e30f;
+
+// The response at one vertex of structure `own` (alpha: its weight times its mass, so that every
+// vertex is moved alike whatever its mass; a light vertex under a force of the weight alone
+// overshoots, and its damping term then feeds the motion instead of taking it): for every other structure
+// whose box (grown by the margin) holds the vertex, if the vertex is inside that structure or
+// closer than the margin to it (by the side of the closest triangle), a pull to the point `margin`
+// outside its surface, and the vertex's own motion damped while it touches. Adds to `force`;
+// returns the summed pull stiffness (the implicit integrator's self block is minus that times I).
+// The search reaches `reach` beyond the vertex's last penetration `depth` (in/out: the deepest
+// penetration below the margin found now, 0 without contact): a vertex moves far less than that
+// in a step, and a bounded search is what keeps the narrow phase cheap.
+SINEW_HD float contactResponse(const BvhView& v, int own, P3 p, P3 previous, float alpha, float margin, float damping,
+                               float reach, float& depth, const P3* x, const P3* centres, P3& force) {
+  const float radius = depth + reach + margin;
+  const float maxD2 = depth >= kUnknownDepth ? 3.0e38f : radius * radius;
+  float deepest = 0.0f;
+  float stiffness = 0.0f;
+  for (int other = 0; other < v.meshes; ++other) {
+    if (other == own) continue;
+    Box grown = v.boxes[v.roots[other]];
+    grown.lo = sub(grown.lo, P3{margin, margin, margin});
+    grown.hi = add(grown.hi, P3{margin, margin, margin});
+    if (squaredDistance(grown, p) > 0.0f) continue;
+    const Hit h = closestPoint(v, other, p, x, centres, maxD2);
+    if (!(h.d2 < maxD2)) continue;
+    const float side = h.side;
+    if (side >= margin) continue;
+    deepest = fmax3(deepest, margin - side);
+    const P3 target = add(h.point, scale(h.normal, margin));
+    force = add(force, sub(scale(sub(target, p), alpha), scale(sub(p, previous), alpha * damping)));
+    stiffness += alpha;
+  }
+  depth = deepest;
+  return stiffness;
+}
+
+}  // namespace sinew::collision

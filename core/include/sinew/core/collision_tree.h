@@ -1,0 +1,47 @@
+// The host side of collision detection (collision_bvh.h): the hierarchy of every structure, built
+// once per level from the mesh store, refitted on the host for the CPU force; the CUDA backend
+// uploads the same arrays and refits them on the device.
+#pragma once
+
+#include "sinew/core/collision_bvh.h"
+#include "sinew/core/mesh_store.h"
+#include "sinew/core/scene_data.h"
+
+#include <optional>
+#include <span>
+#include <string>
+#include <vector>
+
+namespace sinew {
+
+struct CollisionTree {
+  std::vector<collision::Node> nodes;  // each structure's tree in pre-order (children after parents)
+  std::vector<collision::Box> boxes;
+  std::vector<collision::Tri> tris;    // three per vertex
+  std::vector<int> roots;              // per structure
+  std::vector<int> leaves;             // node index of every leaf
+
+  // Leaves of four consecutive vertices, split at the median of their centres along the widest
+  // axis; boxes from the store's current positions.
+  static CollisionTree build(MeshStore& store);
+  // Boxes from positions and cell centres: leaves in parallel, then the inner nodes from below.
+  void refit(std::span<const Vec3> positions, std::span<const Vec3> centres, const Executor& executor);
+  collision::BvhView view();
+
+  // A structure that lies inside another (or on it: two copies of one mesh), which no contact
+  // response can separate: at least `fraction` of its vertices inside the other or within the
+  // margin of its surface. Unbounded searches: meant once per level, not every step.
+  struct Enclosure {
+    Index inner = -1, outer = -1;
+    Index inside = 0, vertices = 0;
+    std::string message(const SceneData& scene, float margin) const;
+  };
+  std::optional<Enclosure> findEnclosure(MeshStore& store, float margin, float fraction = 0.9f);
+  std::size_t bytes() const;
+};
+
+inline const collision::P3* asP3(std::span<const Vec3> v) { return reinterpret_cast<const collision::P3*>(v.data()); }
+inline collision::P3 asP3(const Vec3& v) { return {v.x(), v.y(), v.z()}; }
+inline Vec3 asVec3(const collision::P3& p) { return {p.x, p.y, p.z}; }
+
+}  // namespace sinew

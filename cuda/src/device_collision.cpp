@@ -1,0 +1,44 @@
+#include "device_collision.h"
+
+namespace sinew::cuda {
+
+void DeviceCollision::build(MeshStore& store, const SceneData& scene, float margin, bool withStiffness,
+                            cudaStream_t stream) {
+  CollisionTree tree = CollisionTree::build(store);
+  if (const auto e = tree.findEnclosure(store, margin)) throw NumericalError(e->message(scene, margin));
+  nodes_.upload(tree.nodes, stream);
+  boxes_.upload(tree.boxes, stream);
+  tris_.upload(tree.tris, stream);
+  roots_.upload(tree.roots, stream);
+  leaves_.upload(tree.leaves, stream);
+  visits_.resize(tree.nodes.size());
+  stiffness_.resize(withStiffness ? size_t(store.vertexCount()) : 0);
+  if (withStiffness) SINEW_CUDA(cudaMemsetAsync(stiffness_.get(), 0, stiffness_.bytes(), stream));
+  const std::vector<float> unknown(store.vertexCount(), collision::kUnknownDepth);
+  depth_.upload(unknown, stream);
+  meshes_ = int(tree.roots.size());
+  SINEW_CUDA(cudaStreamSynchronize(stream));  // the host vectors go out of scope
+}
+
+CollisionDevice DeviceCollision::view() const {
+  CollisionDevice c;
+  c.nodes = nodes_.get();
+  c.boxes = boxes_.get();
+  c.tris = tris_.get();
+  c.roots = roots_.get();
+  c.leaves = leaves_.get();
+  c.visits = visits_.get();
+  c.stiffness = stiffness_.get();
+  c.depth = depth_.get();
+  c.meshes = meshes_;
+  c.nodeCount = int(nodes_.size());
+  c.leafCount = int(leaves_.size());
+  return c;
+}
+
+std::size_t DeviceCollision::bytes() const {
+  return nodes_.bytes() + boxes_.bytes() + tris_.bytes() + roots_.bytes() + leaves_.bytes() + visits_.bytes() +
+         stiffness_.bytes() + depth_.bytes();
+}
+
+}  // namespace sinew::cuda

@@ -1,0 +1,32 @@
+// The collision hierarchies in device memory (core/collision_tree.h built on the host once per
+// level, refitted on the device every step). Allocated only while the collision force is active
+// in a scene of two or more structures. Host C++ only.
+#pragma once
+
+#include "cuda_check.h"
+#include "kernels.h"
+#include "sinew/core/collision_tree.h"
+
+namespace sinew::cuda {
+
+class DeviceCollision {
+public:
+  // withStiffness: keep each vertex's contact pull (implicit Euler's Jacobian).
+  // Stops with NumericalError when a structure lies inside another (CollisionTree::findEnclosure).
+  void build(MeshStore& store, const SceneData& scene, float margin, bool withStiffness, cudaStream_t stream);
+  void clear() { *this = DeviceCollision{}; }
+  bool built() const { return meshes_ > 0; }
+  CollisionDevice view() const;
+  const float* stiffness() const { return stiffness_.get(); }
+  std::size_t bytes() const;
+
+private:
+  DeviceArray<collision::Node> nodes_;
+  DeviceArray<collision::Box> boxes_;
+  DeviceArray<collision::Tri> tris_;
+  DeviceArray<int> roots_, leaves_, visits_;
+  DeviceArray<float> stiffness_, depth_;
+  int meshes_ = 0;
+};
+
+}  // namespace sinew::cuda
