@@ -12,7 +12,6 @@ trap 'rm -rf "$stage"' EXIT
 bins=("$build/app/sinew-run" "$build/app/sinew-make-scene" "$build/app/sinew-build-model" "$build/app/sinew-make-subject"
       "$build/tests/tst_cuda_parity" "$build/tests/tst_backend_demo")
 [ -x "$build/tests/bench/bench_cuda" ] && bins+=("$build/tests/bench/bench_cuda")
-[ -x "$build/tests/bench/bench_collision" ] && bins+=("$build/tests/bench/bench_collision")
 for f in "${bins[@]}" "$build"/core/libsinew_core.so* "$build"/tests/plugins/*/sinew-plugin-*.so; do
   mkdir -p "$stage/root$(dirname "$f")"
   cp -a "$f" "$stage/root$f"

@@ -19,7 +19,10 @@ for c in ${CHECKS:-parity demo accuracy}; do
   case $c in
     parity) "$build/tests/tst_cuda_parity" 2>&1 | tee "$out/parity.txt" | grep -E "PASS|FAIL|QINFO|Totals|SKIP" ;;
     bench) "$build/tests/bench/bench_cuda" ${BENCH_ARGS:-5 2} 2>&1 | tee "$out/bench_cuda.txt" ;;
-    collision) "$build/tests/bench/bench_collision" ${COLLISION_ARGS:-3 1} 2>&1 | tee "$out/bench_collision.txt" ;;
+    collision)
+      for backend in ${COST_BACKENDS:-cuda cpu}; do
+        bash scripts/collision-cost.sh "$build" /tmp/ccost-$backend "$backend" ${COST_LEVELS:-5} 2>&1 | tee "$out/collision-cost-$backend.md"
+      done ;;
     demo) "$build/tests/tst_backend_demo" 2>&1 | tee "$out/demo.txt" | grep -E "PASS|FAIL|QINFO|Totals|SKIP" ;;
     accuracy)
       for backend in ${ACC_BACKENDS:-cuda cpu}; do

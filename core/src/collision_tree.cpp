@@ -1,6 +1,8 @@
 #include "sinew/core/collision_tree.h"
 
 #include <algorithm>
+#include <cmath>
+#include <functional>
 #include <numeric>
 
 namespace sinew {
@@ -9,34 +11,34 @@ using collision::Box;
 using collision::Node;
 
 namespace {
+// Median splits of one structure's vertices (in `order`, global indices) down to leaves of at most
+// kLeafVertices; nodes in pre-order, so children follow their parent.
 struct Builder {
   CollisionTree& tree;
-  std::vector<Vec3> centre;   // per leaf group: the mean of its vertices
-  std::vector<int> firstOf;   // per leaf group: its first vertex
-  std::vector<int> countOf;
+  std::span<const Vec3> x;
 
-  int build(std::vector<int>& order, int begin, int end, int parent) {
+  int build(int begin, int end, int parent) {
     const int id = static_cast<int>(tree.nodes.size());
-    tree.nodes.push_back({-1, -1, parent, 0, 0});
-    if (end - begin == 1) {
-      tree.nodes[id].first = firstOf[order[begin]];
-      tree.nodes[id].count = countOf[order[begin]];
+    tree.nodes.push_back({-1, -1, parent, begin, end - begin});
+    if (end - begin <= collision::kLeafVertices) {
       tree.leaves.push_back(id);
       return id;
     }
     Eigen::AlignedBox3f bounds;
-    for (int i = begin; i < end; ++i) bounds.extend(centre[order[i]]);
+    for (int i = begin; i < end; ++i) bounds.extend(x[tree.order[i]]);
     int axis;
     bounds.sizes().maxCoeff(&axis);
-    const int mid = (begin + end) / 2;
-    // Ties broken by index: the same tree on every machine.
-    std::nth_element(order.begin() + begin, order.begin() + mid, order.begin() + end, [&](int s, int t) {
-      return centre[s][axis] != centre[t][axis] ? centre[s][axis] < centre[t][axis] : s < t;
+    // Leaves of four: the split falls on a multiple of four. Ties broken by index: the same tree on
+    // every machine.
+    const int mid = begin + std::max(1, (end - begin) / (2 * collision::kLeafVertices)) * collision::kLeafVertices;
+    std::nth_element(tree.order.begin() + begin, tree.order.begin() + mid, tree.order.begin() + end, [&](int s, int t) {
+      return x[s][axis] != x[t][axis] ? x[s][axis] < x[t][axis] : s < t;
     });
-    const int left = build(order, begin, mid, id);
-    const int right = build(order, mid, end, id);
+    const int left = build(begin, mid, id);
+    const int right = build(mid, end, id);
     tree.nodes[id].left = left;
     tree.nodes[id].right = right;
+    tree.nodes[id].first = tree.nodes[id].count = 0;
     return id;
   }
 };
@@ -57,21 +59,11 @@ CollisionTree CollisionTree::build(MeshStore& store) {
       tree.tris[3 * size_t(a) + filled[a]++] = {int(a), int(cellVertices[next]), int(c)};
     }
   const auto x = store.positions();
-  for (Index m = 0; m < store.meshCount(); ++m) {
-    const MeshRange& r = store.range(m);
-    Builder b{tree, {}, {}, {}};
-    for (Index v = r.vertexBegin; v < r.vertexEnd; v += collision::kLeafVertices) {
-      const Index end = std::min<Index>(v + collision::kLeafVertices, r.vertexEnd);
-      Vec3 sum = Vec3::Zero();
-      for (Index i = v; i < end; ++i) sum += x[i];
-      b.centre.push_back(sum / float(end - v));
-      b.firstOf.push_back(int(v));
-      b.countOf.push_back(int(end - v));
-    }
-    std::vector<int> order(b.centre.size());
-    std::iota(order.begin(), order.end(), 0);
-    tree.roots.push_back(b.build(order, 0, int(order.size()), -1));
-  }
+  tree.order.resize(store.vertexCount());
+  std::iota(tree.order.begin(), tree.order.end(), 0);
+  Builder b{tree, x};
+  for (Index m = 0; m < store.meshCount(); ++m)
+    tree.roots.push_back(b.build(int(store.range(m).vertexBegin), int(store.range(m).vertexEnd), -1));
   tree.boxes.resize(tree.nodes.size());
   tree.refit(x, store.cellCentres(), store.executor());
   return tree;
@@ -109,25 +101,37 @@ std::optional<CollisionTree::Enclosure> CollisionTree::findEnclosure(MeshStore& 
       const float overlapZ = std::min(a.hi.z, b.hi.z + margin) - std::max(a.lo.z, b.lo.z - margin);
       if (overlapX < 0.5f * (a.hi.x - a.lo.x) || overlapY < 0.5f * (a.hi.y - a.lo.y) || overlapZ < 0.5f * (a.hi.z - a.lo.z))
         continue;
-      std::vector<std::uint8_t> near(r.vertexCount(), 0);
-      store.executor().forEach(r.vertexCount(), [&](Index i) {
-        const collision::Hit h = collision::closestPoint(v, int(outer), x[r.vertexBegin + i], x, c, 3.0e38f);
-        near[i] = h.d2 < 3.0e38f && h.side < margin;
-      });
-      const Index inside = std::count(near.begin(), near.end(), std::uint8_t(1));
-      if (inside >= fraction * r.vertexCount()) return Enclosure{inner, outer, inside, r.vertexCount()};
+      // Chunk by chunk (each in parallel), stopping as soon as more than (1 - fraction) of the
+      // vertices are clear of it: most pairs stop after the first chunk.
+      const Index allowedOutside = r.vertexCount() - Index(std::ceil(fraction * float(r.vertexCount())));
+      constexpr Index kChunk = 4096;
+      Index outside = 0;
+      for (Index begin = r.vertexBegin; begin < r.vertexEnd && outside <= allowedOutside; begin += kChunk) {
+        const Index count = std::min(kChunk, r.vertexEnd - begin);
+        outside += store.executor().reduce(
+            begin, begin + count, Index(0),
+            [&](Index b, Index e, Index acc) {
+              for (Index i = b; i < e; ++i) {
+                const collision::Hit h = collision::closestPoint(v, int(outer), x[i], x, c, 3.0e38f);
+                acc += h.d2 < 3.0e38f && h.side < margin ? 0 : 1;
+              }
+              return acc;
+            },
+            std::plus<Index>(), 256);
+      }
+      if (outside <= allowedOutside) return Enclosure{inner, outer, r.vertexCount() - outside, r.vertexCount()};
     }
   }
   return std::nullopt;
 }
 
 collision::BvhView CollisionTree::view() {
-  return {nodes.data(), boxes.data(), tris.data(), roots.data(), int(roots.size())};
+  return {nodes.data(), boxes.data(), tris.data(), order.data(), roots.data(), int(roots.size()), int(nodes.size())};
 }
 
 std::size_t CollisionTree::bytes() const {
   return nodes.size() * sizeof(Node) + boxes.size() * sizeof(Box) + tris.size() * sizeof(collision::Tri) +
-         (roots.size() + leaves.size()) * sizeof(int);
+         (order.size() + roots.size() + leaves.size()) * sizeof(int);
 }
 
 }  // namespace sinew

@@ -34,7 +34,7 @@ __global__ void refit(BvhView v, const int* leaves, int leafCount, int* visits, 
 }
 
 __global__ void respond(MeshView m, ParamView p, BvhView v, float margin, float damping, float reach, float* depth,
-                        float* stiffness) {
+                        int* hint, float* stiffness) {
   const int i = blockIdx.x * blockDim.x + threadIdx.x;
   if (i >= m.vertices) return;
   const int own = m.meshOf[i];
@@ -44,7 +44,7 @@ __global__ void respond(MeshView m, ParamView p, BvhView v, float margin, float 
     const P3* x = reinterpret_cast<const P3*>(m.x);
     const P3* centres = reinterpret_cast<const P3*>(m.cellCentre);
     P3 f{0, 0, 0};
-    k = contactResponse(v, own, x[i], reinterpret_cast<const P3*>(m.prev)[i], alpha * m.mass[i], margin, damping, reach, depth[i], x,
+    k = contactResponse(v, own, x[i], reinterpret_cast<const P3*>(m.prev)[i], alpha * m.mass[i], margin, damping, reach, depth[i], hint[i], x,
                         centres, f);
     m.force[i] = m.force[i] + make_float3(f.x, f.y, f.z);
   }
@@ -54,12 +54,12 @@ __global__ void respond(MeshView m, ParamView p, BvhView v, float margin, float 
 
 void launchCollision(const MeshView& m, ParamView p, const CollisionDevice& c, float margin, float damping, float reach,
                      cudaStream_t s) {
-  BvhView v{c.nodes, c.boxes, c.tris, c.roots, c.meshes};
+  BvhView v{c.nodes, c.boxes, c.tris, c.order, c.roots, c.meshes, c.nodeCount};
   SINEW_CUDA(cudaMemsetAsync(c.visits, 0, sizeof(int) * c.nodeCount, s));
   refit<<<(c.leafCount + kThreads - 1) / kThreads, kThreads, 0, s>>>(v, c.leaves, c.leafCount, c.visits,
                                                                       reinterpret_cast<const P3*>(m.x),
                                                                       reinterpret_cast<const P3*>(m.cellCentre));
-  respond<<<(m.vertices + kThreads - 1) / kThreads, kThreads, 0, s>>>(m, p, v, margin, damping, reach, c.depth, c.stiffness);
+  respond<<<(m.vertices + kThreads - 1) / kThreads, kThreads, 0, s>>>(m, p, v, margin, damping, reach, c.depth, c.hint, c.stiffness);
 }
 
 }  // namespace sinew::cuda

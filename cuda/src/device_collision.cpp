@@ -9,13 +9,14 @@ void DeviceCollision::build(MeshStore& store, const SceneData& scene, float marg
   nodes_.upload(tree.nodes, stream);
   boxes_.upload(tree.boxes, stream);
   tris_.upload(tree.tris, stream);
+  order_.upload(tree.order, stream);
   roots_.upload(tree.roots, stream);
   leaves_.upload(tree.leaves, stream);
   visits_.resize(tree.nodes.size());
   stiffness_.resize(withStiffness ? size_t(store.vertexCount()) : 0);
   if (withStiffness) SINEW_CUDA(cudaMemsetAsync(stiffness_.get(), 0, stiffness_.bytes(), stream));
-  const std::vector<float> unknown(store.vertexCount(), collision::kUnknownDepth);
-  depth_.upload(unknown, stream);
+  depth_.upload(std::vector<float>(store.vertexCount(), collision::kUnknownDepth), stream);
+  hint_.upload(std::vector<int>(store.vertexCount(), -1), stream);
   meshes_ = int(tree.roots.size());
   SINEW_CUDA(cudaStreamSynchronize(stream));  // the host vectors go out of scope
 }
@@ -25,11 +26,13 @@ CollisionDevice DeviceCollision::view() const {
   c.nodes = nodes_.get();
   c.boxes = boxes_.get();
   c.tris = tris_.get();
+  c.order = order_.get();
   c.roots = roots_.get();
   c.leaves = leaves_.get();
   c.visits = visits_.get();
   c.stiffness = stiffness_.get();
   c.depth = depth_.get();
+  c.hint = hint_.get();
   c.meshes = meshes_;
   c.nodeCount = int(nodes_.size());
   c.leafCount = int(leaves_.size());
@@ -37,8 +40,8 @@ CollisionDevice DeviceCollision::view() const {
 }
 
 std::size_t DeviceCollision::bytes() const {
-  return nodes_.bytes() + boxes_.bytes() + tris_.bytes() + roots_.bytes() + leaves_.bytes() + visits_.bytes() +
-         stiffness_.bytes() + depth_.bytes();
+  return nodes_.bytes() + boxes_.bytes() + tris_.bytes() + order_.bytes() + roots_.bytes() + leaves_.bytes() + visits_.bytes() +
+         stiffness_.bytes() + depth_.bytes() + hint_.bytes();
 }
 
 }  // namespace sinew::cuda

@@ -24,7 +24,7 @@ private:
   DeviceArray<collision::Node> nodes_;
   DeviceArray<collision::Box> boxes_;
   DeviceArray<collision::Tri> tris_;
-  DeviceArray<int> roots_, leaves_, visits_;
+  DeviceArray<int> order_, roots_, leaves_, visits_, hint_;
   DeviceArray<float> stiffness_, depth_;
   int meshes_ = 0;
 };

@@ -101,11 +101,13 @@ struct CollisionDevice {
   const collision::Node* nodes = nullptr;
   collision::Box* boxes = nullptr;
   const collision::Tri* tris = nullptr;
+  const int* order = nullptr;
   const int* roots = nullptr;
   const int* leaves = nullptr;
   int* visits = nullptr;  // per node, the refit's arrival counters
   float* stiffness = nullptr;
   float* depth = nullptr;  // per vertex, the last penetration (collision::contactResponse)
+  int* hint = nullptr;     // per vertex, the last nearest contact leaf
   int meshes = 0, nodeCount = 0, leafCount = 0;
 };
 // Refits the hierarchies (needs m.cellCentre) and adds the contact response to m.force.

@@ -22,6 +22,7 @@ public:
     tree_ = {};
     stiffness_.clear();
     depth_.assign(ctx.store.vertexCount(), collision::kUnknownDepth);
+    hint_.assign(ctx.store.vertexCount(), -1);
     builtFor_ = ctx.store.vertexCount();
     checked_ = false;
     if (ctx.store.meshCount() >= 2 && ctx.params.anyPositive(0)) tree_ = CollisionTree::build(ctx.store);
@@ -50,7 +51,7 @@ public:
     forActiveVertices(ctx, [&](Index v, float alpha) {
       collision::P3 f{0, 0, 0};
       stiffness_[v] = collision::contactResponse(view, int(meshOf[v]), x[v], asP3(previous[v]), alpha * mass[v], margin, damping,
-                                                 reach, depth_[v], x, centres, f);
+                                                 reach, depth_[v], hint_[v], x, centres, f);
       forces[v] += asVec3(f);
     });
   }
@@ -70,6 +71,7 @@ private:
   bool checked_ = false;
   std::vector<float> stiffness_;
   std::vector<float> depth_;  // each vertex's last penetration (collision::contactResponse)
+  std::vector<int> hint_;     // each vertex's last nearest contact leaf
 };
 }  // namespace
 
@@ -79,7 +81,7 @@ void registerCollisionForce(Registry& registry) {
                      "of it) is pulled to the margin outside its surface",
                      {{"margin_mm", 0.25, 0.0, 5.0, "mm", "distance kept between the surfaces of two structures", false},
                       {"contact_damping", 1.0, 0.0, 2.0, "", "damping of a touching vertex's motion (per step), on top of the integrator's", false},
-                      {"reach_mm", 1.0, 0.1, 50.0, "mm", "how far beyond its last penetration a vertex looks for contacts each step (the first step of a level looks everywhere)", false}},
+                      {"reach_mm", 0.25, 0.05, 5.0, "mm", "how far beyond its last penetration a vertex looks for contacts each step (on top of twice its last step)", false}},
                      [] { return std::make_unique<CollisionForce>(); }});
 }
 

@@ -2,10 +2,10 @@
 // 002's two stages), shared by the CPU force and the CUDA kernels: this header's inline functions
 // compile for both, so the backends find the same contacts.
 //
-// Two stages. The hierarchy's leaves are groups of four consecutive vertices: at a refined level
-// they are the four children of one coarser vertex, so the leaves are the coarse proxy (001 2.1)
-// and the tree above them a hierarchy over it. A leaf holds its vertices' triangles of the
-// paper-000 Fig. 1b tessellation (three per vertex: vertex, its successor in the cell, the cell
+// Two stages. The hierarchy's leaves are groups of at most four vertices close in space (median
+// splits down to four): at a refined level about the four children of one coarser vertex, so the
+// leaves are a coarse proxy (001 2.1) and the tree above them a hierarchy over it. A leaf holds its
+// vertices' triangles of the paper-000 Fig. 1b tessellation (three per vertex: vertex, its successor in the cell, the cell
 // centre), so the fine test is exact on the surface the outputs are made of. The tree is built once
 // per level on the host (median splits) and refitted every step (bottom up; on the device by the
 // last child to arrive), never rebuilt.
@@ -30,7 +30,7 @@ struct P3 {  // the layout of Vec3 and float3
 struct Box {
   P3 lo, hi;
 };
-// Leaves have left == -1 and hold vertices [first, first + count).
+// Leaves have left == -1 and hold the vertices order[first .. first + count).
 struct Node {
   int left, right, parent, first, count;
 };
@@ -45,8 +45,10 @@ struct BvhView {
   const Node* nodes = nullptr;
   Box* boxes = nullptr;
   const Tri* tris = nullptr;
+  const int* order = nullptr;  // vertices, leaf by leaf
   const int* roots = nullptr;
   int meshes = 0;
+  int nodeCount = 0;
 };
 
 SINEW_HD P3 sub(P3 a, P3 b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
@@ -79,7 +81,7 @@ SINEW_HD Box leafBox(const BvhView& v, const Node& n, const P3* x, const P3* cen
   Box b = emptyBox();
   for (int i = n.first; i < n.first + n.count; ++i)
     for (int k = 0; k < 3; ++k) {
-      const Tri t = v.tris[3 * i + k];
+      const Tri t = v.tris[3 * v.order[i] + k];
       extend(b, x[t.a]);
       extend(b, x[t.b]);
       extend(b, centres[t.cell]);
@@ -113,6 +115,7 @@ struct Hit {
   P3 point;       // the closest point
   P3 normal;      // its triangle's outward unit normal
   float side;     // (p - point) . normal: negative inside
+  int leaf;       // the leaf node of its triangle
 };
 
 SINEW_HD P3 unitNormal(P3 a, P3 b, P3 c) {
@@ -125,13 +128,37 @@ SINEW_HD P3 unitNormal(P3 a, P3 b, P3 c) {
 // several triangles, computed from each).
 SINEW_HD float tieBound(float d2) { return d2 * (1.0f + 1e-4f) + 1e-12f; }
 
+// A leaf's triangles against the best so far. Where the closest point is shared by several
+// triangles (an edge or a corner), the triangle facing p most squarely gives the side: one face's
+// normal alone can put a point outside a sharp edge inside.
+SINEW_HD void testLeaf(const BvhView& v, int id, P3 p, const P3* x, const P3* centres, Hit& best, bool& found) {
+  const Node n = v.nodes[id];
+  for (int i = n.first; i < n.first + n.count; ++i)
+    for (int k = 0; k < 3; ++k) {
+      const Tri t = v.tris[3 * v.order[i] + k];
+      const P3 a = x[t.a], b = x[t.b], c = centres[t.cell];
+      const P3 q = closestOnTriangle(p, a, b, c);
+      const P3 d = sub(p, q);
+      const float d2 = dot3(d, d);
+      const bool better = found ? d2 < best.d2 * (1.0f - 1e-4f) : d2 < best.d2;
+      const bool tie = found && !better && d2 <= tieBound(best.d2);
+      if (!better && !tie) continue;
+      const P3 normal = unitNormal(a, b, c);
+      const float side = dot3(d, normal);
+      if (tie && fabsf(side) <= fabsf(best.side)) continue;
+      best = {d2, q, normal, side, id};
+      found = true;
+    }
+}
+
 // The closest point on structure `mesh`'s tessellation to p within sqrt(maxD2) (branch and bound,
-// nearer child first); d2 stays maxD2 when there is none. Where the closest point is shared by
-// several triangles (an edge or a corner), the triangle facing p most squarely gives the side: one
-// face's normal alone can put a point outside a sharp edge inside.
-SINEW_HD Hit closestPoint(const BvhView& v, int mesh, P3 p, const P3* x, const P3* centres, float maxD2) {
-  Hit best{maxD2, p, {0, 0, 0}, 0.0f};
+// nearer child first); d2 stays maxD2 when there is none. `hint`: a leaf found near p before (the
+// last step's), tested first so that the bound is tight from the start; any other value is ignored.
+SINEW_HD Hit closestPoint(const BvhView& v, int mesh, P3 p, const P3* x, const P3* centres, float maxD2, int hint = -1) {
+  Hit best{maxD2, p, {0, 0, 0}, 0.0f, -1};
   bool found = false;
+  const int end = mesh + 1 < v.meshes ? v.roots[mesh + 1] : v.nodeCount;  // the structure's nodes
+  if (hint >= v.roots[mesh] && hint < end && v.nodes[hint].left < 0) testLeaf(v, hint, p, x, centres, best, found);
   int stack[kStackDepth];
   int top = 0;
   stack[top++] = v.roots[mesh];
@@ -140,22 +167,7 @@ SINEW_HD Hit closestPoint(const BvhView& v, int mesh, P3 p, const P3* x, const P
     if (squaredDistance(v.boxes[id], p) > (found ? tieBound(best.d2) : best.d2)) continue;
     const Node n = v.nodes[id];
     if (n.left < 0) {
-      for (int i = n.first; i < n.first + n.count; ++i)
-        for (int k = 0; k < 3; ++k) {
-          const Tri t = v.tris[3 * i + k];
-          const P3 a = x[t.a], b = x[t.b], c = centres[t.cell];
-          const P3 q = closestOnTriangle(p, a, b, c);
-          const P3 d = sub(p, q);
-          const float d2 = dot3(d, d);
-          const bool better = found ? d2 < best.d2 * (1.0f - 1e-4f) : d2 < best.d2;
-          const bool tie = found && !better && d2 <= tieBound(best.d2);
-          if (!better && !tie) continue;
-          const P3 n = unitNormal(a, b, c);
-          const float side = dot3(d, n);
-          if (tie && fabsf(side) <= fabsf(best.side)) continue;
-          best = {d2, q, n, side};
-          found = true;
-        }
+      if (id != hint) testLeaf(v, id, p, x, centres, best, found);
       continue;
     }
     const float dl = squaredDistance(v.boxes[n.left], p), dr = squaredDistance(v.boxes[n.right], p);
@@ -167,7 +179,8 @@ SINEW_HD Hit closestPoint(const BvhView& v, int mesh, P3 p, const P3* x, const P
   return best;
 }
 
-// Marks a vertex whose contacts are not known yet: its next search is unbounded.
+// Marks a vertex whose contacts are not known yet (the first step of a level): its search is
+// unbounded, so that deep penetrations are seen.
 constexpr float kUnknownDepth = 1.0e30f;
 
 // The response at one vertex of structure `own` (alpha: its weight times its mass, so that every
@@ -177,14 +190,19 @@ constexpr float kUnknownDepth = 1.0e30f;
 // closer than the margin to it (by the side of the closest triangle), a pull to the point `margin`
 // outside its surface, and the vertex's own motion damped while it touches. Adds to `force`;
 // returns the summed pull stiffness (the implicit integrator's self block is minus that times I).
-// The search reaches `reach` beyond the vertex's last penetration `depth` (in/out: the deepest
-// penetration below the margin found now, 0 without contact): a vertex moves far less than that
-// in a step, and a bounded search is what keeps the narrow phase cheap.
+// The search reaches `reach` plus twice the vertex's last step beyond its last penetration `depth`
+// (in/out: the deepest penetration below the margin found now, 0 without contact): a bounded
+// search is what keeps the narrow phase cheap. `hint` (in/out): the leaf of the vertex's nearest
+// contact at the last step, where this step's search starts.
 SINEW_HD float contactResponse(const BvhView& v, int own, P3 p, P3 previous, float alpha, float margin, float damping,
-                               float reach, float& depth, const P3* x, const P3* centres, P3& force) {
-  const float radius = depth + reach + margin;
+                               float reach, float& depth, int& hint, const P3* x, const P3* centres, P3& force) {
+  // Twice the vertex's own last step stands for how far it and the other surface may close in
+  // this step: pushes of tenths of a millimetre a step would outrun a fixed reach.
+  const P3 moved = sub(p, previous);
+  const float radius = depth + margin + reach + 2.0f * sqrtf(dot3(moved, moved));
   const float maxD2 = depth >= kUnknownDepth ? 3.0e38f : radius * radius;
-  float deepest = 0.0f;
+  float deepest = 0.0f, nearest = 3.0e38f;
+  int nearestLeaf = -1;
   float stiffness = 0.0f;
   for (int other = 0; other < v.meshes; ++other) {
     if (other == own) continue;
@@ -192,8 +210,9 @@ SINEW_HD float contactResponse(const BvhView& v, int own, P3 p, P3 previous, flo
     grown.lo = sub(grown.lo, P3{margin, margin, margin});
     grown.hi = add(grown.hi, P3{margin, margin, margin});
     if (squaredDistance(grown, p) > 0.0f) continue;
-    const Hit h = closestPoint(v, other, p, x, centres, maxD2);
+    const Hit h = closestPoint(v, other, p, x, centres, maxD2, hint);
     if (!(h.d2 < maxD2)) continue;
+    if (h.d2 < nearest) nearest = h.d2, nearestLeaf = h.leaf;
     const float side = h.side;
     if (side >= margin) continue;
     deepest = fmax3(deepest, margin - side);
@@ -202,6 +221,7 @@ SINEW_HD float contactResponse(const BvhView& v, int own, P3 p, P3 previous, flo
     stiffness += alpha;
   }
   depth = deepest;
+  hint = nearestLeaf;
   return stiffness;
 }
 

@@ -18,11 +18,12 @@ struct CollisionTree {
   std::vector<collision::Node> nodes;  // each structure's tree in pre-order (children after parents)
   std::vector<collision::Box> boxes;
   std::vector<collision::Tri> tris;    // three per vertex
+  std::vector<int> order;              // vertices, leaf by leaf
   std::vector<int> roots;              // per structure
   std::vector<int> leaves;             // node index of every leaf
 
-  // Leaves of four consecutive vertices, split at the median of their centres along the widest
-  // axis; boxes from the store's current positions.
+  // Each structure's vertices split at the median along the widest axis down to leaves of at most
+  // four; boxes from the store's current positions.
   static CollisionTree build(MeshStore& store);
   // Boxes from positions and cell centres: leaves in parallel, then the inner nodes from below.
   void refit(std::span<const Vec3> positions, std::span<const Vec3> centres, const Executor& executor);
