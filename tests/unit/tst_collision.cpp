@@ -13,7 +13,8 @@ namespace {
 
 // Two spheres of radius 10 mm (each its own reference, held by the shape prior), `gap` between
 // centres; with the collision force weighted `weight`.
-std::unique_ptr<Simulation> twoSpheres(float gap, float weight, float innerRadius = 10.0f) {
+std::unique_ptr<Simulation> twoSpheres(float gap, float weight, float innerRadius = 10.0f,
+                                       const std::string& integrator = "damped_verlet", double timeStep = 0.5) {
   auto sim = std::make_unique<Simulation>(forceRegistry(), 2);
   for (const auto& [name, radius, centre] :
        {std::tuple{"a", 10.0f, Vec3(0, 0, 0)}, std::tuple{"b", innerRadius, Vec3(gap, 0, 0)}}) {
@@ -23,7 +24,7 @@ std::unique_ptr<Simulation> twoSpheres(float gap, float weight, float innerRadiu
   }
   sim->addForce("shape_prior");
   if (weight > 0.0f) sim->addForce("collision").setAll("weight", weight);
-  sim->setIntegrator("damped_verlet");
+  sim->setIntegrator(integrator).set(0, "time_step", timeStep);
   sim->initialize();
   return sim;
 }
@@ -106,6 +107,41 @@ private slots:
         QVERIFY(what.contains("1280 of its 1280 vertices"));
       }
       for (Index v = 0; v < sim->store().vertexCount(); ++v) QCOMPARE(sim->store().positions()[v], before[v]);
+    }
+  }
+
+  // The stability suite's collision cases: stiff contacts (weight 1) with the default step, with a
+  // step four times as long, and with implicit Euler at a long step. Each ends finite with the
+  // overlap resolved, or stops cleanly through the stability guard; the default step and implicit
+  // Euler also come to rest. The explicit long step does not: after the guard halves it once, the
+  // contact and the shape prior together overshoot and keep the surfaces swinging by a millimetre
+  // or two a step, which no check sees yet (docs/collisions.md; a motion guard is issue 16's).
+  void stiffContactsAndLongStepsConvergeOrStopCleanly_data() {
+    QTest::addColumn<QString>("integrator");
+    QTest::addColumn<double>("timeStep");
+    QTest::addColumn<bool>("comesToRest");
+    QTest::newRow("verlet, dt 0.5") << "damped_verlet" << 0.5 << true;
+    QTest::newRow("verlet, dt 2") << "damped_verlet" << 2.0 << false;
+    QTest::newRow("implicit Euler, dt 5") << "implicit_euler" << 5.0 << true;
+  }
+  void stiffContactsAndLongStepsConvergeOrStopCleanly() {
+    QFETCH(QString, integrator);
+    QFETCH(double, timeStep);
+    QFETCH(bool, comesToRest);
+    auto sim = twoSpheres(15.0f, 1.0f, 10.0f, integrator.toStdString(), timeStep);
+    const double before = overlap(*sim);
+    try {
+      const std::vector<double> blocks = largestStepPerHundred(*sim, 6);
+      for (const Vec3& p : sim->store().positions()) QVERIFY(p.allFinite());
+      const double after = overlap(*sim);
+      qInfo("%s, dt %g: ran 600 steps; overlap %.1f -> %.2f mm^3, largest step in the last 100 steps %.3g mm, %d "
+            "stability events", qPrintable(integrator), timeStep, before, after, blocks.back(),
+            int(sim->stabilityEvents().size()));
+      QVERIFY(after < 0.01 * before);
+      if (comesToRest) QVERIFY(blocks.back() < 0.015);
+    } catch (const NumericalError& e) {
+      for (const Vec3& p : sim->store().positions()) QVERIFY(p.allFinite());
+      qInfo("%s, dt %g: stopped cleanly: %s", qPrintable(integrator), timeStep, e.what());
     }
   }
 

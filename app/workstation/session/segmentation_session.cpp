@@ -80,6 +80,8 @@ int SegmentationSession::step(int iterations) {
       backend_->run(iterations);
       hostCurrent_ = false;
       done = true;
+    } catch (const NumericalError&) {
+      throw;  // the scene's problem (e.g. a structure inside another), not the backend's: keep it
     } catch (const std::runtime_error& e) {
       // Continue on the CPU from the last state the host has (the interrupted batch is lost).
       if (log_) log_(backend_->name() + " backend failed (" + e.what() + "); continuing on the CPU");

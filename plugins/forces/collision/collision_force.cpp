@@ -80,7 +80,7 @@ void registerCollisionForce(Registry& registry) {
                      "keeps structures out of each other: a vertex inside another structure (or within the margin "
                      "of it) is pulled to the margin outside its surface",
                      {{"margin_mm", 0.25, 0.0, 5.0, "mm", "distance kept between the surfaces of two structures", false},
-                      {"contact_damping", 1.0, 0.0, 2.0, "", "damping of a touching vertex's motion (per step), on top of the integrator's", false},
+                      {"contact_damping", 0.0, 0.0, 2.0, "", "damping of a touching vertex's motion (per step), on top of the integrator's", false},
                       {"reach_mm", 0.25, 0.05, 5.0, "mm", "how far beyond its last penetration a vertex looks for contacts each step (on top of twice its last step)", false}},
                      [] { return std::make_unique<CollisionForce>(); }});
 }
