@@ -82,10 +82,12 @@ std::string CollisionTree::Enclosure::message(const SceneData& scene, float marg
   return "collision: structure '" + scene.structureName(inner) + "' lies inside structure '" + scene.structureName(outer) +
          "' (" + std::to_string(inside) + " of its " + std::to_string(vertices) + " vertices inside it or within the " +
          std::to_string(margin).substr(0, 4) + " mm margin of its surface), which no contact response can separate; "
-         "correct the initialisation of one of them";
+         "correct the initialisation of one of them, or, if one lies inside the other by design (nested labels), "
+         "set the collision force's ignore_enclosed to 1";
 }
 
-std::optional<CollisionTree::Enclosure> CollisionTree::findEnclosure(MeshStore& store, float margin, float fraction) {
+std::vector<CollisionTree::Enclosure> CollisionTree::findEnclosures(MeshStore& store, float margin, float fraction) {
+  std::vector<Enclosure> found;
   refit(store.positions(), store.cellCentres(), store.executor());
   const collision::BvhView v = view();
   const collision::P3* x = asP3(store.positions());
@@ -119,14 +121,24 @@ std::optional<CollisionTree::Enclosure> CollisionTree::findEnclosure(MeshStore& 
             },
             std::plus<Index>(), 256);
       }
-      if (outside <= allowedOutside) return Enclosure{inner, outer, r.vertexCount() - outside, r.vertexCount()};
+      if (outside <= allowedOutside) found.push_back({inner, outer, r.vertexCount() - outside, r.vertexCount()});
     }
   }
-  return std::nullopt;
+  return found;
+}
+
+void CollisionTree::handleEnclosures(MeshStore& store, const SceneData& scene, float margin, bool ignore) {
+  const std::vector<Enclosure> found = findEnclosures(store, margin);
+  if (found.empty()) return;
+  if (!ignore) throw NumericalError(found.front().message(scene, margin));
+  const Index n = store.meshCount();
+  exempt.assign(size_t(n) * n, 0);
+  for (const Enclosure& e : found) exempt[e.inner * n + e.outer] = exempt[e.outer * n + e.inner] = 1;
 }
 
 collision::BvhView CollisionTree::view() {
-  return {nodes.data(), boxes.data(), tris.data(), order.data(), roots.data(), int(roots.size()), int(nodes.size())};
+  return {nodes.data(), boxes.data(), tris.data(), order.data(), roots.data(),
+          exempt.empty() ? nullptr : exempt.data(), int(roots.size()), int(nodes.size())};
 }
 
 std::size_t CollisionTree::bytes() const {

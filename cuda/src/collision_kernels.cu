@@ -54,7 +54,7 @@ __global__ void respond(MeshView m, ParamView p, BvhView v, float margin, float 
 
 void launchCollision(const MeshView& m, ParamView p, const CollisionDevice& c, float margin, float damping, float reach,
                      cudaStream_t s) {
-  BvhView v{c.nodes, c.boxes, c.tris, c.order, c.roots, c.meshes, c.nodeCount};
+  BvhView v{c.nodes, c.boxes, c.tris, c.order, c.roots, c.exempt, c.meshes, c.nodeCount};
   SINEW_CUDA(cudaMemsetAsync(c.visits, 0, sizeof(int) * c.nodeCount, s));
   refit<<<(c.leafCount + kThreads - 1) / kThreads, kThreads, 0, s>>>(v, c.leaves, c.leafCount, c.visits,
                                                                       reinterpret_cast<const P3*>(m.x),

@@ -162,7 +162,8 @@ struct CudaEngine::Impl {
       if (f.kind == Kind::Collision && !collision.built() && sim.store().meshCount() >= 2 &&
           sim.forceParams(f.name).anyPositive(0)) {
         const ParamTable& t = sim.forceParams(f.name);
-        collision.build(sim.store(), sim.scene(), t.getf(0, t.indexOf("margin_mm")), implicit(), stream);
+        collision.build(sim.store(), sim.scene(), t.getf(0, t.indexOf("margin_mm")),
+                        t.getf(0, t.indexOf("ignore_enclosed")) > 0.5f, implicit(), stream);
         invalidateGraph();
       }
   }

@@ -2,10 +2,11 @@
 
 namespace sinew::cuda {
 
-void DeviceCollision::build(MeshStore& store, const SceneData& scene, float margin, bool withStiffness,
-                            cudaStream_t stream) {
+void DeviceCollision::build(MeshStore& store, const SceneData& scene, float margin, bool ignoreEnclosed,
+                            bool withStiffness, cudaStream_t stream) {
   CollisionTree tree = CollisionTree::build(store);
-  if (const auto e = tree.findEnclosure(store, margin)) throw NumericalError(e->message(scene, margin));
+  tree.handleEnclosures(store, scene, margin, ignoreEnclosed);
+  exempt_.upload(tree.exempt, stream);
   nodes_.upload(tree.nodes, stream);
   boxes_.upload(tree.boxes, stream);
   tris_.upload(tree.tris, stream);
@@ -32,6 +33,7 @@ CollisionDevice DeviceCollision::view() const {
   c.visits = visits_.get();
   c.stiffness = stiffness_.get();
   c.depth = depth_.get();
+  c.exempt = exempt_.get();
   c.hint = hint_.get();
   c.meshes = meshes_;
   c.nodeCount = int(nodes_.size());
@@ -41,7 +43,7 @@ CollisionDevice DeviceCollision::view() const {
 
 std::size_t DeviceCollision::bytes() const {
   return nodes_.bytes() + boxes_.bytes() + tris_.bytes() + order_.bytes() + roots_.bytes() + leaves_.bytes() + visits_.bytes() +
-         stiffness_.bytes() + depth_.bytes() + hint_.bytes();
+         stiffness_.bytes() + depth_.bytes() + hint_.bytes() + exempt_.bytes();
 }
 
 }  // namespace sinew::cuda

@@ -12,8 +12,9 @@ namespace sinew::cuda {
 class DeviceCollision {
 public:
   // withStiffness: keep each vertex's contact pull (implicit Euler's Jacobian).
-  // Stops with NumericalError when a structure lies inside another (CollisionTree::findEnclosure).
-  void build(MeshStore& store, const SceneData& scene, float margin, bool withStiffness, cudaStream_t stream);
+  // A structure lying inside another stops the run or leaves the pair out (CollisionTree::handleEnclosures).
+  void build(MeshStore& store, const SceneData& scene, float margin, bool ignoreEnclosed, bool withStiffness,
+             cudaStream_t stream);
   void clear() { *this = DeviceCollision{}; }
   bool built() const { return meshes_ > 0; }
   CollisionDevice view() const;
@@ -26,6 +27,7 @@ private:
   DeviceArray<collision::Tri> tris_;
   DeviceArray<int> order_, roots_, leaves_, visits_, hint_;
   DeviceArray<float> stiffness_, depth_;
+  DeviceArray<unsigned char> exempt_;
   int meshes_ = 0;
 };
 

@@ -108,6 +108,7 @@ struct CollisionDevice {
   float* stiffness = nullptr;
   float* depth = nullptr;  // per vertex, the last penetration (collision::contactResponse)
   int* hint = nullptr;     // per vertex, the last nearest contact leaf
+  const unsigned char* exempt = nullptr;  // pairs left out (meshes x meshes), or null
   int meshes = 0, nodeCount = 0, leafCount = 0;
 };
 // Refits the hierarchies (needs m.cellCentre) and adds the contact response to m.force.

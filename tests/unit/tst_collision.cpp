@@ -105,9 +105,24 @@ private slots:
         const QString what(e.what());
         QVERIFY(what.contains("structure 'b' lies inside structure 'a'") || what.contains("structure 'a' lies inside structure 'b'"));
         QVERIFY(what.contains("1280 of its 1280 vertices"));
+        QVERIFY(what.contains("ignore_enclosed"));
       }
       for (Index v = 0; v < sim->store().vertexCount(); ++v) QCOMPARE(sim->store().positions()[v], before[v]);
     }
+  }
+
+  // Nested by design (ignore_enclosed 1): the pair is left out of the collisions, nothing stops,
+  // and the small sphere stays where it is inside the large one.
+  void enclosedStructuresCanBeLeftOut() {
+    auto sim = twoSpheres(2.0f, 0.5f, 4.0f);
+    sim->forceParams("collision").setAll("ignore_enclosed", 1.0);
+    const double before = overlap(*sim);
+    sim->run(100);
+    for (const Vec3& p : sim->store().positions()) QVERIFY(p.allFinite());
+    const double after = overlap(*sim);
+    qInfo("nested spheres left out of collisions: overlap %.1f -> %.1f mm^3", before, after);
+    QVERIFY(before > 200.0);
+    QVERIFY(std::abs(after - before) < 0.05 * before);
   }
 
   // The stability suite's collision cases: stiff contacts (weight 1) with the default step, with a

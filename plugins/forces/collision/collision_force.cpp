@@ -36,7 +36,7 @@ public:
     // Once per level: a structure inside another stops the run with the reason.
     if (!checked_) {
       checked_ = true;
-      if (const auto e = tree_.findEnclosure(s, margin)) throw NumericalError(e->message(ctx.scene, margin));
+      tree_.handleEnclosures(s, ctx.scene, margin, ctx.params.getf(0, ctx.params.indexOf("ignore_enclosed")) > 0.5f);
     }
     tree_.refit(s.positions(), s.cellCentres(), ctx.executor);
     const float damping = ctx.params.getf(0, ctx.params.indexOf("contact_damping"));
@@ -81,7 +81,8 @@ void registerCollisionForce(Registry& registry) {
                      "of it) is pulled to the margin outside its surface",
                      {{"margin_mm", 0.25, 0.0, 5.0, "mm", "distance kept between the surfaces of two structures", false},
                       {"contact_damping", 0.0, 0.0, 2.0, "", "damping of a touching vertex's motion (per step), on top of the integrator's", false},
-                      {"reach_mm", 0.25, 0.05, 5.0, "mm", "how far beyond its last penetration a vertex looks for contacts each step (on top of twice its last step)", false}},
+                      {"reach_mm", 0.25, 0.05, 5.0, "mm", "how far beyond its last penetration a vertex looks for contacts each step (on top of twice its last step)", false},
+                      {"ignore_enclosed", 0.0, 0.0, 1.0, "", "1: a structure lying inside another by design (nested labels) is left out of collisions with it; 0: such a pair stops the run with the reason", false}},
                      [] { return std::make_unique<CollisionForce>(); }});
 }
 

@@ -47,6 +47,7 @@ struct BvhView {
   const Tri* tris = nullptr;
   const int* order = nullptr;  // vertices, leaf by leaf
   const int* roots = nullptr;
+  const unsigned char* exempt = nullptr;  // meshes x meshes: 1 where a pair is left out; may be null
   int meshes = 0;
   int nodeCount = 0;
 };
@@ -205,7 +206,7 @@ SINEW_HD float contactResponse(const BvhView& v, int own, P3 p, P3 previous, flo
   int nearestLeaf = -1;
   float stiffness = 0.0f;
   for (int other = 0; other < v.meshes; ++other) {
-    if (other == own) continue;
+    if (other == own || (v.exempt && v.exempt[own * v.meshes + other])) continue;
     Box grown = v.boxes[v.roots[other]];
     grown.lo = sub(grown.lo, P3{margin, margin, margin});
     grown.hi = add(grown.hi, P3{margin, margin, margin});

@@ -7,7 +7,6 @@
 #include "sinew/core/mesh_store.h"
 #include "sinew/core/scene_data.h"
 
-#include <optional>
 #include <span>
 #include <string>
 #include <vector>
@@ -21,6 +20,7 @@ struct CollisionTree {
   std::vector<int> order;              // vertices, leaf by leaf
   std::vector<int> roots;              // per structure
   std::vector<int> leaves;             // node index of every leaf
+  std::vector<unsigned char> exempt;   // meshes x meshes, 1 where a pair is left out; empty: none
 
   // Each structure's vertices split at the median along the widest axis down to leaves of at most
   // four; boxes from the store's current positions.
@@ -37,7 +37,10 @@ struct CollisionTree {
     Index inside = 0, vertices = 0;
     std::string message(const SceneData& scene, float margin) const;
   };
-  std::optional<Enclosure> findEnclosure(MeshStore& store, float margin, float fraction = 0.9f);
+  std::vector<Enclosure> findEnclosures(MeshStore& store, float margin, float fraction = 0.9f);
+  // Throws NumericalError naming the first such pair, or with `ignore` (nested structures by design)
+  // leaves every such pair out of the collisions.
+  void handleEnclosures(MeshStore& store, const SceneData& scene, float margin, bool ignore);
   std::size_t bytes() const;
 };
 
