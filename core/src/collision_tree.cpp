@@ -141,9 +141,4 @@ collision::BvhView CollisionTree::view() {
           exempt.empty() ? nullptr : exempt.data(), int(roots.size()), int(nodes.size())};
 }
 
-std::size_t CollisionTree::bytes() const {
-  return nodes.size() * sizeof(Node) + boxes.size() * sizeof(Box) + tris.size() * sizeof(collision::Tri) +
-         (order.size() + roots.size() + leaves.size()) * sizeof(int);
-}
-
 }  // namespace sinew

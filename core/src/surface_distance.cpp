@@ -1,5 +1,6 @@
 #include "sinew/core/surface_distance.h"
 
+#include "sinew/core/collision_bvh.h"
 #include "sinew/core/executor.h"
 
 #include <Eigen/Geometry>
@@ -12,25 +13,12 @@ namespace sinew {
 
 namespace {
 
-// Closest point on triangle (Ericson, Real-Time Collision Detection, 5.1.5).
+// Closest point on triangle: the routine the collision detection uses (collision_bvh.h).
 Vec3 closestOnTriangle(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c) {
-  const Vec3 ab = b - a, ac = c - a, ap = p - a;
-  const float d1 = ab.dot(ap), d2 = ac.dot(ap);
-  if (d1 <= 0 && d2 <= 0) return a;
-  const Vec3 bp = p - b;
-  const float d3 = ab.dot(bp), d4 = ac.dot(bp);
-  if (d3 >= 0 && d4 <= d3) return b;
-  const float vc = d1 * d4 - d3 * d2;
-  if (vc <= 0 && d1 >= 0 && d3 <= 0) return a + ab * (d1 / (d1 - d3));
-  const Vec3 cp = p - c;
-  const float d5 = ab.dot(cp), d6 = ac.dot(cp);
-  if (d6 >= 0 && d5 <= d6) return c;
-  const float vb = d5 * d2 - d1 * d6;
-  if (vb <= 0 && d2 >= 0 && d6 <= 0) return a + ac * (d2 / (d2 - d6));
-  const float va = d3 * d6 - d5 * d4;
-  if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0) return b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6)));
-  const float denom = 1.0f / (va + vb + vc);
-  return a + ab * (vb * denom) + ac * (vc * denom);
+  using collision::P3;
+  const P3 q = collision::closestOnTriangle(P3{p.x(), p.y(), p.z()}, P3{a.x(), a.y(), a.z()}, P3{b.x(), b.y(), b.z()},
+                                            P3{c.x(), c.y(), c.z()});
+  return {q.x, q.y, q.z};
 }
 
 using Box = Eigen::AlignedBox3f;
@@ -73,23 +61,9 @@ struct SurfaceDistanceQuery::Impl {
     return id;
   }
 
-  // Children follow their parent in `nodes`, so a backward pass refits every box from below.
-  void refit() {
-    for (int id = static_cast<int>(nodes.size()) - 1; id >= 0; --id) {
-      Node& n = nodes[id];
-      n.box.setEmpty();
-      if (n.left < 0) {
-        for (int i = n.begin; i < n.end; ++i) n.box.extend(a[order[i]]).extend(b[order[i]]).extend(c[order[i]]);
-      } else {
-        n.box.extend(nodes[n.left].box).extend(nodes[n.right].box);
-      }
-    }
-  }
-
-  SurfaceDistanceQuery::Closest query(const Vec3& p) const {
+  Vec3 query(const Vec3& p) const {
     float best2 = std::numeric_limits<float>::max();
     Vec3 bestPoint = p;
-    int bestTriangle = -1;
     int stack[128];
     int top = 0;
     stack[top++] = 0;
@@ -104,7 +78,6 @@ struct SurfaceDistanceQuery::Impl {
           if (d2 < best2) {
             best2 = d2;
             bestPoint = q;
-            bestTriangle = t;
           }
         }
         continue;
@@ -120,7 +93,7 @@ struct SurfaceDistanceQuery::Impl {
         stack[top++] = n.right;
       }
     }
-    return {bestPoint, bestTriangle};
+    return bestPoint;
   }
 };
 
@@ -139,19 +112,8 @@ SurfaceDistanceQuery::SurfaceDistanceQuery(const TriangleMesh& mesh) : impl_(std
 SurfaceDistanceQuery::~SurfaceDistanceQuery() = default;
 SurfaceDistanceQuery::SurfaceDistanceQuery(SurfaceDistanceQuery&&) noexcept = default;
 
-float SurfaceDistanceQuery::distance(const Vec3& p) const { return (impl_->query(p).point - p).norm(); }
-Vec3 SurfaceDistanceQuery::closestPoint(const Vec3& p) const { return impl_->query(p).point; }
-SurfaceDistanceQuery::Closest SurfaceDistanceQuery::closest(const Vec3& p) const { return impl_->query(p); }
-
-void SurfaceDistanceQuery::refit(const TriangleMesh& mesh) {
-  if (mesh.triangles.size() != impl_->a.size()) throw std::logic_error("SurfaceDistanceQuery::refit: other triangles");
-  for (size_t t = 0; t < mesh.triangles.size(); ++t) {
-    impl_->a[t] = mesh.points[mesh.triangles[t][0]];
-    impl_->b[t] = mesh.points[mesh.triangles[t][1]];
-    impl_->c[t] = mesh.points[mesh.triangles[t][2]];
-  }
-  impl_->refit();
-}
+float SurfaceDistanceQuery::distance(const Vec3& p) const { return (impl_->query(p) - p).norm(); }
+Vec3 SurfaceDistanceQuery::closestPoint(const Vec3& p) const { return impl_->query(p); }
 
 std::vector<SurfaceSample> sampleSurface(const TriangleMesh& mesh, float spacing) {
   std::vector<SurfaceSample> out;

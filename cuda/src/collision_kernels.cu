@@ -44,8 +44,8 @@ __global__ void respond(MeshView m, ParamView p, BvhView v, float margin, float 
     const P3* x = reinterpret_cast<const P3*>(m.x);
     const P3* centres = reinterpret_cast<const P3*>(m.cellCentre);
     P3 f{0, 0, 0};
-    k = contactResponse(v, own, x[i], reinterpret_cast<const P3*>(m.prev)[i], alpha * m.mass[i], margin, damping, reach, depth[i], hint[i], x,
-                        centres, f);
+    const P3 previous = reinterpret_cast<const P3*>(m.prev)[i];
+    k = contactResponse(v, own, x[i], previous, alpha * m.mass[i], margin, damping, reach, depth[i], hint[i], x, centres, f);
     m.force[i] = m.force[i] + make_float3(f.x, f.y, f.z);
   }
   if (stiffness) stiffness[i] = k;
@@ -59,7 +59,8 @@ void launchCollision(const MeshView& m, ParamView p, const CollisionDevice& c, f
   refit<<<(c.leafCount + kThreads - 1) / kThreads, kThreads, 0, s>>>(v, c.leaves, c.leafCount, c.visits,
                                                                       reinterpret_cast<const P3*>(m.x),
                                                                       reinterpret_cast<const P3*>(m.cellCentre));
-  respond<<<(m.vertices + kThreads - 1) / kThreads, kThreads, 0, s>>>(m, p, v, margin, damping, reach, c.depth, c.hint, c.stiffness);
+  respond<<<(m.vertices + kThreads - 1) / kThreads, kThreads, 0, s>>>(m, p, v, margin, damping, reach, c.depth, c.hint,
+                                                                      c.stiffness);
 }
 
 }  // namespace sinew::cuda

@@ -2,7 +2,7 @@
 // and response are core/collision_bvh.h, the code the CUDA backend runs too: each structure's box
 // (broad phase), then its hierarchy over the coarse proxy down to the Fig. 1b triangles (narrow
 // phase), refitted every step. A vertex inside another structure, or closer than the margin, is
-// pulled to the point `margin` outside that surface, and its own motion is damped while it touches.
+// pulled to the point `margin` outside that surface (optionally with extra damping while it touches).
 #include "sinew/core/collision_tree.h"
 #include "sinew/core/registry.h"
 

@@ -184,13 +184,13 @@ SINEW_HD Hit closestPoint(const BvhView& v, int mesh, P3 p, const P3* x, const P
 // unbounded, so that deep penetrations are seen.
 constexpr float kUnknownDepth = 1.0e30f;
 
-// The response at one vertex of structure `own` (alpha: its weight times its mass, so that every
-// vertex is moved alike whatever its mass; a light vertex under a force of the weight alone
-// overshoots, and its damping term then feeds the motion instead of taking it): for every other structure
-// whose box (grown by the margin) holds the vertex, if the vertex is inside that structure or
-// closer than the margin to it (by the side of the closest triangle), a pull to the point `margin`
-// outside its surface, and the vertex's own motion damped while it touches. Adds to `force`;
-// returns the summed pull stiffness (the implicit integrator's self block is minus that times I).
+// The response at one vertex of structure `own`. For every other structure whose box (grown by the
+// margin) holds the vertex: if the vertex is inside that structure or closer than the margin to it
+// (by the side of the closest triangle), a pull to the point `margin` outside its surface, plus
+// `damping` (0 by default) of the vertex's own motion while it touches. `alpha` is the weight times
+// the vertex's mass, so every vertex moves alike: under the weight alone a light vertex overshot.
+// Adds to `force`; returns the summed pull stiffness (the implicit integrator's self block is
+// minus that times I).
 // The search reaches `reach` plus twice the vertex's last step beyond its last penetration `depth`
 // (in/out: the deepest penetration below the margin found now, 0 without contact): a bounded
 // search is what keeps the narrow phase cheap. `hint` (in/out): the leaf of the vertex's nearest

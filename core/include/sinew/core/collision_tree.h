@@ -41,7 +41,6 @@ struct CollisionTree {
   // Throws NumericalError naming the first such pair, or with `ignore` (nested structures by design)
   // leaves every such pair out of the collisions.
   void handleEnclosures(MeshStore& store, const SceneData& scene, float margin, bool ignore);
-  std::size_t bytes() const;
 };
 
 inline const collision::P3* asP3(std::span<const Vec3> v) { return reinterpret_cast<const collision::P3*>(v.data()); }

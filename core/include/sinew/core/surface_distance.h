@@ -17,15 +17,6 @@ public:
   SurfaceDistanceQuery(SurfaceDistanceQuery&&) noexcept;
   float distance(const Vec3& p) const;
   Vec3 closestPoint(const Vec3& p) const;
-  // The closest point and the triangle it lies on (an index into the mesh's triangles).
-  struct Closest {
-    Vec3 point;
-    int triangle = -1;
-  };
-  Closest closest(const Vec3& p) const;
-  // The same triangles at new point positions: the tree's boxes are refitted, not rebuilt
-  // (meshes that deform keep their topology). `mesh` must have the triangles it was built with.
-  void refit(const TriangleMesh& mesh);
 
 private:
   struct Impl;
