@@ -449,6 +449,12 @@ RunReport SceneRunner::run() {
     try {
       work(*backend);
       return true;
+    } catch (const NumericalError& e) {
+      // The scene's problem (a structure inside another), not the backend's: the run stops as it
+      // would on the CPU, with the last good state.
+      report.numericalFailure = e.what();
+      if (options_.log) options_.log(std::string("numerical failure: ") + e.what());
+      return true;
     } catch (const std::runtime_error& e) {
       if (options_.log) options_.log(backend->name() + " backend failed (" + e.what() + "); continuing on the CPU");
       backend.reset();

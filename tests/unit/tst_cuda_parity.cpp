@@ -372,6 +372,18 @@ private slots:
       sim->initialize();
       return sim;
     };
+    // Without ignore_enclosed the device refuses the nested pair as the CPU does, naming both.
+    {
+      auto refused = nested();
+      refused->forceParams("collision").setAll("ignore_enclosed", 0.0);
+      cuda::CudaEngine e(*refused);
+      try {
+        e.run(1);
+        QFAIL("a structure inside another was not refused on the device");
+      } catch (const NumericalError& error) {
+        QVERIFY(QString(error.what()).contains("structure 'inner' lies inside structure 'outer'"));
+      }
+    }
     auto nestedCpu = nested(), nestedGpu = nested(), nestedInit = nested();
     nestedCpu->setStabilityGuard({false, 20.0, 0});
     nestedCpu->run(steps);
