@@ -53,7 +53,8 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   cli.add_option("--coarse-spacing-mm", coarseSpacing, "vertex spacing at the coarsest level")->capture_default_str();
   cli.add_option("--collision-weight", collisionWeight,
-                 "weight of the collision force at the finest level, for scenes of two or more structures (0: off)")
+                 "weight of the collision force on the levels that collide (--collision-levels), for scenes of two "
+                 "or more structures (0: off)")
       ->check(CLI::Range(0.0, 1.0))->capture_default_str();
   cli.add_option("--collision-levels", collisionLevels,
                  "how many of the finest levels collide (default: 1 in subject mode, 2 in demo mode)")
