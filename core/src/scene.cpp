@@ -121,7 +121,8 @@ ForceSettings readForces(const Node& n) {
 StructureDesc readStructureRest(const Node& n, StructureDesc& s);
 
 StructureDesc readStructure(const Node& n) {
-  n.expectObject({"name", "label", "reference", "initial", "forces", "density", "ground_truth", "attraction_points_mm"});
+  n.expectObject({"name", "label", "reference", "initial", "forces", "density", "ground_truth", "attraction_points_mm",
+                  "include_points_mm", "exclude_points_mm"});
   StructureDesc s;
   s.name = n.at("name").string();
   if (!plainFileName(s.name)) n.at("name").fail("the name names an output file: use letters, digits, '_', '-', '.' only");
@@ -168,12 +169,17 @@ StructureDesc readStructureRest(const Node& n, StructureDesc& s) {
     if (s.density < 0.0) n.at("density").fail("the density must be >= 0 (0 = automatic)");
   }
   if (n.has("ground_truth")) s.groundTruth = readLabelRef(n.at("ground_truth"));
-  if (n.has("attraction_points_mm"))
-    for (const Node& p : n.at("attraction_points_mm").elements()) {
-      s.attractionPointsMm.push_back(p.numbers<3>());
-      for (double v : s.attractionPointsMm.back())
+  const auto readPoints = [&](const char* key, std::vector<std::array<double, 3>>& out) {
+    if (!n.has(key)) return;
+    for (const Node& p : n.at(key).elements()) {
+      out.push_back(p.numbers<3>());
+      for (double v : out.back())
         if (!std::isfinite(v)) p.fail("coordinates must be finite");
     }
+  };
+  readPoints("attraction_points_mm", s.attractionPointsMm);
+  readPoints("include_points_mm", s.includePointsMm);
+  readPoints("exclude_points_mm", s.excludePointsMm);
   return s;
 }
 
@@ -272,6 +278,14 @@ SceneDesc parseScene(const std::string& text, const fs::path& file) {
         Node(json["structures"][i]["forces"][force], "/structures/" + std::to_string(i) + "/forces/" + force, file)
             .fail("force '" + force + "' is not listed in the scene's /forces");
     }
+  // Placed points do nothing without the force that applies them: say so rather than ignore them.
+  bool userPointsForce = false;
+  for (const auto& f : s.forces) userPointsForce |= f.first == "attraction_points";
+  for (size_t i = 0; i < s.structures.size() && !userPointsForce; ++i)
+    for (const char* key : {"attraction_points_mm", "include_points_mm", "exclude_points_mm"})
+      if (root.at("structures").elements()[i].has(key))
+        root.at("structures").elements()[i].at(key).fail(
+            "placed points need the force that applies them: add \"attraction_points\": {} to the scene's /forces");
 
   if (root.has("integrator")) {
     const Node integ = root.at("integrator");
@@ -378,6 +392,8 @@ std::string sceneToJson(const SceneDesc& s) {
     if (d.density != 0.0) o["density"] = d.density;
     if (d.groundTruth) o["ground_truth"] = labelRefJson(*d.groundTruth);
     if (!d.attractionPointsMm.empty()) o["attraction_points_mm"] = d.attractionPointsMm;
+    if (!d.includePointsMm.empty()) o["include_points_mm"] = d.includePointsMm;
+    if (!d.excludePointsMm.empty()) o["exclude_points_mm"] = d.excludePointsMm;
     structures.push_back(o);
   }
   j["structures"] = structures;

@@ -252,6 +252,13 @@ void SceneRunner::load() {
   for (size_t i = 0; i < scene_.structures.size(); ++i)
     for (const auto& p : scene_.structures[i].attractionPointsMm)
       L.sim->scene().attractionPoints()[i].push_back(Vec3(float(p[0]), float(p[1]), float(p[2])));
+  for (size_t i = 0; i < scene_.structures.size(); ++i) {
+    const StructureDesc& d = scene_.structures[i];
+    for (const auto& p : d.includePointsMm)
+      L.sim->scene().constraintPoints()[i].push_back({Vec3(float(p[0]), float(p[1]), float(p[2])), true});
+    for (const auto& p : d.excludePointsMm)
+      L.sim->scene().constraintPoints()[i].push_back({Vec3(float(p[0]), float(p[1]), float(p[2])), false});
+  }
   // The training image: the scene's, else the model's atlas.
   const std::optional<fs::path> training =
       scene_.trainingImage ? scene_.trainingImage : L.model ? std::optional<fs::path>(L.model->atlasImage) : std::nullopt;

@@ -28,6 +28,7 @@ Index Simulation::addStructure(StructureSpec spec) {
     throw InputError("structure '" + spec.name + "': reference shape does not match its mesh topology");
   structures_.push_back(std::move(spec));
   scene_.attractionPoints().resize(structures_.size());
+  scene_.constraintPoints().resize(structures_.size());
   scene_.addStructureName(structures_.back().name);
   return static_cast<Index>(structures_.size()) - 1;
 }

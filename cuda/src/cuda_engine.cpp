@@ -100,10 +100,12 @@ struct CudaEngine::Impl {
   // force keeps it from its prepare().
   int profileInside = 0, profileOutside = 0;
   float profileSpacing = 0.0f;
-  // Attraction points.
+  // Placed points: attraction, include and exclude.
   DeviceArray<float3> points;
-  DeviceArray<int> pointMesh;
+  DeviceArray<int> pointMesh, pointKind;
   DeviceArray<unsigned long long> keys;
+  DeviceArray<float> windings;
+  bool constraintPoints = false;  // any include / exclude point among them
   DeviceCollision collision;  // built while the collision force is active, per level
   // Drawing: contour segments and their count.
   DeviceArray<float3> contourOut;
@@ -128,21 +130,34 @@ struct CudaEngine::Impl {
       f.count = static_cast<int>(t.decls().size());
       f.params.upload(v, stream);
     }
+    // Per structure its attraction points, then its include / exclude points: the CPU force's order.
     std::vector<float3> pts;
-    std::vector<int> owner;
+    std::vector<int> owner, kind;
     const auto& ap = sim.scene().attractionPoints();
-    for (size_t m = 0; m < ap.size(); ++m)
-      for (const Vec3& c : ap[m]) {
-        pts.push_back(make_float3(c.x(), c.y(), c.z()));
-        owner.push_back(static_cast<int>(m));
-      }
+    const auto& cp = sim.scene().constraintPoints();
+    const auto add = [&](const Vec3& c, size_t m, int k) {
+      pts.push_back(make_float3(c.x(), c.y(), c.z()));
+      owner.push_back(static_cast<int>(m));
+      kind.push_back(k);
+    };
+    for (size_t m = 0; m < std::max(ap.size(), cp.size()); ++m) {
+      if (m < ap.size())
+        for (const Vec3& c : ap[m]) add(c, m, kAttractPoint);
+      if (m < cp.size())
+        for (const ConstraintPoint& c : cp[m]) add(c.at, m, c.include ? kIncludePoint : kExcludePoint);
+    }
     if (static_cast<int>(pts.size()) != pointCount) invalidateGraph();
     pointCount = static_cast<int>(pts.size());
     const float3* oldPoints = points.get();
     points.upload(pts, stream);
     pointMesh.upload(owner, stream);
+    pointKind.upload(kind, stream);
+    const float* oldWindings = windings.get();
     keys.resize(pts.size());
-    if (points.get() != oldPoints) invalidateGraph();
+    windings.resize(pts.size());
+    const bool anyConstraint = std::any_of(kind.begin(), kind.end(), [](int k) { return k != kAttractPoint; });
+    if (points.get() != oldPoints || windings.get() != oldWindings || anyConstraint != constraintPoints) invalidateGraph();
+    constraintPoints = anyConstraint;
     for (const ForceSlot& f : forces)
       if (f.kind == Kind::Gradient) uploadGradient(f);
     if (implicit()) uploadJacobianWeights();
@@ -415,8 +430,9 @@ struct CudaEngine::Impl {
                         profileOutside, profileSpacing, stream);
           break;
         case Kind::Attraction:
-          launchAttraction(view, p, t.indexOf("ring"), points.get(), pointMesh.get(), meshBegin.get(), meshEnd.get(),
-                           pointCount, keys.get(), stream);
+          launchAttraction(view, p, t.indexOf("ring"), t.indexOf("margin_mm"), points.get(), pointMesh.get(),
+                           pointKind.get(), meshBegin.get(), meshEnd.get(), pointCount, keys.get(), windings.get(),
+                           constraintPoints, stream);
           break;
         case Kind::Collision:
           if (collision.built())

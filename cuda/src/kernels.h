@@ -47,10 +47,13 @@ void launchGradient(const MeshView& m, ParamView p, int kEps, int kDepth, int kS
                     const float3* gradient, cudaStream_t s);
 void launchProfile(const MeshView& m, ParamView p, int kDepth, VolumeView volume, const float* image,
                    const float* profiles, int inside, int outside, float spacing, cudaStream_t s);
-// points: all attraction points, pointMesh: the structure of each; scratch: one 64-bit key per point.
-void launchAttraction(const MeshView& m, ParamView p, int kRing, const float3* points, const int* pointMesh,
-                      const int* meshBegin, const int* meshEnd, int pointCount, unsigned long long* scratch,
-                      cudaStream_t s);
+// The attraction_points force. points: every placed point; pointMesh: the structure of each;
+// pointKind: kAttractPoint, kIncludePoint or kExcludePoint; keys, windings: one of each per point;
+// constraints: whether any point is an include or exclude point (m.cellCentre is then required).
+constexpr int kAttractPoint = 0, kIncludePoint = 1, kExcludePoint = 2;
+void launchAttraction(const MeshView& m, ParamView p, int kRing, int kMargin, const float3* points, const int* pointMesh,
+                      const int* pointKind, const int* meshBegin, const int* meshEnd, int pointCount,
+                      unsigned long long* keys, float* windings, bool constraints, cudaStream_t s);
 void launchVerlet(const MeshView& m, float dt, float keep, cudaStream_t s);
 // The affine regularisation (affine_kernels.cu): adds share * (closest affine field of imageForce,
 // per structure) + (1 - share) * imageForce to m.force. parts: blocks per structure, each summing

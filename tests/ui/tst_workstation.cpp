@@ -6,6 +6,7 @@
 #include "interaction_tool.h"
 #include "main_window.h"
 #include "slice_view.h"
+#include "synthetic.h"
 #include "volume_view.h"
 
 #include <QApplication>
@@ -74,15 +75,16 @@ private Q_SLOTS:
   void toolPluginsRegisterOnce() {
     ToolRegistry tools;
     registerBuiltinTools(tools);
-    QCOMPARE(tools.tools().size(), std::size_t(3));
-    QVERIFY(tools.find("navigate") && tools.find("attraction_points") && tools.find("landmarks"));
+    QCOMPARE(tools.tools().size(), std::size_t(5));
+    QVERIFY(tools.find("navigate") && tools.find("attraction_points") && tools.find("landmarks") &&
+            tools.find("include_points") && tools.find("exclude_points"));
     try {
       registerBuiltinTools(tools);
       QFAIL("a tool name was registered twice");
     } catch (const std::logic_error& e) {
       QVERIFY2(std::string(e.what()).find("tool 'navigate' is already registered") != std::string::npos, e.what());
     }
-    QCOMPARE(tools.tools().size(), std::size_t(3));
+    QCOMPARE(tools.tools().size(), std::size_t(5));
   }
 
   void init() {
@@ -203,6 +205,68 @@ private Q_SLOTS:
     QVERIFY(session.redo());
     QCOMPARE(session.attractionPoints(s).size(), size_t(1));
     QVERIFY(nearestVertexDistance(session, s, placed) == d1);
+  }
+
+  // Include / exclude points: a click 3 mm outside the selected structure places an include point,
+  // and running pushes the structure until it holds the point (winding number of its surface
+  // about 1); the exclude tool places an exclude point; undo takes them back; Save Scene keeps both.
+  void includeAndExcludePointsPlaceRunAndUndo() {
+    SegmentationSession& session = window_->session();
+    DisplayScene& display = window_->display();
+    session.step(20);
+    const Index s = 0;
+    display.selected = s;
+    session.syncHost();
+    MeshStore& store = session.simulation().store();
+    Vec3 extreme = Vec3::Zero();
+    float best = -1e30f;
+    for (const Vec3& w : store.mesh(store.positions(), s)) {
+      const Vec3 d = display.toDisplay(w);
+      if (d.x() > best) best = d.x(), extreme = d;
+    }
+    display.cursor[2] = display.snapToSlice(2, extreme.z());
+    Vec3 target = extreme + Vec3(3, 0, 0);
+    target.z() = float(display.cursor[2]);
+    SliceView* axial = window_->sliceView(2);
+    axial->invalidate();
+    QApplication::processEvents();
+    window_->selectTool("include_points");
+    QTest::mouseClick(axial, Qt::LeftButton, {}, axial->widgetPosition(target).toPoint());
+    QCOMPARE(session.constraintPoints(s).size(), size_t(1));
+    const ConstraintPoint placed = session.constraintPoints(s)[0];
+    QVERIFY(placed.include);
+    const auto winding = [&] {
+      session.syncHost();
+      const TriangleMesh surface = testing::tessellationOf(session.simulation().store(), s);
+      double total = 0;
+      for (const auto& t : surface.triangles) {
+        const Eigen::Vector3d a = (surface.points[t[0]] - placed.at).cast<double>(),
+                              b = (surface.points[t[1]] - placed.at).cast<double>(),
+                              c = (surface.points[t[2]] - placed.at).cast<double>();
+        const double la = a.norm(), lb = b.norm(), lc = c.norm();
+        total += 2 * std::atan2(a.dot(b.cross(c)), la * lb * lc + a.dot(b) * lc + b.dot(c) * la + c.dot(a) * lb);
+      }
+      return total / (4 * M_PI);
+    };
+    QVERIFY(std::abs(winding()) < 0.01);  // outside when placed
+    session.step(60);
+    const double after = winding();
+    QVERIFY2(std::abs(after - 1.0) < 0.01, qPrintable(QString("winding number %1 after 60 steps").arg(after)));
+
+    window_->selectTool("exclude_points");
+    QTest::mouseClick(axial, Qt::LeftButton, {}, QPoint(axial->width() / 2, axial->height() / 2));
+    QCOMPARE(session.constraintPoints(s).size(), size_t(2));
+    QVERIFY(!session.constraintPoints(s)[1].include);
+    QCOMPARE(QString::fromStdString(session.undoLabel()), QString("Add exclude point"));
+    const std::filesystem::path saved = dir_.filePath("constraints.json").toStdString();
+    session.saveScene(saved);
+    const SceneDesc scene = readScene(saved);
+    QCOMPARE(scene.structures[s].includePointsMm.size(), size_t(1));
+    QCOMPARE(scene.structures[s].excludePointsMm.size(), size_t(1));
+    QVERIFY(session.undo());
+    QCOMPARE(session.constraintPoints(s).size(), size_t(1));
+    QVERIFY(session.undo());  // the 60 steps are not an edit: this takes back the include point
+    QVERIFY(session.constraintPoints(s).empty());
   }
 
   void dragMovesPointInOneUndoStep() {

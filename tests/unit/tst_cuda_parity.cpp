@@ -39,6 +39,8 @@ std::unique_ptr<Simulation> scene(const std::vector<std::string>& forces, int le
   sim->setIntegrator(integrator).set(0, "time_step", timeStep);
   sim->scene().setTargetImage(image);
   sim->scene().attractionPoints()[1].push_back(spec.centre + Vec3(-4, 2, 10));
+  // An include point 1.5 mm outside the first structure and an exclude point 1 mm inside it.
+  sim->scene().constraintPoints()[0] = {{spec.centre + Vec3(3, 0, 16.5f), true}, {spec.centre + Vec3(3, 0, -14), false}};
   sim->initialize();
   return sim;
 }

@@ -14,9 +14,10 @@ const char* kValid = R"({
   "structures": [
     {"name": "a", "label": 3, "reference": {"label_map": "l.nii.gz", "label": 3},
      "initial": {"rotation_axis": [0, 0, 1], "rotation_deg": 5, "translation_mm": [1, 2, 3], "scale": 1.05},
-     "forces": {"smoothing": {"weight": 0.5}}, "attraction_points_mm": [[1.5, -2, 30]]}
+     "forces": {"smoothing": {"weight": 0.5}}, "attraction_points_mm": [[1.5, -2, 30]],
+     "include_points_mm": [[1, 2, 3]], "exclude_points_mm": [[4, 5, 6], [7, 8, 9]]}
   ],
-  "forces": {"smoothing": {"weight": 0.1}, "shape_prior": {}},
+  "forces": {"smoothing": {"weight": 0.1}, "shape_prior": {}, "attraction_points": {}},
   "integrator": {"name": "damped_verlet", "time_step": 0.4},
   "schedule": [{"iterations": 10}, {"iterations": 5, "forces": {"smoothing": {"weight": 0.2}}}]
 })";
@@ -46,7 +47,10 @@ private slots:
     QCOMPARE(s.targetImage, std::filesystem::path("/data/t.nii.gz"));  // relative to the scene
     QCOMPARE(s.structures[0].reference.label->label, 3);
     QCOMPARE(s.structures[0].initial.scale, 1.05);
-    QCOMPARE(s.forces.size(), size_t(2));
+    QCOMPARE(s.forces.size(), size_t(3));
+    QCOMPARE(s.structures[0].includePointsMm.size(), size_t(1));
+    QCOMPARE(s.structures[0].excludePointsMm.size(), size_t(2));
+    QCOMPARE(s.structures[0].excludePointsMm[1][2], 9.0);
     QCOMPARE(s.forces[0].first, std::string("smoothing"));  // file order kept
     QCOMPARE(s.schedule.size(), size_t(2));
     QCOMPARE(s.integratorParams.front().second, 0.4);
@@ -72,6 +76,10 @@ private slots:
                                      << "/structures/0/reference: give either";
     QTest::newRow("attraction point") << R"([[1.5, -2, 30]])" << R"([[1.5, -2]])"
                                       << "/structures/0/attraction_points_mm/0: expected 3 numbers, got 2";
+    QTest::newRow("include point") << R"([[1, 2, 3]])" << R"([[1, 2, 3, 4]])"
+                                   << "/structures/0/include_points_mm/0: expected 3 numbers, got 4";
+    QTest::newRow("points without their force") << R"(, "attraction_points": {}})" << R"(})"
+                                                << "/structures/0/attraction_points_mm: placed points need the force";
     QTest::newRow("not json") << R"("version": 1,)" << R"("version": 1,,)" << "/data/scene.json: not valid JSON";
   }
   void errorsNameTheJsonPath() {
@@ -101,6 +109,8 @@ private slots:
     QCOMPARE(y.initial.scale, x.initial.scale);
     QVERIFY(y.forces == x.forces);
     QVERIFY(y.attractionPointsMm == x.attractionPointsMm);
+    QVERIFY(y.includePointsMm == x.includePointsMm);
+    QVERIFY(y.excludePointsMm == x.excludePointsMm);
     QVERIFY(b.forces == a.forces);
     QCOMPARE(b.integrator, a.integrator);
     QVERIFY(b.integratorParams == a.integratorParams);

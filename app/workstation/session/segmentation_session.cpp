@@ -168,6 +168,7 @@ bool SegmentationSession::hasGroundTruth() {
 std::size_t SegmentationSession::Snapshot::bytes() const {
   std::size_t b = sizeof(Snapshot) + label.size() + (positions.size() + previous.size()) * sizeof(Vec3);
   for (const auto& p : points) b += p.size() * sizeof(Vec3);
+  for (const auto& p : constraints) b += p.size() * sizeof(ConstraintPoint);
   b += landmarks.size() * sizeof(PlacedLandmark);
   for (const auto& t : forceParams) b += t.decls().size() * (sizeof(ParamDecl) + sizeof(double) * t.rows());
   return b;
@@ -184,6 +185,7 @@ SegmentationSession::Snapshot SegmentationSession::capture(std::string label) {
   s.positions.assign(x.begin(), x.end());
   s.previous.assign(prev.begin(), prev.end());
   s.points = sim.scene().attractionPoints();
+  s.constraints = sim.scene().constraintPoints();
   s.landmarks = landmarks_;
   for (const std::string& f : sim.forceNames()) s.forceParams.push_back(sim.forceParams(f));
   s.forceParams.push_back(sim.integratorParams());
@@ -198,6 +200,7 @@ void SegmentationSession::restore(const Snapshot& s) {
   std::copy(s.positions.begin(), s.positions.end(), x.begin());
   std::copy(s.previous.begin(), s.previous.end(), prev.begin());
   sim.scene().attractionPoints() = s.points;
+  sim.scene().constraintPoints() = s.constraints;
   landmarks_ = s.landmarks;
   const auto names = sim.forceNames();
   for (size_t f = 0; f < names.size(); ++f) sim.forceParams(names[f]) = s.forceParams[f];
@@ -271,6 +274,36 @@ void SegmentationSession::removeAttractionPoint(Index structure, int index) {
   auto& points = simulation().scene().attractionPoints()[structure];
   if (index < 0 || index >= static_cast<int>(points.size())) throw InputError("no such attraction point");
   beginEdit("Delete attraction point", false);
+  points.erase(points.begin() + index);
+  lastEdit_.clear();
+  changed();
+}
+
+const std::vector<ConstraintPoint>& SegmentationSession::constraintPoints(Index structure) {
+  return simulation().scene().constraintPoints()[structure];
+}
+
+void SegmentationSession::addConstraintPoint(Index structure, const ConstraintPoint& point) {
+  if (!point.at.allFinite()) throw InputError("an include / exclude point needs finite coordinates");
+  beginEdit(point.include ? "Add include point" : "Add exclude point", false);
+  simulation().scene().constraintPoints()[structure].push_back(point);
+  lastEdit_.clear();
+  changed();
+}
+
+void SegmentationSession::moveConstraintPoint(Index structure, int index, const Vec3& point, bool continuing) {
+  if (!point.allFinite()) throw InputError("an include / exclude point needs finite coordinates");
+  auto& points = simulation().scene().constraintPoints()[structure];
+  if (index < 0 || index >= static_cast<int>(points.size())) throw InputError("no such include / exclude point");
+  beginEdit("Move include / exclude point " + std::to_string(structure) + "/" + std::to_string(index), continuing);
+  points[index].at = point;
+  changed();
+}
+
+void SegmentationSession::removeConstraintPoint(Index structure, int index) {
+  auto& points = simulation().scene().constraintPoints()[structure];
+  if (index < 0 || index >= static_cast<int>(points.size())) throw InputError("no such include / exclude point");
+  beginEdit(points[index].include ? "Delete include point" : "Delete exclude point", false);
   points.erase(points.begin() + index);
   lastEdit_.clear();
   changed();
@@ -366,6 +399,10 @@ SceneDesc SegmentationSession::currentScene() {
     }
     d.attractionPointsMm.clear();
     for (const Vec3& p : sim.scene().attractionPoints()[i]) d.attractionPointsMm.push_back({p.x(), p.y(), p.z()});
+    d.includePointsMm.clear();
+    d.excludePointsMm.clear();
+    for (const ConstraintPoint& c : sim.scene().constraintPoints()[i])
+      (c.include ? d.includePointsMm : d.excludePointsMm).push_back({c.at.x(), c.at.y(), c.at.z()});
   }
   s.integratorParams.clear();
   const ParamTable& integ = sim.integratorParams();

@@ -91,6 +91,12 @@ public:
   void addAttractionPoint(Index structure, const Vec3& point);
   void moveAttractionPoint(Index structure, int index, const Vec3& point, bool continuing);
   void removeAttractionPoint(Index structure, int index);
+  // Include / exclude points (the attraction_points force pushes the structure until each lies on
+  // its side), undoable like the points above.
+  const std::vector<ConstraintPoint>& constraintPoints(Index structure);
+  void addConstraintPoint(Index structure, const ConstraintPoint& point);
+  void moveConstraintPoint(Index structure, int index, const Vec3& point, bool continuing);
+  void removeConstraintPoint(Index structure, int index);
   // Landmark pairs, undoable like the points above.
   const std::vector<PlacedLandmark>& landmarks() const { return landmarks_; }
   void addLandmark(const Vec3& from, const Vec3& to);
@@ -119,7 +125,7 @@ public:
   void setHistoryLimit(std::size_t bytes);
   std::size_t historyBytes() const;
 
-  // The scene as it stands: current parameter values and attraction points.
+  // The scene as it stands: current parameter values and placed points.
   SceneDesc currentScene();
   void saveScene(const std::filesystem::path& file);
   // One mesh per structure ("<name><ext>", ext e.g. ".vtp"); returns the files written.
@@ -132,6 +138,7 @@ private:
     int level = 0;
     std::vector<Vec3> positions, previous;
     std::vector<std::vector<Vec3>> points;
+    std::vector<std::vector<ConstraintPoint>> constraints;
     std::vector<PlacedLandmark> landmarks;
     std::vector<ParamTable> forceParams;  // the forces', then the integrator's
     std::size_t bytes() const;

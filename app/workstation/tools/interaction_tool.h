@@ -65,6 +65,7 @@ private:
 class PluginLoader;
 void registerNavigateTool(ToolRegistry& registry);
 void registerAttractionTool(ToolRegistry& registry);
+void registerConstraintTools(ToolRegistry& registry);  // include points, exclude points
 void registerLandmarkTool(ToolRegistry& registry);
 // The built-in tools, added as built-in tool plugins (tools/builtin_tools.cpp); the loader must
 // have been given the tool registry.

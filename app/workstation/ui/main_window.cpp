@@ -105,6 +105,9 @@ void MainWindow::buildViews() {
         [this](const SlicePlane& plane) { return drawing_->contours(session_, plane); },
         [this](Index s) { return session_.isOpen() ? session_.attractionPoints(s) : std::vector<Vec3>{}; });
     view->setLandmarksProvider([this] { return landmarkPairs(); });
+    view->setConstraintsProvider([this](Index s) {
+      return session_.isOpen() ? session_.constraintPoints(s) : std::vector<ConstraintPoint>{};
+    });
     connect(view, &SliceView::toolPressed, this, [this](const ViewPointerEvent& e) {
       if (!tool_) return;
       auto ctx = toolContext();
@@ -140,6 +143,9 @@ void MainWindow::buildViews() {
   volume_->setPointsProvider(
       [this](Index s) { return session_.isOpen() ? session_.attractionPoints(s) : std::vector<Vec3>{}; });
   volume_->setLandmarksProvider([this] { return landmarkPairs(); });
+  volume_->setConstraintsProvider([this](Index s) {
+    return session_.isOpen() ? session_.constraintPoints(s) : std::vector<ConstraintPoint>{};
+  });
   volume_->setMapperFactory([this](Index s) { return drawing_->makeMapper(s); });
   volume_->beforeRender = [this] {
     if (session_.isOpen()) drawing_->beforeRender(session_, display_);

@@ -8,6 +8,7 @@
 #pragma once
 
 #include "sinew/core/image.h"
+#include "sinew/core/scene_data.h"
 #include "surface_source.h"
 
 #include <vtkSmartPointer.h>
@@ -92,5 +93,12 @@ using LandmarksProvider = std::function<std::vector<std::pair<Vec3, Vec3>>()>;
 // yellow, a line between them where both ends are placed.
 void appendLandmarks(DisplayScene& scene, const LandmarksProvider& pairs, const std::function<bool(Vec3&)>& place,
                      vtkPolyData* out);
+
+// Include / exclude points of a structure (world mm).
+using ConstraintsProvider = std::function<std::vector<ConstraintPoint>(Index structure)>;
+// Appends the visible structures' include points in green and exclude points in red to a cloud
+// filled by fillPointCloud.
+void appendConstraintPoints(DisplayScene& scene, const ConstraintsProvider& points,
+                            const std::function<bool(Vec3&)>& place, vtkPolyData* out);
 
 }  // namespace sinew

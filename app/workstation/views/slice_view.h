@@ -44,6 +44,7 @@ public:
 
   void setProviders(ContourProvider contours, PointsProvider points);
   void setLandmarksProvider(LandmarksProvider landmarks) { landmarks_ = std::move(landmarks); }
+  void setConstraintsProvider(ConstraintsProvider points) { constraints_ = std::move(points); }
   // Rebuilds actors for a new scene (image, structures) and frames the slice.
   void resetScene();
   void resetCamera();
@@ -77,6 +78,7 @@ private:
   ContourProvider contours_;
   PointsProvider points_;
   LandmarksProvider landmarks_;
+  ConstraintsProvider constraints_;
   vtkSmartPointer<vtkImageSliceMapper> sliceMapper_;
   vtkSmartPointer<vtkImageSlice> slice_;
   std::vector<vtkSmartPointer<vtkPolyData>> contourData_;

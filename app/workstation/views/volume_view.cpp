@@ -103,6 +103,7 @@ void VolumeView::prepareRender() {
   if (dirty_) {
     fillPointCloud(scene_, points_, [](Vec3&) { return true; }, 0.0, pointsData_);
     appendLandmarks(scene_, landmarks_, [](Vec3&) { return true; }, pointsData_);
+    appendConstraintPoints(scene_, constraints_, [](Vec3&) { return true; }, pointsData_);
     dirty_ = false;
   }
   renderer()->ResetCameraClippingRange();

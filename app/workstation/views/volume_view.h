@@ -29,6 +29,7 @@ public:
   void setMapperFactory(MapperFactory factory) { mapperFactory_ = std::move(factory); }
   void setPointsProvider(PointsProvider points) { points_ = std::move(points); }
   void setLandmarksProvider(LandmarksProvider landmarks) { landmarks_ = std::move(landmarks); }
+  void setConstraintsProvider(ConstraintsProvider points) { constraints_ = std::move(points); }
   void resetScene();
   void resetCamera();
   void invalidate() { dirty_ = true; update(); }
@@ -48,6 +49,7 @@ private:
   MapperFactory mapperFactory_;
   PointsProvider points_;
   LandmarksProvider landmarks_;
+  ConstraintsProvider constraints_;
   std::vector<vtkSmartPointer<vtkActor>> surfaces_;
   vtkSmartPointer<vtkImageSliceMapper> sliceMappers_[3];
   vtkSmartPointer<vtkImageSlice> slices_[3];

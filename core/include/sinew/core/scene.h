@@ -51,6 +51,8 @@ struct StructureDesc {
   double density = 0.0;
   std::optional<LabelRef> groundTruth;
   std::vector<std::array<double, 3>> attractionPointsMm;  // placed by the user (paper 000 section 4.5)
+  // Points the structure must include or exclude (paper 001 section 4).
+  std::vector<std::array<double, 3>> includePointsMm, excludePointsMm;
 };
 
 struct LevelDesc {

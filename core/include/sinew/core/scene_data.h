@@ -1,5 +1,5 @@
 // Inputs the forces read besides the mesh store: images and what the user placed (attraction
-// points). Image-derived data (the gradient volume) is built the first time a force asks for it,
+// points, include / exclude points). Image-derived data (the gradient volume) is built the first time a force asks for it,
 // so a scene without image forces allocates none.
 #pragma once
 
@@ -11,6 +11,13 @@
 #include <vector>
 
 namespace sinew {
+
+// A point the user requires inside (include) or outside (exclude) a structure, world mm.
+struct ConstraintPoint {
+  Vec3 at = Vec3::Zero();
+  bool include = true;
+  bool operator==(const ConstraintPoint&) const = default;
+};
 
 class SceneData {
 public:
@@ -37,6 +44,10 @@ public:
   // Attraction points per structure (paper 000 section 4.5), in world millimetres.
   std::vector<std::vector<Vec3>>& attractionPoints() { return attractionPoints_; }
   const std::vector<std::vector<Vec3>>& attractionPoints() const { return attractionPoints_; }
+  // Include / exclude points per structure (paper 001 section 4): the structure is pushed until
+  // each include point lies inside it and each exclude point outside.
+  std::vector<std::vector<ConstraintPoint>>& constraintPoints() { return constraintPoints_; }
+  const std::vector<std::vector<ConstraintPoint>>& constraintPoints() const { return constraintPoints_; }
 
   // The structures' names in store order, for messages that name them.
   void addStructureName(const std::string& name) { structureNames_.push_back(name); }
@@ -49,6 +60,7 @@ private:
   std::unique_ptr<VectorVolume> gradient_;
   float gradientSigma_ = -1.0f;
   std::vector<std::vector<Vec3>> attractionPoints_;
+  std::vector<std::vector<ConstraintPoint>> constraintPoints_;
   SpatialMap trainingMap_;  // identity unless the scene was initialised
   std::vector<std::string> structureNames_;
 };
