@@ -4,6 +4,7 @@
 
 #include "sinew/core/io.h"
 
+#include <algorithm>
 #include <cctype>
 #include <cmath>
 #include <fstream>
@@ -241,7 +242,7 @@ SceneDesc parseScene(const std::string& text, const fs::path& file) {
   }
   const Node root(json, "", file);
   root.expectObject({"version", "description", "images", "structures", "forces", "integrator", "schedule",
-                     "model", "initialise", "report", "outputs", "stability", "plugins"});
+                     "model", "initialise", "report", "outputs", "stability", "plugins", "contact_pairs"});
   SceneDesc s;
   s.file = file;
   s.version = root.at("version").integer();
@@ -270,6 +271,23 @@ SceneDesc parseScene(const std::string& text, const fs::path& file) {
       root.at("structures").fail("structure name '" + s.structures[i].name + "' is used twice");
 
   s.forces = readForces(root.at("forces"));
+  if (root.has("contact_pairs")) {
+    bool contactsForce = false;
+    for (const auto& f : s.forces) contactsForce |= f.first == "contacts";
+    if (!contactsForce)
+      root.at("contact_pairs").fail("contact pairs need the force that keeps them: add \"contacts\": {} to the scene's /forces");
+    std::set<std::pair<std::string, std::string>> seen;
+    for (const Node& pair : root.at("contact_pairs").elements()) {
+      const auto members = pair.elements();
+      if (members.size() != 2) pair.fail("expected two structure names");
+      std::array<std::string, 2> p{members[0].string(), members[1].string()};
+      for (int k = 0; k < 2; ++k)
+        if (!names.count(p[k])) members[k].fail("no structure is named '" + p[k] + "'");
+      if (p[0] == p[1]) pair.fail("a structure cannot be in contact with itself");
+      if (!seen.insert(std::minmax(p[0], p[1])).second) pair.fail("the pair is listed twice");
+      s.contactPairs.push_back(p);
+    }
+  }
   for (size_t i = 0; i < s.structures.size(); ++i)
     for (const auto& [force, params] : s.structures[i].forces) {
       bool known = false;
@@ -398,6 +416,7 @@ std::string sceneToJson(const SceneDesc& s) {
   }
   j["structures"] = structures;
   if (!s.plugins.empty()) j["plugins"] = s.plugins;
+  if (!s.contactPairs.empty()) j["contact_pairs"] = s.contactPairs;
   j["forces"] = forcesJson(s.forces);
   j["integrator"]["name"] = s.integrator;
   for (const auto& [name, value] : s.integratorParams) j["integrator"][name] = value;

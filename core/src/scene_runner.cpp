@@ -141,6 +141,14 @@ void SceneRunner::load() {
   L.sim = std::make_unique<Simulation>(registry_, options_.threads);
   t0 = Clock::now();
   std::vector<StructureSpec> specs;
+  for (const auto& [a, b] : scene_.contactPairs) {
+    std::array<Index, 2> pair{-1, -1};
+    for (size_t i = 0; i < scene_.structures.size(); ++i) {
+      if (scene_.structures[i].name == a) pair[0] = Index(i);
+      if (scene_.structures[i].name == b) pair[1] = Index(i);
+    }
+    L.sim->scene().contactPairs().push_back(pair);  // the parser checked both names
+  }
   for (size_t i = 0; i < scene_.structures.size(); ++i) {
     const StructureDesc& d = scene_.structures[i];
     const std::string where = "/structures/" + std::to_string(i);

@@ -12,8 +12,18 @@ namespace {
 constexpr unsigned kThreads = 128;
 using namespace sinew::collision;
 
-__global__ void refit(BvhView v, const int* leaves, int leafCount, int* visits, const P3* x, const P3* centres) {
+// visits[nodeCount] (zeroed with the counters) gathers the largest step of any vertex, as float
+// bits (non-negative floats order like their bits), one atomic per warp.
+__global__ void refit(BvhView v, const int* leaves, int leafCount, int* visits, const P3* x, const P3* previous,
+                      const P3* centres) {
   const int l = blockIdx.x * blockDim.x + threadIdx.x;
+  float step = 0.0f;
+  if (l < leafCount) {
+    const Node& leaf = v.nodes[leaves[l]];
+    step = largestStep(x, previous, v.order, leaf.first, leaf.first + leaf.count);
+  }
+  const unsigned largest = __reduce_max_sync(0xffffffffu, __float_as_uint(step));
+  if ((threadIdx.x & 31) == 0) atomicMax(reinterpret_cast<unsigned*>(visits + v.nodeCount), largest);
   if (l >= leafCount) return;
   int id = leaves[l];
   v.boxes[id] = leafBox(v, v.nodes[id], x, centres);
@@ -33,8 +43,8 @@ __global__ void refit(BvhView v, const int* leaves, int leafCount, int* visits, 
   }
 }
 
-__global__ void respond(MeshView m, ParamView p, BvhView v, float margin, float damping, float reach, float* depth,
-                        int* hint, float* stiffness) {
+__global__ void respond(MeshView m, ParamView p, BvhView v, float margin, float damping, float reach,
+                        const int* visits, float* depth, float* clearance, int* hint, float* stiffness) {
   const int i = blockIdx.x * blockDim.x + threadIdx.x;
   if (i >= m.vertices) return;
   const int own = m.meshOf[i];
@@ -45,22 +55,41 @@ __global__ void respond(MeshView m, ParamView p, BvhView v, float margin, float 
     const P3* centres = reinterpret_cast<const P3*>(m.cellCentre);
     P3 f{0, 0, 0};
     const P3 previous = reinterpret_cast<const P3*>(m.prev)[i];
-    k = contactResponse(v, own, x[i], previous, alpha * m.mass[i], margin, damping, reach, depth[i], hint[i], x, centres, f);
+    const float maxMotion = __uint_as_float(static_cast<unsigned>(visits[v.nodeCount]));
+    k = contactResponse(v, own, x[i], previous, alpha * m.mass[i], margin, damping, reach, maxMotion, depth[i],
+                        clearance[i], hint[i], x, centres, f);
     m.force[i] = m.force[i] + make_float3(f.x, f.y, f.z);
+  }
+  if (stiffness) stiffness[i] = k;
+}
+__global__ void contactSprings(MeshView m, ParamView p, const int* partner, const float3* offset, float* stiffness) {
+  const int i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i >= m.vertices) return;
+  const int j = partner[i];
+  const float alpha = param(p, m.meshOf[i], 0);
+  float k = 0.0f;
+  if (j >= 0 && alpha > 0.0f) {
+    k = alpha * m.mass[i];
+    m.force[i] = m.force[i] + k * ((m.x[j] + offset[i]) - m.x[i]);
   }
   if (stiffness) stiffness[i] = k;
 }
 }  // namespace
 
+void launchContactSprings(const MeshView& m, ParamView p, const int* partner, const float3* offset, float* stiffness,
+                          cudaStream_t s) {
+  contactSprings<<<(m.vertices + kThreads - 1) / kThreads, kThreads, 0, s>>>(m, p, partner, offset, stiffness);
+}
+
 void launchCollision(const MeshView& m, ParamView p, const CollisionDevice& c, float margin, float damping, float reach,
                      cudaStream_t s) {
   BvhView v{c.nodes, c.boxes, c.tris, c.order, c.roots, c.exempt, c.meshes, c.nodeCount};
-  SINEW_CUDA(cudaMemsetAsync(c.visits, 0, sizeof(int) * c.nodeCount, s));
-  refit<<<(c.leafCount + kThreads - 1) / kThreads, kThreads, 0, s>>>(v, c.leaves, c.leafCount, c.visits,
-                                                                      reinterpret_cast<const P3*>(m.x),
-                                                                      reinterpret_cast<const P3*>(m.cellCentre));
-  respond<<<(m.vertices + kThreads - 1) / kThreads, kThreads, 0, s>>>(m, p, v, margin, damping, reach, c.depth, c.hint,
-                                                                      c.stiffness);
+  SINEW_CUDA(cudaMemsetAsync(c.visits, 0, sizeof(int) * (c.nodeCount + 1), s));
+  refit<<<(c.leafCount + kThreads - 1) / kThreads, kThreads, 0, s>>>(
+      v, c.leaves, c.leafCount, c.visits, reinterpret_cast<const P3*>(m.x), reinterpret_cast<const P3*>(m.prev),
+      reinterpret_cast<const P3*>(m.cellCentre));
+  respond<<<(m.vertices + kThreads - 1) / kThreads, kThreads, 0, s>>>(m, p, v, margin, damping, reach, c.visits, c.depth,
+                                                                      c.clearance, c.hint, c.stiffness);
 }
 
 }  // namespace sinew::cuda

@@ -4,6 +4,7 @@
 
 #include "cuda_check.h"
 #include "device_collision.h"
+#include "sinew/core/contact_links.h"
 #include "device_store.h"
 #include "kernels.h"
 
@@ -60,7 +61,7 @@ VolumeView viewOf(const ImageGeometry& g) {
 }
 
 // Built-in forces have kernels here; a plugin's force brings its own (DeviceForce).
-enum class Kind { Smoothing, ShapePrior, Gradient, Profile, Attraction, Collision, Plugin };
+enum class Kind { Smoothing, ShapePrior, Gradient, Profile, Attraction, Collision, Contacts, Plugin };
 }  // namespace
 
 struct CudaEngine::Impl {
@@ -107,6 +108,12 @@ struct CudaEngine::Impl {
   DeviceArray<float> windings;
   bool constraintPoints = false;  // any include / exclude point among them
   DeviceCollision collision;  // built while the collision force is active, per level
+  // Deforming contacts: per vertex its partner and reference offset, found once per level while
+  // the contacts force is active (contactsBuilt), and the spring stiffness for implicit Euler.
+  DeviceArray<int> contactPartner;
+  DeviceArray<float3> contactOffset;
+  DeviceArray<float> springPull;
+  bool contactsBuilt = false;
   // Drawing: contour segments and their count.
   DeviceArray<float3> contourOut;
   DeviceArray<int> contourCount, contourBase;
@@ -180,6 +187,36 @@ struct CudaEngine::Impl {
         collision.build(sim.store(), sim.scene(), t.getf(0, t.indexOf("margin_mm")),
                         t.getf(0, t.indexOf("ignore_enclosed")) > 0.5f, implicit(), stream);
         invalidateGraph();
+      }
+  }
+
+  bool contactsActive() const {
+    for (const ForceSlot& f : forces)
+      if (f.kind == Kind::Contacts) return contactsBuilt && sim.forceParams(f.name).anyPositive(0);
+    return false;
+  }
+  // The level's contact links (core/contact_links.h), found on the host's reference shapes on first
+  // use at each level, before any capture; nothing is allocated without contact pairs.
+  void prepareContacts() {
+    for (const ForceSlot& f : forces)
+      if (f.kind == Kind::Contacts && !contactsBuilt && sim.forceParams(f.name).anyPositive(0)) {
+        const ParamTable& t = sim.forceParams(f.name);
+        const ContactLinks links =
+            findContactLinks(sim.store(), sim.scene().contactPairs(), t.getf(0, t.indexOf("distance_mm")));
+        contactsBuilt = true;
+        invalidateGraph();
+        if (links.linked == 0) {
+          contactPartner.resize(0);
+          contactOffset.resize(0);
+          springPull.resize(0);
+          return;
+        }
+        std::vector<int> partner(links.partner.begin(), links.partner.end());
+        contactPartner.upload(partner, stream);
+        uploadAs(contactOffset, std::span<const Vec3>(links.offset), stream);
+        springPull.resize(implicit() ? partner.size() : 0);
+        if (implicit()) SINEW_CUDA(cudaMemsetAsync(springPull.get(), 0, springPull.bytes(), stream));
+        SINEW_CUDA(cudaStreamSynchronize(stream));  // the host vectors go out of scope
       }
   }
 
@@ -318,6 +355,7 @@ struct CudaEngine::Impl {
     if (s.has(Attribute::Area)) area.resize(s.vertexCount());
     if (s.has(Attribute::CellCentre)) centre.resize(s.cellCount());
     collision.clear();  // the level's topology: built again when the force runs
+    contactsBuilt = false;
     if (s.has(Attribute::Mass)) mass.resize(s.vertexCount());
     if (implicit()) {
       for (auto* a : {&implicitA, &implicitB, &implicitOff}) a->resize(s.vertexCount());
@@ -393,7 +431,8 @@ struct CudaEngine::Impl {
     for (; next < forces.size() && fused.count < 4; ++next) {
       const ForceSlot& f = forces[next];
       const ParamTable& t = sim.forceParams(f.name);
-      if (f.kind == Kind::Profile || f.kind == Kind::Attraction || f.kind == Kind::Collision || f.kind == Kind::Plugin)
+      if (f.kind == Kind::Profile || f.kind == Kind::Attraction || f.kind == Kind::Collision ||
+          f.kind == Kind::Contacts || f.kind == Kind::Plugin)
         break;
       if (regularise && f.kind == Kind::Gradient) break;
       if (!t.anyPositive(0)) continue;
@@ -439,6 +478,10 @@ struct CudaEngine::Impl {
             launchCollision(view, p, collision.view(), t.getf(0, t.indexOf("margin_mm")),
                             t.getf(0, t.indexOf("contact_damping")), t.getf(0, t.indexOf("reach_mm")), stream);
           break;
+        case Kind::Contacts:
+          if (contactPartner.get())
+            launchContactSprings(view, p, contactPartner.get(), contactOffset.get(), springPull.get(), stream);
+          break;
         case Kind::Plugin: checkPlugin(f, f.device->enqueue(pluginContext(f)), "enqueue"); break;
       }
     }
@@ -451,7 +494,8 @@ struct CudaEngine::Impl {
       launchVerlet(view, ip.getf(0, ip.indexOf("time_step")), 1.0f - ip.getf(0, ip.indexOf("damping")), stream);
       return;
     }
-    const ImplicitTerms terms{meshPull.get(), meshNormalPull.get(), collisionActive() ? collision.stiffness() : nullptr};
+    const ImplicitTerms terms{meshPull.get(), meshNormalPull.get(), collisionActive() ? collision.stiffness() : nullptr,
+                              contactsActive() ? springPull.get() : nullptr};
     const ImplicitWork work{implicitA.get(), implicitB.get(), implicitOff.get(), implicitVel.get(), implicitRhs.get(),
                             implicitR.get(), implicitZ.get(), implicitP.get(), implicitAp.get(), implicitScalars.get()};
     launchImplicitEuler(view, terms, work, ip.getf(0, ip.indexOf("time_step")), ip.getf(0, ip.indexOf("damping_rate")),
@@ -471,7 +515,8 @@ CudaEngine::CudaEngine(Simulation& simulation) : impl_(std::make_unique<Impl>(si
                                                     {"gradient", Kind::Gradient},
                                                     {"intensity_profile", Kind::Profile},
                                                     {"attraction_points", Kind::Attraction},
-                                                    {"collision", Kind::Collision}};
+                                                    {"collision", Kind::Collision},
+                                                    {"contacts", Kind::Contacts}};
   for (const std::string& name : simulation.forceNames()) {
     auto it = kinds.find(name);
     DeviceForce* device = it == kinds.end() ? simulation.force(name).deviceForce() : nullptr;
@@ -514,6 +559,7 @@ void CudaEngine::run(int iterations) {
   const int total = iterations;
   I.uploadParams();
   I.prepareCollision();
+  I.prepareContacts();
   // Per-structure values are read from device memory, but which kernels run (a force weighted 0
   // everywhere is skipped) and the values passed by value are baked into the captured graph: it is
   // captured again when any of them changed.
@@ -662,7 +708,8 @@ std::size_t CudaEngine::deviceBytes() const {
          I.prev.bytes() + I.force.bytes() + I.normal.bytes() + I.centre.bytes() + I.reference.bytes() +
          I.image.bytes() + I.profiles.bytes() + I.gradient.bytes() + I.contourOut.bytes() + I.implicitA.bytes() +
          I.implicitB.bytes() + I.implicitOff.bytes() + I.implicitVel.bytes() + I.implicitRhs.bytes() +
-         I.implicitR.bytes() + I.implicitZ.bytes() + I.implicitP.bytes() + I.implicitAp.bytes() + I.collision.bytes();
+         I.implicitR.bytes() + I.implicitZ.bytes() + I.implicitP.bytes() + I.implicitAp.bytes() + I.collision.bytes() +
+         I.contactPartner.bytes() + I.contactOffset.bytes() + I.springPull.bytes();
 }
 
 }  // namespace sinew::cuda

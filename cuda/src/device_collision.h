@@ -26,7 +26,7 @@ private:
   DeviceArray<collision::Box> boxes_;
   DeviceArray<collision::Tri> tris_;
   DeviceArray<int> order_, roots_, leaves_, visits_, hint_;
-  DeviceArray<float> stiffness_, depth_;
+  DeviceArray<float> stiffness_, depth_, clearance_;
   DeviceArray<unsigned char> exempt_;
   int meshes_ = 0;
 };

@@ -61,6 +61,7 @@ __global__ void setup(MeshView m, ImplicitTerms t, float h, float kappa, float* 
   const float pull = t.meshPull[mesh], normalPull = t.meshNormalPull[mesh];
   a[v] = m.mass[v] * (1.0f + h * kappa) + h * h * pull;
   if (t.contactPull) a[v] += h * h * t.contactPull[v];
+  if (t.springPull) a[v] += h * h * t.springPull[v];
   b[v] = h * h * normalPull;
   off[v] = h * h * pull / 3.0f;
   const float3 velocity = (m.x[v] - m.prev[v]) / h;

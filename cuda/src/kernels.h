@@ -69,6 +69,7 @@ struct ImplicitTerms {
   const float* meshPull = nullptr;
   const float* meshNormalPull = nullptr;
   const float* contactPull = nullptr;  // per vertex (collisions: self block -contactPull I), or null
+  const float* springPull = nullptr;   // per vertex (deforming contacts: self block -springPull I), or null
 };
 // Work arrays, one entry per vertex, and the solve's scalars.
 constexpr int kImplicitScalars = 8;
@@ -107,13 +108,18 @@ struct CollisionDevice {
   const int* order = nullptr;
   const int* roots = nullptr;
   const int* leaves = nullptr;
-  int* visits = nullptr;  // per node, the refit's arrival counters
+  int* visits = nullptr;  // per node, the refit's arrival counters; then the step's largest motion
   float* stiffness = nullptr;
   float* depth = nullptr;  // per vertex, the last penetration (collision::contactResponse)
+  float* clearance = nullptr;  // per vertex, the lower bound on its distance to other surfaces
   int* hint = nullptr;     // per vertex, the last nearest contact leaf
   const unsigned char* exempt = nullptr;  // pairs left out (meshes x meshes), or null
   int meshes = 0, nodeCount = 0, leafCount = 0;
 };
+// Deforming contacts (collision_kernels.cu; core/contact_links.h): adds alpha m_i (x_j + o_i - x_i)
+// to m.force for each vertex i with a partner j; stiffness (may be null) gets alpha m_i, or 0.
+void launchContactSprings(const MeshView& m, ParamView p, const int* partner, const float3* offset, float* stiffness,
+                          cudaStream_t s);
 // Refits the hierarchies (needs m.cellCentre) and adds the contact response to m.force.
 void launchCollision(const MeshView& m, ParamView p, const CollisionDevice& c, float margin, float damping, float reach,
                      cudaStream_t s);

@@ -80,6 +80,12 @@ private slots:
                                    << "/structures/0/include_points_mm/0: expected 3 numbers, got 4";
     QTest::newRow("points without their force") << R"(, "attraction_points": {}})" << R"(})"
                                                 << "/structures/0/attraction_points_mm: placed points need the force";
+    QTest::newRow("contact pairs without their force") << R"("version": 1,)" << R"("version": 1, "contact_pairs": [["a", "a"]],)"
+                                                       << "/contact_pairs: contact pairs need the force";
+    QTest::newRow("contact pair unknown") << R"("attraction_points": {}})" << R"("attraction_points": {}, "contacts": {}}, "contact_pairs": [["a", "b"]])"
+                                          << "/contact_pairs/0/1: no structure is named 'b'";
+    QTest::newRow("contact pair self") << R"("attraction_points": {}})" << R"("attraction_points": {}, "contacts": {}}, "contact_pairs": [["a", "a"]])"
+                                       << "/contact_pairs/0: a structure cannot be in contact with itself";
     QTest::newRow("not json") << R"("version": 1,)" << R"("version": 1,,)" << "/data/scene.json: not valid JSON";
   }
   void errorsNameTheJsonPath() {

@@ -23,6 +23,7 @@ public:
     stiffness_.clear();
     depth_.assign(ctx.store.vertexCount(), collision::kUnknownDepth);
     hint_.assign(ctx.store.vertexCount(), -1);
+    clearance_.assign(ctx.store.vertexCount(), 0.0f);
     builtFor_ = ctx.store.vertexCount();
     checked_ = false;
     if (ctx.store.meshCount() >= 2 && ctx.params.anyPositive(0)) tree_ = CollisionTree::build(ctx.store);
@@ -48,10 +49,18 @@ public:
     const auto meshOf = s.meshOfVertex();
     const auto mass = s.masses();
     stiffness_.assign(s.vertexCount(), 0.0f);
+    // The largest step of any vertex bounds how far another surface came closer (as the device's refit).
+    const collision::P3* prev = asP3(std::span<const Vec3>(previous));
+    const float maxMotion = ctx.executor.reduce(
+        0, s.vertexCount(), 0.0f,
+        [&](Index begin, Index end, float m) {
+          return std::max(m, collision::largestStep(x, prev, tree_.order.data(), begin, end));
+        },
+        [](float a, float b) { return std::max(a, b); });
     forActiveVertices(ctx, [&](Index v, float alpha) {
       collision::P3 f{0, 0, 0};
       stiffness_[v] = collision::contactResponse(view, int(meshOf[v]), x[v], asP3(previous[v]), alpha * mass[v], margin, damping,
-                                                 reach, depth_[v], hint_[v], x, centres, f);
+                                                 reach, maxMotion, depth_[v], clearance_[v], hint_[v], x, centres, f);
       forces[v] += asVec3(f);
     });
   }
@@ -72,6 +81,7 @@ private:
   std::vector<float> stiffness_;
   std::vector<float> depth_;  // each vertex's last penetration (collision::contactResponse)
   std::vector<int> hint_;     // each vertex's last nearest contact leaf
+  std::vector<float> clearance_;  // each vertex's lower bound on its distance to other surfaces
 };
 }  // namespace
 

@@ -195,24 +195,41 @@ constexpr float kUnknownDepth = 1.0e30f;
 // (in/out: the deepest penetration below the margin found now, 0 without contact): a bounded
 // search is what keeps the narrow phase cheap. `hint` (in/out): the leaf of the vertex's nearest
 // contact at the last step, where this step's search starts.
+// `clearance` (in/out): a lower bound on the vertex's distance to every other surface, from its
+// last search, less every step since of its own motion and `maxMotion`, the largest step of any
+// vertex this step (no point of another surface moved further). While it exceeds the margin no
+// contact is possible and the vertex skips the search: most vertices, most steps.
 SINEW_HD float contactResponse(const BvhView& v, int own, P3 p, P3 previous, float alpha, float margin, float damping,
-                               float reach, float& depth, int& hint, const P3* x, const P3* centres, P3& force) {
+                               float reach, float maxMotion, float& depth, float& clearance, int& hint, const P3* x,
+                               const P3* centres, P3& force) {
+  const P3 moved = sub(p, previous);
+  const float step = sqrtf(dot3(moved, moved));
+  if (depth < kUnknownDepth) {
+    clearance -= step + maxMotion;
+    if (clearance > margin) {
+      depth = 0.0f;
+      return 0.0f;
+    }
+  }
   // Twice the vertex's own last step stands for how far it and the other surface may close in
   // this step: pushes of tenths of a millimetre a step would outrun a fixed reach.
-  const P3 moved = sub(p, previous);
-  const float radius = depth + margin + reach + 2.0f * sqrtf(dot3(moved, moved));
-  const float maxD2 = depth >= kUnknownDepth ? 3.0e38f : radius * radius;
-  float deepest = 0.0f, nearest = 3.0e38f;
+  const float radius = depth + margin + reach + 2.0f * step;
+  const bool bounded = depth < kUnknownDepth;
+  const float maxD2 = bounded ? radius * radius : 3.0e38f;
+  float deepest = 0.0f, nearest = 3.0e38f, clear = bounded ? radius : 3.0e38f;
   int nearestLeaf = -1;
   float stiffness = 0.0f;
   for (int other = 0; other < v.meshes; ++other) {
     if (other == own || (v.exempt && v.exempt[own * v.meshes + other])) continue;
-    Box grown = v.boxes[v.roots[other]];
-    grown.lo = sub(grown.lo, P3{margin, margin, margin});
-    grown.hi = add(grown.hi, P3{margin, margin, margin});
-    if (squaredDistance(grown, p) > 0.0f) continue;
+    const Box& box = v.boxes[v.roots[other]];
+    const float boxD2 = squaredDistance(box, p);
+    if (boxD2 > margin * margin) {  // outside the box grown by the margin
+      clear = fmin3(clear, sqrtf(boxD2));
+      continue;
+    }
     const Hit h = closestPoint(v, other, p, x, centres, maxD2, hint);
     if (!(h.d2 < maxD2)) continue;
+    clear = fmin3(clear, sqrtf(h.d2));
     if (h.d2 < nearest) nearest = h.d2, nearestLeaf = h.leaf;
     const float side = h.side;
     if (side >= margin) continue;
@@ -222,8 +239,19 @@ SINEW_HD float contactResponse(const BvhView& v, int own, P3 p, P3 previous, flo
     stiffness += alpha;
   }
   depth = deepest;
+  clearance = stiffness > 0.0f ? 0.0f : clear;  // a touching vertex searches again next step
   hint = nearestLeaf;
   return stiffness;
+}
+
+// The largest step |x - previous| of the vertices [begin, end) of `order` (the refit's leaves).
+SINEW_HD float largestStep(const P3* x, const P3* previous, const int* order, int begin, int end) {
+  float largest = 0.0f;
+  for (int i = begin; i < end; ++i) {
+    const P3 d = sub(x[order[i]], previous[order[i]]);
+    largest = fmax3(largest, sqrtf(dot3(d, d)));
+  }
+  return largest;
 }
 
 }  // namespace sinew::collision

@@ -88,6 +88,9 @@ struct SceneDesc {
   std::optional<std::filesystem::path> trainingImage;
   std::vector<StructureDesc> structures;
   std::vector<std::string> plugins;  // run-time plugins the scene needs, loaded before it runs
+  // Deforming contacts (paper 001 section 2.2): structure pairs whose reference proximity the
+  // force `contacts` keeps as springs.
+  std::vector<std::array<std::string, 2>> contactPairs;
   ForceSettings forces;  // the scene's forces in evaluation order, with scene-wide values
   std::string integrator = "damped_verlet";
   std::vector<std::pair<std::string, double>> integratorParams;

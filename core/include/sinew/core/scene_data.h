@@ -6,6 +6,7 @@
 #include "sinew/core/image.h"
 #include "sinew/core/spatial_map.h"
 
+#include <array>
 #include <memory>
 #include <string>
 #include <vector>
@@ -49,6 +50,10 @@ public:
   std::vector<std::vector<ConstraintPoint>>& constraintPoints() { return constraintPoints_; }
   const std::vector<std::vector<ConstraintPoint>>& constraintPoints() const { return constraintPoints_; }
 
+  // Deforming contacts (paper 001 section 2.2): the structure pairs the force `contacts` links.
+  std::vector<std::array<Index, 2>>& contactPairs() { return contactPairs_; }
+  const std::vector<std::array<Index, 2>>& contactPairs() const { return contactPairs_; }
+
   // The structures' names in store order, for messages that name them.
   void addStructureName(const std::string& name) { structureNames_.push_back(name); }
   std::string structureName(Index m) const {
@@ -61,6 +66,7 @@ private:
   float gradientSigma_ = -1.0f;
   std::vector<std::vector<Vec3>> attractionPoints_;
   std::vector<std::vector<ConstraintPoint>> constraintPoints_;
+  std::vector<std::array<Index, 2>> contactPairs_;
   SpatialMap trainingMap_;  // identity unless the scene was initialised
   std::vector<std::string> structureNames_;
 };
