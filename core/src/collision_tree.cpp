@@ -136,6 +136,28 @@ void CollisionTree::handleEnclosures(MeshStore& store, const SceneData& scene, f
   for (const Enclosure& e : found) exempt[e.inner * n + e.outer] = exempt[e.outer * n + e.inner] = 1;
 }
 
+std::vector<unsigned char> contactMask(MeshStore& store, const SceneData& scene, float margin) {
+  std::vector<unsigned char> mask(store.vertexCount(), 0);
+  if (store.meshCount() < 2) return mask;
+  if (!store.has(Attribute::CellCentre)) store.require(Attribute::CellCentre);
+  CollisionTree tree = CollisionTree::build(store);
+  tree.handleEnclosures(store, scene, margin, true);
+  const collision::BvhView v = tree.view();
+  const collision::P3* x = asP3(store.positions());
+  const collision::P3* c = asP3(store.cellCentres());
+  const auto meshOf = store.meshOfVertex();
+  store.executor().forEach(store.vertexCount(), [&](Index i) {
+    const int own = int(meshOf[i]);
+    for (int other = 0; other < v.meshes && !mask[i]; ++other) {
+      if (other == own || (v.exempt && v.exempt[own * v.meshes + other])) continue;
+      if (collision::squaredDistance(v.boxes[v.roots[other]], x[i]) > margin * margin) continue;
+      const collision::Hit h = collision::closestPoint(v, other, x[i], x, c, 3.0e38f);
+      mask[i] = h.d2 < 3.0e38f && h.side < margin;
+    }
+  });
+  return mask;
+}
+
 collision::BvhView CollisionTree::view() {
   return {nodes.data(), boxes.data(), tris.data(), order.data(), roots.data(),
           exempt.empty() ? nullptr : exempt.data(), int(roots.size()), int(nodes.size())};

@@ -7,6 +7,7 @@
 #include "main_window.h"
 #include "slice_view.h"
 #include "synthetic.h"
+#include "sinew/core/collision_tree.h"
 #include "volume_view.h"
 
 #include <QApplication>
@@ -267,6 +268,29 @@ private Q_SLOTS:
     QCOMPARE(session.constraintPoints(s).size(), size_t(1));
     QVERIFY(session.undo());  // the 60 steps are not an edit: this takes back the include point
     QVERIFY(session.constraintPoints(s).empty());
+  }
+
+  // The contact view's model: the session's mask is core contactMask on the current state, kept
+  // while the state changes faster than the interval asked for, recomputed once it is older.
+  void contactMaskFollowsTheSession() {
+    SegmentationSession& session = window_->session();
+    // Structure 1 moved onto structure 0: a contact region for sure.
+    session.syncHost();
+    MeshStore& store = session.simulation().store();
+    const Vec3 shift = store.positions()[store.range(0).vertexBegin] - store.positions()[store.range(1).vertexBegin];
+    auto x = store.positionsForWrite();
+    auto prev = store.previousPositions();
+    for (Index v = store.range(1).vertexBegin; v < store.range(1).vertexEnd; ++v) x[v] += shift, prev[v] += shift;
+    if (session.backend()) session.backend()->reload();
+    session.step(1);
+    const std::vector<unsigned char> mask = session.contactMask(0.0);
+    QVERIFY(std::count(mask.begin(), mask.end(), 1) > 0);
+    session.syncHost();
+    QVERIFY(mask == contactMask(session.simulation().store(), session.simulation().scene(), 0.25f));
+    session.step(20);
+    QVERIFY(session.contactMask(1e9) == mask);  // throttled: the last mask
+    session.syncHost();
+    QVERIFY(session.contactMask(0.0) == contactMask(session.simulation().store(), session.simulation().scene(), 0.25f));
   }
 
   void dragMovesPointInOneUndoStep() {

@@ -1,6 +1,7 @@
 // The collision force (CPU): two overlapping spheres are pushed apart and come to rest without
 // gaining energy, a one-structure scene is left alone and allocates nothing for it, a sphere half
 // inside another is pushed out, and a sphere inside another (or on it) stops the run with the reason.
+#include "sinew/core/collision_tree.h"
 #include "sinew/core/contact_links.h"
 #include "sinew/core/voxelize.h"
 #include "synthetic.h"
@@ -227,6 +228,27 @@ private slots:
     auto ref = store.referencePositionsForWrite();
     for (Index v = store.range(1).vertexBegin; v < store.range(1).vertexEnd; ++v) ref[v].x() += 10.0f;
     QCOMPARE(findContactLinks(store, without->scene().contactPairs(), 2.0f).linked, Index(0));
+  }
+
+  // The contact regions a view shows: the vertices inside the other sphere (or within the margin)
+  // and no others; none once the spheres are apart.
+  void contactMaskMarksTheOverlap() {
+    auto sim = twoSpheres(15.0f, 0.0f);
+    MeshStore& s = sim->store();
+    const auto mask = contactMask(s, sim->scene(), 0.25f);
+    Index marked = 0;
+    for (Index v = 0; v < s.vertexCount(); ++v) {
+      const Vec3 p = s.positions()[v];
+      const Vec3 otherCentre = s.meshOfVertex()[v] == 0 ? Vec3(15, 0, 0) : Vec3(0, 0, 0);
+      const float depth = 10.0f - (p - otherCentre).norm();  // > 0: inside the other sphere
+      if (depth > 0.5f) QVERIFY2(mask[v], qPrintable(QString("vertex %1, %2 mm inside, not marked").arg(v).arg(depth)));
+      if (depth < -0.75f) QVERIFY2(!mask[v], qPrintable(QString("vertex %1, %2 mm outside, marked").arg(v).arg(-depth)));
+      marked += mask[v];
+    }
+    QVERIFY(marked > 0);
+    auto apart = twoSpheres(25.0f, 0.0f);
+    const auto none = contactMask(apart->store(), apart->scene(), 0.25f);
+    QCOMPARE(Index(std::count(none.begin(), none.end(), 1)), Index(0));
   }
 };
 

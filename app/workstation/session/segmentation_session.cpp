@@ -1,7 +1,9 @@
 #include "segmentation_session.h"
 
 #include "backend_choice.h"
+#include "sinew/core/collision_tree.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 
@@ -277,6 +279,23 @@ void SegmentationSession::removeAttractionPoint(Index structure, int index) {
   points.erase(points.begin() + index);
   lastEdit_.clear();
   changed();
+}
+
+const std::vector<unsigned char>& SegmentationSession::contactMask(double minIntervalSeconds) {
+  const auto now = std::chrono::steady_clock::now();
+  const bool stale = contactMask_.size() != size_t(simulation().store().vertexCount()) ||
+                     (contactRevision_ != revision_ &&
+                      std::chrono::duration<double>(now - contactTime_).count() >= minIntervalSeconds);
+  if (!stale) return contactMask_;
+  syncHost();
+  Simulation& sim = simulation();
+  const std::vector<std::string> forces = sim.forceNames();
+  const bool collisions = std::find(forces.begin(), forces.end(), "collision") != forces.end();
+  const float margin = collisions ? float(parameter("collision", 0, "margin_mm")) : 0.25f;
+  contactMask_ = sinew::contactMask(sim.store(), sim.scene(), margin);
+  contactRevision_ = revision_;
+  contactTime_ = now;
+  return contactMask_;
 }
 
 const std::vector<ConstraintPoint>& SegmentationSession::constraintPoints(Index structure) {

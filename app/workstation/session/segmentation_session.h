@@ -5,6 +5,7 @@
 
 #include "sinew/core/scene_runner.h"
 
+#include <chrono>
 #include <deque>
 #include <filesystem>
 #include <functional>
@@ -83,6 +84,12 @@ public:
   // Changes on every edit, undo, redo, step and level change: views redraw when it moved.
   std::uint64_t revision() const { return revision_; }
 
+  // Per vertex, 1 in a contact region: inside another structure or within the collision force's
+  // margin of it (0.25 mm without the force; core contactMask). Recomputed (host store synced) when
+  // the state changed, at most every minIntervalSeconds while it keeps changing (a run), so that it
+  // never takes over the frame.
+  const std::vector<unsigned char>& contactMask(double minIntervalSeconds = 0.25);
+
   // Edits. Each is undoable; its snapshot holds the mesh state too, so undo restores exactly the
   // state before the edit, however far the simulation moved since. A continuing edit (a drag, a
   // slider being moved) extends the previous one instead of adding a new undo step, also when the
@@ -133,6 +140,10 @@ public:
   void exportLabelMap(const std::filesystem::path& file);
 
 private:
+  std::vector<unsigned char> contactMask_;
+  std::uint64_t contactRevision_ = 0;
+  std::chrono::steady_clock::time_point contactTime_{};
+
   struct Snapshot {
     std::string label;
     int level = 0;

@@ -105,9 +105,7 @@ void MainWindow::buildViews() {
         [this](const SlicePlane& plane) { return drawing_->contours(session_, plane); },
         [this](Index s) { return session_.isOpen() ? session_.attractionPoints(s) : std::vector<Vec3>{}; });
     view->setLandmarksProvider([this] { return landmarkPairs(); });
-    view->setConstraintsProvider([this](Index s) {
-      return session_.isOpen() ? session_.constraintPoints(s) : std::vector<ConstraintPoint>{};
-    });
+    view->setMarkersProvider([this](Index s) { return markers(s); });
     connect(view, &SliceView::toolPressed, this, [this](const ViewPointerEvent& e) {
       if (!tool_) return;
       auto ctx = toolContext();
@@ -143,9 +141,7 @@ void MainWindow::buildViews() {
   volume_->setPointsProvider(
       [this](Index s) { return session_.isOpen() ? session_.attractionPoints(s) : std::vector<Vec3>{}; });
   volume_->setLandmarksProvider([this] { return landmarkPairs(); });
-  volume_->setConstraintsProvider([this](Index s) {
-    return session_.isOpen() ? session_.constraintPoints(s) : std::vector<ConstraintPoint>{};
-  });
+  volume_->setMarkersProvider([this](Index s) { return markers(s); });
   volume_->setMapperFactory([this](Index s) { return drawing_->makeMapper(s); });
   volume_->beforeRender = [this] {
     if (session_.isOpen()) drawing_->beforeRender(session_, display_);
@@ -243,6 +239,10 @@ void MainWindow::buildActions() {
     if (volume_->hasFocus()) focused = 3;
     maximiseView(maximised_ >= 0 ? -1 : std::max(focused, 2));
   });
+  showContacts_ = view->addAction(tr("Show &Contacts"), QKeySequence(tr("C")), this, [this] { refreshViews(); });
+  showContacts_->setCheckable(true);
+  showContacts_->setToolTip(tr("Mark, in orange, the vertices inside another structure or within the collision "
+                               "margin of it"));
 
   QToolBar* bar = addToolBar(tr("Main"));
   bar->setObjectName("main");
@@ -456,6 +456,21 @@ std::vector<std::pair<Vec3, Vec3>> MainWindow::landmarkPairs() {
   std::vector<std::pair<Vec3, Vec3>> out;
   if (session_.isOpen())
     for (const PlacedLandmark& l : session_.landmarks()) out.emplace_back(l.from, l.to);
+  return out;
+}
+
+std::vector<Marker> MainWindow::markers(Index s) {
+  std::vector<Marker> out;
+  if (!session_.isOpen()) return out;
+  for (const ConstraintPoint& c : session_.constraintPoints(s))
+    out.push_back({c.at, c.include ? std::array<unsigned char, 3>{60, 220, 90} : std::array<unsigned char, 3>{240, 60, 60}});
+  if (showContacts_ && showContacts_->isChecked()) {
+    const std::vector<unsigned char>& mask = session_.contactMask();
+    MeshStore& store = session_.simulation().store();
+    const MeshRange& r = store.range(s);
+    for (Index v = r.vertexBegin; v < r.vertexEnd && v < Index(mask.size()); ++v)
+      if (mask[v]) out.push_back({store.positions()[v], {255, 150, 20}});
+  }
   return out;
 }
 

@@ -100,6 +100,9 @@ private:
   void initialiseFromLandmarks();
   void sessionReplaced();  // the views, panels and plot rebuilt for a newly loaded session
   std::vector<std::pair<Vec3, Vec3>> landmarkPairs();
+  // What the views draw in colours of their own: include (green) and exclude (red) points, and with
+  // View > Show Contacts the vertices in contact regions (orange).
+  std::vector<Marker> markers(Index structure);
   SessionOpenOptions sessionOptions(QProgressDialog& progress);
   ToolContext toolContext();
 
@@ -133,6 +136,7 @@ private:
   QString sceneFile_;
   QAction *openScene_, *openImage_, *saveScene_, *saveSceneAs_, *saveMeshes_, *exportLabels_, *quit_;
   QAction *undo_, *redo_, *deletePoint_, *run_, *step_, *nextLevel_, *initialiseLandmarks_, *resetViews_, *maximise_;
+  QAction* showContacts_ = nullptr;
   QMenu* recentMenu_ = nullptr;
   QActionGroup* toolGroup_ = nullptr;
 };

@@ -195,20 +195,19 @@ void appendLandmarks(DisplayScene& scene, const LandmarksProvider& pairs, const 
   out->Modified();
 }
 
-void appendConstraintPoints(DisplayScene& scene, const ConstraintsProvider& provider,
-                            const std::function<bool(Vec3&)>& place, vtkPolyData* out) {
+void appendMarkers(DisplayScene& scene, const MarkersProvider& provider, const std::function<bool(Vec3&)>& place,
+                   vtkPolyData* out) {
   if (!provider || !out->GetPoints()) return;
   vtkPoints* points = out->GetPoints();
   auto* colours = vtkUnsignedCharArray::SafeDownCast(out->GetPointData()->GetScalars());
   for (Index s = 0; s < scene.structureCount(); ++s) {
     if (!scene.look(s).visible) continue;
-    for (const ConstraintPoint& c : provider(s)) {
-      Vec3 p = scene.toDisplay(c.at);
+    for (const Marker& m : provider(s)) {
+      Vec3 p = scene.toDisplay(m.at);
       if (!place(p)) continue;
       const vtkIdType id = points->InsertNextPoint(p.x(), p.y(), p.z());
       out->GetVerts()->InsertNextCell(1, &id);
-      if (c.include) colours->InsertNextTuple3(60, 220, 90);
-      else colours->InsertNextTuple3(240, 60, 60);
+      colours->InsertNextTuple3(m.rgb[0], m.rgb[1], m.rgb[2]);
     }
   }
   out->Modified();

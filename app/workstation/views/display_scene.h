@@ -94,11 +94,14 @@ using LandmarksProvider = std::function<std::vector<std::pair<Vec3, Vec3>>()>;
 void appendLandmarks(DisplayScene& scene, const LandmarksProvider& pairs, const std::function<bool(Vec3&)>& place,
                      vtkPolyData* out);
 
-// Include / exclude points of a structure (world mm).
-using ConstraintsProvider = std::function<std::vector<ConstraintPoint>(Index structure)>;
-// Appends the visible structures' include points in green and exclude points in red to a cloud
-// filled by fillPointCloud.
-void appendConstraintPoints(DisplayScene& scene, const ConstraintsProvider& points,
-                            const std::function<bool(Vec3&)>& place, vtkPolyData* out);
+// Points drawn in a colour of their own (include / exclude points, contact regions), world mm.
+struct Marker {
+  Vec3 at = Vec3::Zero();
+  std::array<unsigned char, 3> rgb{255, 255, 255};
+};
+using MarkersProvider = std::function<std::vector<Marker>(Index structure)>;
+// Appends the visible structures' markers to a cloud filled by fillPointCloud.
+void appendMarkers(DisplayScene& scene, const MarkersProvider& markers, const std::function<bool(Vec3&)>& place,
+                   vtkPolyData* out);
 
 }  // namespace sinew

@@ -265,7 +265,7 @@ void SliceView::rebuildOverlays() {
   };
   fillPointCloud(scene_, points_, onSlice, 0.3, points_data_);
   appendLandmarks(scene_, landmarks_, onSlice, points_data_);
-  appendConstraintPoints(scene_, constraints_, onSlice, points_data_);
+  appendMarkers(scene_, markers_, onSlice, points_data_);
 }
 
 void SliceView::prepareRender() {

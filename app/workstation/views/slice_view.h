@@ -44,7 +44,7 @@ public:
 
   void setProviders(ContourProvider contours, PointsProvider points);
   void setLandmarksProvider(LandmarksProvider landmarks) { landmarks_ = std::move(landmarks); }
-  void setConstraintsProvider(ConstraintsProvider points) { constraints_ = std::move(points); }
+  void setMarkersProvider(MarkersProvider markers) { markers_ = std::move(markers); }
   // Rebuilds actors for a new scene (image, structures) and frames the slice.
   void resetScene();
   void resetCamera();
@@ -78,7 +78,7 @@ private:
   ContourProvider contours_;
   PointsProvider points_;
   LandmarksProvider landmarks_;
-  ConstraintsProvider constraints_;
+  MarkersProvider markers_;
   vtkSmartPointer<vtkImageSliceMapper> sliceMapper_;
   vtkSmartPointer<vtkImageSlice> slice_;
   std::vector<vtkSmartPointer<vtkPolyData>> contourData_;

@@ -103,7 +103,7 @@ void VolumeView::prepareRender() {
   if (dirty_) {
     fillPointCloud(scene_, points_, [](Vec3&) { return true; }, 0.0, pointsData_);
     appendLandmarks(scene_, landmarks_, [](Vec3&) { return true; }, pointsData_);
-    appendConstraintPoints(scene_, constraints_, [](Vec3&) { return true; }, pointsData_);
+    appendMarkers(scene_, markers_, [](Vec3&) { return true; }, pointsData_);
     dirty_ = false;
   }
   renderer()->ResetCameraClippingRange();

@@ -29,7 +29,7 @@ public:
   void setMapperFactory(MapperFactory factory) { mapperFactory_ = std::move(factory); }
   void setPointsProvider(PointsProvider points) { points_ = std::move(points); }
   void setLandmarksProvider(LandmarksProvider landmarks) { landmarks_ = std::move(landmarks); }
-  void setConstraintsProvider(ConstraintsProvider points) { constraints_ = std::move(points); }
+  void setMarkersProvider(MarkersProvider markers) { markers_ = std::move(markers); }
   void resetScene();
   void resetCamera();
   void invalidate() { dirty_ = true; update(); }
@@ -49,7 +49,7 @@ private:
   MapperFactory mapperFactory_;
   PointsProvider points_;
   LandmarksProvider landmarks_;
-  ConstraintsProvider constraints_;
+  MarkersProvider markers_;
   std::vector<vtkSmartPointer<vtkActor>> surfaces_;
   vtkSmartPointer<vtkImageSliceMapper> sliceMappers_[3];
   vtkSmartPointer<vtkImageSlice> slices_[3];

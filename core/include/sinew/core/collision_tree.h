@@ -43,6 +43,11 @@ struct CollisionTree {
   void handleEnclosures(MeshStore& store, const SceneData& scene, float margin, bool ignore);
 };
 
+// Per vertex of the store, 1 where it lies inside another structure or within `margin` of its
+// surface (pairs nested by design left out): the contact regions a view shows. Builds its own
+// hierarchy and searches without bound, so it is meant on request, not every step.
+std::vector<unsigned char> contactMask(MeshStore& store, const SceneData& scene, float margin);
+
 inline const collision::P3* asP3(std::span<const Vec3> v) { return reinterpret_cast<const collision::P3*>(v.data()); }
 inline collision::P3 asP3(const Vec3& v) { return {v.x(), v.y(), v.z()}; }
 inline Vec3 asVec3(const collision::P3& p) { return {p.x, p.y, p.z}; }
