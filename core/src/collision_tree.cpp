@@ -38,7 +38,6 @@ struct Builder {
     const int right = build(mid, end, id);
     tree.nodes[id].left = left;
     tree.nodes[id].right = right;
-    tree.nodes[id].first = tree.nodes[id].count = 0;
     return id;
   }
 };

@@ -12,19 +12,11 @@ namespace {
 constexpr unsigned kThreads = 128;
 using namespace sinew::collision;
 
-// visits[nodeCount] (zeroed with the counters) gathers the largest step of any vertex, as float
-// bits (non-negative floats order like their bits), one atomic per warp.
-__global__ void refit(BvhView v, const int* leaves, int leafCount, int* visits, const P3* x, const P3* previous,
-                      const P3* centres) {
+// Only the steps of a full search read the boxes (counter: the level's steps so far).
+__global__ void refit(BvhView v, const int* leaves, int leafCount, int* visits, const P3* x, const P3* centres,
+                      const int* counter, int every) {
   const int l = blockIdx.x * blockDim.x + threadIdx.x;
-  float step = 0.0f;
-  if (l < leafCount) {
-    const Node& leaf = v.nodes[leaves[l]];
-    step = largestStep(x, previous, v.order, leaf.first, leaf.first + leaf.count);
-  }
-  const unsigned largest = __reduce_max_sync(0xffffffffu, __float_as_uint(step));
-  if ((threadIdx.x & 31) == 0) atomicMax(reinterpret_cast<unsigned*>(visits + v.nodeCount), largest);
-  if (l >= leafCount) return;
+  if (l >= leafCount || *counter % every != 0) return;
   int id = leaves[l];
   v.boxes[id] = leafBox(v, v.nodes[id], x, centres);
   // Up the tree: the first child to arrive stops, the second merges both (its sibling's box is
@@ -44,7 +36,7 @@ __global__ void refit(BvhView v, const int* leaves, int leafCount, int* visits, 
 }
 
 __global__ void respond(MeshView m, ParamView p, BvhView v, float margin, float damping, float reach,
-                        const int* visits, float* depth, float* clearance, int* hint, float* stiffness) {
+                        const int* counter, int every, float* depth, int* hint, float* stiffness) {
   const int i = blockIdx.x * blockDim.x + threadIdx.x;
   if (i >= m.vertices) return;
   const int own = m.meshOf[i];
@@ -55,9 +47,8 @@ __global__ void respond(MeshView m, ParamView p, BvhView v, float margin, float 
     const P3* centres = reinterpret_cast<const P3*>(m.cellCentre);
     P3 f{0, 0, 0};
     const P3 previous = reinterpret_cast<const P3*>(m.prev)[i];
-    const float maxMotion = __uint_as_float(static_cast<unsigned>(visits[v.nodeCount]));
-    k = contactResponse(v, own, x[i], previous, alpha * m.mass[i], margin, damping, reach, maxMotion, depth[i],
-                        clearance[i], hint[i], x, centres, f);
+    k = contactResponse(v, own, x[i], previous, alpha * m.mass[i], margin, damping, reach, *counter % every == 0, every,
+                        depth[i], hint[i], x, centres, f);
     m.force[i] = m.force[i] + make_float3(f.x, f.y, f.z);
   }
   if (stiffness) stiffness[i] = k;
@@ -74,6 +65,7 @@ __global__ void contactSprings(MeshView m, ParamView p, const int* partner, cons
   }
   if (stiffness) stiffness[i] = k;
 }
+__global__ void advance(int* counter) { ++*counter; }
 }  // namespace
 
 void launchContactSprings(const MeshView& m, ParamView p, const int* partner, const float3* offset, float* stiffness,
@@ -82,14 +74,16 @@ void launchContactSprings(const MeshView& m, ParamView p, const int* partner, co
 }
 
 void launchCollision(const MeshView& m, ParamView p, const CollisionDevice& c, float margin, float damping, float reach,
-                     cudaStream_t s) {
+                     int every, cudaStream_t s) {
   BvhView v{c.nodes, c.boxes, c.tris, c.order, c.roots, c.exempt, c.meshes, c.nodeCount};
-  SINEW_CUDA(cudaMemsetAsync(c.visits, 0, sizeof(int) * (c.nodeCount + 1), s));
-  refit<<<(c.leafCount + kThreads - 1) / kThreads, kThreads, 0, s>>>(
-      v, c.leaves, c.leafCount, c.visits, reinterpret_cast<const P3*>(m.x), reinterpret_cast<const P3*>(m.prev),
-      reinterpret_cast<const P3*>(m.cellCentre));
-  respond<<<(m.vertices + kThreads - 1) / kThreads, kThreads, 0, s>>>(m, p, v, margin, damping, reach, c.visits, c.depth,
-                                                                      c.clearance, c.hint, c.stiffness);
+  SINEW_CUDA(cudaMemsetAsync(c.visits, 0, sizeof(int) * c.nodeCount, s));
+  refit<<<(c.leafCount + kThreads - 1) / kThreads, kThreads, 0, s>>>(v, c.leaves, c.leafCount, c.visits,
+                                                                      reinterpret_cast<const P3*>(m.x),
+                                                                      reinterpret_cast<const P3*>(m.cellCentre),
+                                                                      c.counter, every);
+  respond<<<(m.vertices + kThreads - 1) / kThreads, kThreads, 0, s>>>(m, p, v, margin, damping, reach, c.counter, every,
+                                                                      c.depth, c.hint, c.stiffness);
+  advance<<<1, 1, 0, s>>>(c.counter);
 }
 
 }  // namespace sinew::cuda

@@ -13,13 +13,13 @@ void DeviceCollision::build(MeshStore& store, const SceneData& scene, float marg
   order_.upload(tree.order, stream);
   roots_.upload(tree.roots, stream);
   leaves_.upload(tree.leaves, stream);
-  visits_.resize(tree.nodes.size() + 1);  // the counters, then the step's largest motion
+  visits_.resize(tree.nodes.size());
   stiffness_.resize(withStiffness ? size_t(store.vertexCount()) : 0);
   if (withStiffness) SINEW_CUDA(cudaMemsetAsync(stiffness_.get(), 0, stiffness_.bytes(), stream));
   depth_.upload(std::vector<float>(store.vertexCount(), collision::kUnknownDepth), stream);
   hint_.upload(std::vector<int>(store.vertexCount(), -1), stream);
-  clearance_.resize(store.vertexCount());
-  SINEW_CUDA(cudaMemsetAsync(clearance_.get(), 0, clearance_.bytes(), stream));
+  counter_.resize(1);
+  SINEW_CUDA(cudaMemsetAsync(counter_.get(), 0, counter_.bytes(), stream));
   meshes_ = int(tree.roots.size());
   SINEW_CUDA(cudaStreamSynchronize(stream));  // the host vectors go out of scope
 }
@@ -35,7 +35,7 @@ CollisionDevice DeviceCollision::view() const {
   c.visits = visits_.get();
   c.stiffness = stiffness_.get();
   c.depth = depth_.get();
-  c.clearance = clearance_.get();
+  c.counter = counter_.get();
   c.exempt = exempt_.get();
   c.hint = hint_.get();
   c.meshes = meshes_;
@@ -46,7 +46,7 @@ CollisionDevice DeviceCollision::view() const {
 
 std::size_t DeviceCollision::bytes() const {
   return nodes_.bytes() + boxes_.bytes() + tris_.bytes() + order_.bytes() + roots_.bytes() + leaves_.bytes() + visits_.bytes() +
-         stiffness_.bytes() + depth_.bytes() + clearance_.bytes() + hint_.bytes() + exempt_.bytes();
+         stiffness_.bytes() + depth_.bytes() + counter_.bytes() + hint_.bytes() + exempt_.bytes();
 }
 
 }  // namespace sinew::cuda

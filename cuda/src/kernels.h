@@ -108,10 +108,10 @@ struct CollisionDevice {
   const int* order = nullptr;
   const int* roots = nullptr;
   const int* leaves = nullptr;
-  int* visits = nullptr;  // per node, the refit's arrival counters; then the step's largest motion
+  int* visits = nullptr;  // per node, the refit's arrival counters
   float* stiffness = nullptr;
   float* depth = nullptr;  // per vertex, the last penetration (collision::contactResponse)
-  float* clearance = nullptr;  // per vertex, the lower bound on its distance to other surfaces
+  int* counter = nullptr;  // the level's steps so far
   int* hint = nullptr;     // per vertex, the last nearest contact leaf
   const unsigned char* exempt = nullptr;  // pairs left out (meshes x meshes), or null
   int meshes = 0, nodeCount = 0, leafCount = 0;
@@ -121,8 +121,9 @@ struct CollisionDevice {
 void launchContactSprings(const MeshView& m, ParamView p, const int* partner, const float3* offset, float* stiffness,
                           cudaStream_t s);
 // Refits the hierarchies (needs m.cellCentre) and adds the contact response to m.force.
+// every: a full search every this many steps (collision::contactResponse).
 void launchCollision(const MeshView& m, ParamView p, const CollisionDevice& c, float margin, float damping, float reach,
-                     cudaStream_t s);
+                     int every, cudaStream_t s);
 
 void launchProlong(const int* rowOffsets, const int* index, const float* weight, int rows, const float3* coarse,
                    float3* fine, cudaStream_t s);

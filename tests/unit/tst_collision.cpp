@@ -250,6 +250,34 @@ private slots:
     const auto none = contactMask(apart->store(), apart->scene(), 0.25f);
     QCOMPARE(Index(std::count(none.begin(), none.end(), 1)), Index(0));
   }
+
+  // A full search every 4 steps (in between, each vertex tests the patch around its last contact)
+  // separates two overlapping spheres as every step does, and they come to rest.
+  void fullSearchEveryFourSteps() {
+    for (int every : {1, 4}) {
+      auto sim = std::make_unique<Simulation>(forceRegistry(), 2);
+      for (int i = 0; i < 2; ++i) {
+        StructureSpec s = sphereStructure(i ? "b" : "a", 3, 10.0f, Vec3(15.0f * i, 0, 0));
+        s.referencePositions = s.initialPositions;
+        sim->addStructure(std::move(s));
+      }
+      sim->addForce("shape_prior");
+      ParamTable& c = sim->addForce("collision");
+      c.setAll("weight", 0.5);
+      c.setAll("full_search_every", every);
+      sim->setIntegrator("damped_verlet").set(0, "time_step", 0.5);
+      sim->initialize();
+      const double before = overlap(*sim);
+      sim->run(10);
+      const double early = overlap(*sim);
+      const std::vector<double> steps = largestStepPerHundred(*sim, 3);
+      qInfo("full search every %d: overlap %.1f -> %.2f after 10 steps -> %.2f mm^3; largest step in the last 100: %.4f mm",
+            every, before, early, overlap(*sim), steps.back());
+      QVERIFY(early < 1.0);
+      QVERIFY(overlap(*sim) < 1.0);
+      QVERIFY(steps.back() < 0.01);
+    }
+  }
 };
 
 QTEST_GUILESS_MAIN(TestCollision)

@@ -6,6 +6,7 @@
 #include "sinew/core/collision_tree.h"
 #include "sinew/core/registry.h"
 
+#include <algorithm>
 #include <vector>
 
 namespace sinew {
@@ -23,7 +24,7 @@ public:
     stiffness_.clear();
     depth_.assign(ctx.store.vertexCount(), collision::kUnknownDepth);
     hint_.assign(ctx.store.vertexCount(), -1);
-    clearance_.assign(ctx.store.vertexCount(), 0.0f);
+    step_ = 0;
     builtFor_ = ctx.store.vertexCount();
     checked_ = false;
     if (ctx.store.meshCount() >= 2 && ctx.params.anyPositive(0)) tree_ = CollisionTree::build(ctx.store);
@@ -39,7 +40,9 @@ public:
       checked_ = true;
       tree_.handleEnclosures(s, ctx.scene, margin, ctx.params.getf(0, ctx.params.indexOf("ignore_enclosed")) > 0.5f);
     }
-    tree_.refit(s.positions(), s.cellCentres(), ctx.executor);
+    const int every = std::max(1, int(ctx.params.get(0, ctx.params.indexOf("full_search_every"))));
+    const bool full = step_++ % every == 0;
+    if (full) tree_.refit(s.positions(), s.cellCentres(), ctx.executor);  // only full searches read the boxes
     const float damping = ctx.params.getf(0, ctx.params.indexOf("contact_damping"));
     const float reach = ctx.params.getf(0, ctx.params.indexOf("reach_mm"));
     const collision::BvhView view = tree_.view();
@@ -49,18 +52,10 @@ public:
     const auto meshOf = s.meshOfVertex();
     const auto mass = s.masses();
     stiffness_.assign(s.vertexCount(), 0.0f);
-    // The largest step of any vertex bounds how far another surface came closer (as the device's refit).
-    const collision::P3* prev = asP3(std::span<const Vec3>(previous));
-    const float maxMotion = ctx.executor.reduce(
-        0, s.vertexCount(), 0.0f,
-        [&](Index begin, Index end, float m) {
-          return std::max(m, collision::largestStep(x, prev, tree_.order.data(), begin, end));
-        },
-        [](float a, float b) { return std::max(a, b); });
     forActiveVertices(ctx, [&](Index v, float alpha) {
       collision::P3 f{0, 0, 0};
       stiffness_[v] = collision::contactResponse(view, int(meshOf[v]), x[v], asP3(previous[v]), alpha * mass[v], margin, damping,
-                                                 reach, maxMotion, depth_[v], clearance_[v], hint_[v], x, centres, f);
+                                                 reach, full, every, depth_[v], hint_[v], x, centres, f);
       forces[v] += asVec3(f);
     });
   }
@@ -81,7 +76,7 @@ private:
   std::vector<float> stiffness_;
   std::vector<float> depth_;  // each vertex's last penetration (collision::contactResponse)
   std::vector<int> hint_;     // each vertex's last nearest contact leaf
-  std::vector<float> clearance_;  // each vertex's lower bound on its distance to other surfaces
+  long step_ = 0;  // steps at this level: every full_search_every-th one searches in full
 };
 }  // namespace
 
@@ -92,6 +87,7 @@ void registerCollisionForce(Registry& registry) {
                      {{"margin_mm", 0.25, 0.0, 5.0, "mm", "distance kept between the surfaces of two structures", false},
                       {"contact_damping", 0.0, 0.0, 2.0, "", "damping of a touching vertex's motion (per step), on top of the integrator's", false},
                       {"reach_mm", 0.25, 0.05, 5.0, "mm", "how far beyond its last penetration a vertex looks for contacts each step (on top of twice its last step)", false},
+                      {"full_search_every", 1, 1, 16, "steps", "a full contact search every this many steps; in between, each vertex tests only the patch of its last nearest contact", false},
                       {"ignore_enclosed", 0.0, 0.0, 1.0, "", "1: a structure lying inside another by design (nested labels) is left out of collisions with it; 0: such a pair stops the run with the reason", false}},
                      [] { return std::make_unique<CollisionForce>(); }});
 }

@@ -1,0 +1,50 @@
+#!/usr/bin/env bash
+# GPU time per step with and without collisions, kernel by kernel (Nsight Compute's durations, so
+# the dynamics of the run do not enter as they do in the differences of scripts/collision-cost.sh):
+# the demo scene (seed 1) at LEVELS levels, the finest level run for 60 iterations; the last
+# STEPS steps' kernels of each run are timed. EVERY: values of the collision force's
+# full_search_every to measure. Needs ncu (CUDA toolkit) on the GPU machine. docs/benchmarks.md.
+# MAKE_SCENE_ARGS: more sinew-make-scene options (e.g. another --structures list).
+# Usage: bash scripts/collision-kernel-time.sh BUILD_DIR OUT_DIR [LEVELS=3]
+set -euo pipefail
+cd "$(dirname "$0")/.."
+build="$1"; out="$2"; levels="${3:-3}"; steps="${STEPS:-20}"
+t=/usr/share/mricron/templates
+schedules=("" "" "" "150,80" "150,80,30" "150,80,30,20")
+mkdir -p "$out"
+echo "| levels | finest vertices | collisions | kernels per step | GPU ms per step | collision kernels ms | ratio to without | overlap at the end (mm^3) | mean ASSD (mm) |"
+echo "| ---: | ---: | --- | ---: | ---: | ---: | ---: | ---: | ---: |"
+base=""
+for c in off $(for k in ${EVERY:-1 4}; do echo "every$k"; done); do
+  d="$out/$c"
+  weight=1; [ "$c" = off ] && weight=0
+  "$build/app/sinew-make-scene" --atlas "$t/aal.nii.gz" --labels "$t/aal.nii.txt" --training "$t/ch2better.nii.gz" \
+    --target "$t/ch2.nii.gz" --seed 1 --iterations "${schedules[$levels]},60" --collision-weight "$weight" ${MAKE_SCENE_ARGS:-} -o "$d/scene.json" >/dev/null
+  if [ "$c" != off ]; then
+    python3 -c 'import json,sys; p=sys.argv[1]; j=json.load(open(p)); j["forces"]["collision"]["full_search_every"]=int(sys.argv[2]); json.dump(j,open(p,"w"),indent=1)' "$d/scene.json" "${c#every}"
+  fi
+  # Every kernel of the run, then the last `steps` steps' worth (a step starts with vertexGeometry).
+  ncu --csv --metrics gpu__time_duration.sum "$build/app/sinew-run" "$d/scene.json" -o "$d/run" -q --backend cuda \
+    > "$d/ncu.csv" 2>/dev/null || true
+  python3 - "$d/ncu.csv" "$d/run/report.json" "$levels" "$c" "$steps" "${base:-0}" > "$d/row.txt" <<'PY'
+import csv, json, sys
+path, report, levels, label, steps, base = sys.argv[1], sys.argv[2], int(sys.argv[3]), sys.argv[4], int(sys.argv[5]), float(sys.argv[6])
+rows = [r for r in csv.reader(l for l in open(path) if l.startswith('"'))]
+head, rows = rows[0], rows[1:]
+k, m, v = head.index("Kernel Name"), head.index("Metric Name"), head.index("Metric Value")
+kernels = [(r[k], float(r[v].replace(",", ""))) for r in rows if r[m] == "gpu__time_duration.sum"]
+starts = [i for i, (name, _) in enumerate(kernels) if "vertexGeometry" in name]
+window = kernels[starts[-steps - 1]:starts[-1]]  # the last full steps (the final one may be cut by a sample)
+total = sum(t for _, t in window) / steps / 1e6  # ns -> ms
+coll = sum(t for n, t in window if any(s in n for s in ("refit", "respond", "advance"))) / steps / 1e6
+r = json.load(open(report))
+verts = sum(s["vertices"] for s in r["structures"])
+assd = sum(s["assd_mm"]["final"] for s in r["structures"]) / len(r["structures"])
+ratio = f"{total / base:.2f}" if base > 0 else "1"
+print(f"| {levels} | {verts} | {label} | {len(window) // steps} | {total:.4f} | {coll:.4f} | {ratio} | "
+      f"{r['overlaps']['total_after_mm3']:.1f} | {assd:.3f} |")
+open(path.replace("ncu.csv", "total.txt"), "w").write(f"{total}\n")
+PY
+  cat "$d/row.txt"
+  if [ "$c" = off ]; then base=$(cat "$d/total.txt"); fi
+done
