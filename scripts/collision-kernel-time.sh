@@ -4,7 +4,8 @@
 # the demo scene (seed 1) at LEVELS levels, the finest level run for 60 iterations; the last
 # STEPS steps' kernels of each run are timed. EVERY: values of the collision force's
 # full_search_every to measure. Needs ncu (CUDA toolkit) on the GPU machine. docs/benchmarks.md.
-# MAKE_SCENE_ARGS: more sinew-make-scene options (e.g. another --structures list).
+# MAKE_SCENE_ARGS: more sinew-make-scene options (e.g. another --structures list); SCHEDULE:
+# iterations per level instead (the finest level must run more than STEPS).
 # Usage: bash scripts/collision-kernel-time.sh BUILD_DIR OUT_DIR [LEVELS=3]
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -19,7 +20,7 @@ for c in off $(for k in ${EVERY:-1 4}; do echo "every$k"; done); do
   d="$out/$c"
   weight=1; [ "$c" = off ] && weight=0
   "$build/app/sinew-make-scene" --atlas "$t/aal.nii.gz" --labels "$t/aal.nii.txt" --training "$t/ch2better.nii.gz" \
-    --target "$t/ch2.nii.gz" --seed 1 --iterations "${schedules[$levels]},60" --collision-weight "$weight" ${MAKE_SCENE_ARGS:-} -o "$d/scene.json" >/dev/null
+    --target "$t/ch2.nii.gz" --seed 1 --iterations "${SCHEDULE:-${schedules[$levels]},60}" --collision-weight "$weight" ${MAKE_SCENE_ARGS:-} -o "$d/scene.json" >/dev/null
   if [ "$c" != off ]; then
     python3 -c 'import json,sys; p=sys.argv[1]; j=json.load(open(p)); j["forces"]["collision"]["full_search_every"]=int(sys.argv[2]); json.dump(j,open(p,"w"),indent=1)' "$d/scene.json" "${c#every}"
   fi

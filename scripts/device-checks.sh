@@ -30,7 +30,8 @@ for c in ${CHECKS:-parity demo accuracy}; do
     scaling)
       # 100 AAL regions placed as the atlas has them (no perturbation): the broad phase's scaling.
       list=$(awk 'NR<=100{printf "%s%s", (NR>1?",":""), $2}' /usr/share/mricron/templates/aal.nii.txt)
-      MAKE_SCENE_ARGS="--structures $list --max-rotation-deg 0 --max-translation-mm 0 --scale-min 1 --scale-max 1" \
+      SCHEDULE=${SCALING_SCHEDULE:-20,10,25} EVERY=1 \
+        MAKE_SCENE_ARGS="--structures $list --max-rotation-deg 0 --max-translation-mm 0 --scale-min 1 --scale-max 1" \
         bash scripts/collision-kernel-time.sh "$build" /tmp/kscale "${SCALING_LEVELS:-3}" 2>&1 | tee "$out/collision-scaling.md" ;;
     demo) "$build/tests/tst_backend_demo" 2>&1 | tee "$out/demo.txt" | grep -E "PASS|FAIL|QINFO|Totals|SKIP" ;;
     accuracy)
