@@ -38,6 +38,23 @@ double nearestVertexDistance(SegmentationSession& session, Index s, const Vec3& 
   return best;
 }
 
+// A display point `mm` beyond structure s's vertex furthest along display +x, in its axial slice,
+// which becomes the current one.
+Vec3 beyondStructure(SegmentationSession& session, DisplayScene& display, Index s, float mm) {
+  session.syncHost();
+  MeshStore& store = session.simulation().store();
+  Vec3 extreme = Vec3::Zero();
+  float best = -1e30f;
+  for (const Vec3& w : store.mesh(store.positions(), s)) {
+    const Vec3 d = display.toDisplay(w);
+    if (d.x() > best) best = d.x(), extreme = d;
+  }
+  display.cursor[2] = display.snapToSlice(2, extreme.z());
+  Vec3 target = extreme + Vec3(mm, 0, 0);
+  target.z() = float(display.cursor[2]);
+  return target;
+}
+
 std::vector<Vec3> positions(SegmentationSession& session) {
   session.syncHost();
   const auto x = session.simulation().store().positions();
@@ -165,18 +182,7 @@ private Q_SLOTS:
     window_->refreshViews();
     const Index s = 0;
     display.selected = s;
-    // The vertex furthest along display +x, and a target 4 mm beyond it in the same slice.
-    session.syncHost();
-    MeshStore& store = session.simulation().store();
-    Vec3 extreme = Vec3::Zero();
-    float best = -1e30f;
-    for (const Vec3& w : store.mesh(store.positions(), s)) {
-      const Vec3 d = display.toDisplay(w);
-      if (d.x() > best) best = d.x(), extreme = d;
-    }
-    display.cursor[2] = display.snapToSlice(2, extreme.z());
-    Vec3 target = extreme + Vec3(4, 0, 0);
-    target.z() = float(display.cursor[2]);
+    const Vec3 target = beyondStructure(session, display, s, 4.0f);
     SliceView* axial = window_->sliceView(2);
     axial->invalidate();
     QApplication::processEvents();
@@ -217,17 +223,7 @@ private Q_SLOTS:
     session.step(20);
     const Index s = 0;
     display.selected = s;
-    session.syncHost();
-    MeshStore& store = session.simulation().store();
-    Vec3 extreme = Vec3::Zero();
-    float best = -1e30f;
-    for (const Vec3& w : store.mesh(store.positions(), s)) {
-      const Vec3 d = display.toDisplay(w);
-      if (d.x() > best) best = d.x(), extreme = d;
-    }
-    display.cursor[2] = display.snapToSlice(2, extreme.z());
-    Vec3 target = extreme + Vec3(3, 0, 0);
-    target.z() = float(display.cursor[2]);
+    const Vec3 target = beyondStructure(session, display, s, 3.0f);
     SliceView* axial = window_->sliceView(2);
     axial->invalidate();
     QApplication::processEvents();

@@ -3,69 +3,40 @@
 // tool's points and drag to move it; Ctrl + click or Delete removes it. The attraction_points force
 // pushes the structure live until each point lies on its side (the session adds the force when the
 // scene lacks it). Shift + drag stays the slice views' window / level.
-#include "display_scene.h"
-#include "interaction_tool.h"
-#include "segmentation_session.h"
+#include "point_tool.h"
 
 namespace sinew {
 
 namespace {
-class ConstraintTool final : public InteractionTool {
+class ConstraintTool final : public PointTool {
 public:
   explicit ConstraintTool(bool include) : include_(include) {}
 
-  void press(ToolContext& ctx, const ViewPointerEvent& e) override {
-    ctx.session.endEdit();  // a new gesture
-    const Index s = ctx.display.selected;
-    structure_ = s;
-    dragging_ = false;
-    selected_ = nearest(ctx, s, e);
-    if (e.control) {
-      if (selected_ >= 0) ctx.session.removeConstraintPoint(s, selected_);
-      selected_ = -1;
-    } else if (selected_ < 0) {
-      ctx.session.addConstraintPoint(s, {e.world, include_});
-      selected_ = static_cast<int>(ctx.session.constraintPoints(s).size()) - 1;
-    }
+protected:
+  std::vector<Vec3> points(ToolContext& ctx, Index s) override {
+    std::vector<Vec3> at;
+    for (const ConstraintPoint& c : ctx.session.constraintPoints(s))
+      if (c.include == include_) at.push_back(c.at);
+    return at;
   }
-
-  void drag(ToolContext& ctx, const ViewPointerEvent& e) override {
-    if (selected_ < 0 || structure_ != ctx.display.selected) return;
-    ctx.session.moveConstraintPoint(structure_, selected_, e.world, dragging_);
-    dragging_ = true;
+  void add(ToolContext& ctx, Index s, const Vec3& at) override { ctx.session.addConstraintPoint(s, {at, include_}); }
+  void move(ToolContext& ctx, Index s, int i, const Vec3& to, bool continuing) override {
+    ctx.session.moveConstraintPoint(s, indexInSession(ctx, s, i), to, continuing);
   }
-
-  void release(ToolContext& ctx, const ViewPointerEvent&) override {
-    dragging_ = false;
-    ctx.session.endEdit();
-  }
-
-  void deleteSelection(ToolContext& ctx) override {
-    if (selected_ < 0 || structure_ >= ctx.session.structureCount()) return;
-    if (selected_ < static_cast<int>(ctx.session.constraintPoints(structure_).size()))
-      ctx.session.removeConstraintPoint(structure_, selected_);
-    selected_ = -1;
+  void remove(ToolContext& ctx, Index s, int i) override {
+    ctx.session.removeConstraintPoint(s, indexInSession(ctx, s, i));
   }
 
 private:
-  // The nearest of this tool's kind of points, as an index into all the structure's points.
-  int nearest(ToolContext& ctx, Index s, const ViewPointerEvent& e) const {
-    std::vector<Vec3> at;
-    std::vector<int> index;
-    const auto& points = ctx.session.constraintPoints(s);
-    for (size_t i = 0; i < points.size(); ++i)
-      if (points[i].include == include_) {
-        at.push_back(points[i].at);
-        index.push_back(int(i));
-      }
-    const int k = nearestOnSlice(ctx.display, at, e);
-    return k < 0 ? -1 : index[k];
+  // The i-th point of this tool's kind, as an index into all the structure's points.
+  int indexInSession(ToolContext& ctx, Index s, int i) const {
+    const auto& all = ctx.session.constraintPoints(s);
+    for (size_t k = 0; k < all.size(); ++k)
+      if (all[k].include == include_ && i-- == 0) return int(k);
+    return -1;
   }
 
   bool include_;
-  int selected_ = -1;
-  Index structure_ = 0;
-  bool dragging_ = false;
 };
 }  // namespace
 

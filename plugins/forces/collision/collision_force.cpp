@@ -60,12 +60,9 @@ public:
     });
   }
 
-  // A touching vertex is pulled toward a point held fixed over the step: self block -stiffness I.
+  // A touching vertex is pulled toward a point held fixed over the step.
   bool addJacobian(ForceContext& ctx, JacobianBlocks& jacobian) override {
-    if (stiffness_.size() != size_t(ctx.store.vertexCount())) return true;
-    ctx.executor.forEach(ctx.store.vertexCount(), [&](Index v) {
-      if (stiffness_[v] > 0.0f) jacobian.self[v] -= stiffness_[v] * Eigen::Matrix3f::Identity();
-    });
+    addFixedPointPullJacobian(ctx, stiffness_, jacobian);
     return true;
   }
 

@@ -36,12 +36,9 @@ public:
     });
   }
 
-  // The partner is held fixed over the step: self block -stiffness I, as the device does.
+  // The partner is held fixed over the step (as on the device).
   bool addJacobian(ForceContext& ctx, JacobianBlocks& jacobian) override {
-    if (stiffness_.size() != size_t(ctx.store.vertexCount())) return true;
-    ctx.executor.forEach(ctx.store.vertexCount(), [&](Index v) {
-      if (stiffness_[v] > 0.0f) jacobian.self[v] -= stiffness_[v] * Eigen::Matrix3f::Identity();
-    });
+    addFixedPointPullJacobian(ctx, stiffness_, jacobian);
     return true;
   }
 

@@ -99,5 +99,9 @@ void addNeighbourPullJacobian(const ForceContext& ctx, JacobianBlocks& jacobian)
 // The Jacobian of a pull along the normal toward a point found for the step (the image forces):
 // self block -alpha n n^T.
 void addNormalPullJacobian(const ForceContext& ctx, JacobianBlocks& jacobian);
+// The Jacobian of per-vertex pulls toward points held fixed over the step (collision contacts,
+// deforming contacts), f_v = k_v (p - x_v): self block -k_v I. Nothing while `stiffness` does not
+// match the store (no step evaluated yet at this level).
+void addFixedPointPullJacobian(const ForceContext& ctx, std::span<const float> stiffness, JacobianBlocks& jacobian);
 
 }  // namespace sinew
