@@ -13,6 +13,8 @@
 
 #include <QtTest>
 
+#include <functional>
+
 #include <algorithm>
 #include <numeric>
 
@@ -87,6 +89,27 @@ double maxDifference(MeshStore& a, MeshStore& b) {
   double worst = 0;
   for (Index v = 0; v < a.vertexCount(); ++v) worst = std::max(worst, double((a.positions()[v] - b.positions()[v]).norm()));
   return worst;
+}
+
+// `steps` steps of four copies of one scene: on the CPU, on the device in two batches, on the
+// device again in one, and none (the start). Largest CPU-CUDA difference, largest motion on the
+// CPU, largest difference between the two device runs (mm).
+struct ParityRun {
+  double cpuCuda = 0, moved = 0, deviceRepeat = 0;
+};
+ParityRun runOnBoth(const std::function<std::unique_ptr<Simulation>()>& make, int steps) {
+  auto cpu = make(), gpu = make(), again = make(), init = make();
+  cpu->setStabilityGuard({false, 20.0, 0});
+  cpu->run(steps);
+  cuda::CudaEngine engine(*gpu);
+  engine.run(steps / 2);
+  engine.run(steps - steps / 2);
+  engine.download();
+  cuda::CudaEngine engine2(*again);
+  engine2.run(steps);
+  engine2.download();
+  return {maxDifference(cpu->store(), gpu->store()), maxDifference(cpu->store(), init->store()),
+          maxDifference(gpu->store(), again->store())};
 }
 
 }  // namespace
@@ -334,21 +357,12 @@ private slots:
       sim->initialize();
       return sim;
     };
-    auto cpu = make(true), gpu = make(true), again = make(true), init = make(true);
-    cpu->run(steps);
-    cuda::CudaEngine engine(*gpu);
-    engine.run(steps / 2);
-    engine.run(steps - steps / 2);
-    engine.download();
-    cuda::CudaEngine engine2(*again);
-    engine2.run(steps);
-    engine2.download();
-    const double diff = maxDifference(cpu->store(), gpu->store()), moved = maxDifference(cpu->store(), init->store());
+    const ParityRun r = runOnBoth([&] { return make(true); }, steps);
     qInfo("contacts, %s: max CPU-CUDA difference %.3g mm after %d steps (vertices pulled up to %.3g mm)",
-          qPrintable(integrator), diff, steps, moved);
-    QVERIFY(moved > 0.5);
-    QVERIFY2(diff < (integrator == "implicit_euler" ? 1e-2 : 1e-3), qPrintable(QString::number(diff)));
-    QCOMPARE(maxDifference(gpu->store(), again->store()), 0.0);
+          qPrintable(integrator), r.cpuCuda, steps, r.moved);
+    QVERIFY(r.moved > 0.5);
+    QVERIFY2(r.cpuCuda < (integrator == "implicit_euler" ? 1e-2 : 1e-3), qPrintable(QString::number(r.cpuCuda)));
+    QCOMPARE(r.deviceRepeat, 0.0);
     auto none = make(false), with = make(true);
     cuda::CudaEngine e0(*none), e1(*with);
     e0.run(2);
@@ -389,22 +403,12 @@ private slots:
       sim->initialize();
       return sim;
     };
-    auto cpu = make(2, 0.5f), gpu = make(2, 0.5f), again = make(2, 0.5f), init = make(2, 0.5f);
-    cpu->setStabilityGuard({false, 20.0, 0});
-    cpu->run(steps);
-    cuda::CudaEngine engine(*gpu);
-    engine.run(steps / 2);
-    engine.run(steps - steps / 2);
-    engine.download();
-    cuda::CudaEngine engine2(*again);
-    engine2.run(steps);
-    engine2.download();
-    const double diff = maxDifference(cpu->store(), gpu->store()), moved = maxDifference(cpu->store(), init->store());
+    const ParityRun r = runOnBoth([&] { return make(2, 0.5f); }, steps);
     qInfo("collision, %s: max CPU-CUDA difference %.3g mm after %d steps (vertices pushed up to %.3g mm)",
-          qPrintable(integrator), diff, steps, moved);
-    QVERIFY(moved > 1.0);
-    QVERIFY2(diff < (integrator == "implicit_euler" ? 1e-2 : 1e-3), qPrintable(QString::number(diff)));
-    QCOMPARE(maxDifference(gpu->store(), again->store()), 0.0);
+          qPrintable(integrator), r.cpuCuda, steps, r.moved);
+    QVERIFY(r.moved > 1.0);
+    QVERIFY2(r.cpuCuda < (integrator == "implicit_euler" ? 1e-2 : 1e-3), qPrintable(QString::number(r.cpuCuda)));
+    QCOMPARE(r.deviceRepeat, 0.0);
     // The hierarchies exist only where there is something to collide with.
     auto bytesAfter = [](Simulation& sim) {
       cuda::CudaEngine e(sim);
