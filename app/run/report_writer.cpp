@@ -91,7 +91,7 @@ void writeReportJson(const std::filesystem::path& path, const RunReport& r, cons
     j["overlaps"] = {{"grid_spacing_mm", kOverlapSpacingMm}, {"total_before_mm3", before}, {"total_after_mm3", after},
                      {"pairs", pairs}};
   }
-  j["status"] = r.numericalFailure.empty() ? "completed" : "numerical_failure";
+  j["status"] = r.numericalFailure.empty() ? "completed" : r.shapeFailure ? "degraded" : "numerical_failure";
   if (!r.numericalFailure.empty()) j["numerical_failure"] = r.numericalFailure;
   Json events = Json::array();
   for (const StabilityEvent& e : r.stability)

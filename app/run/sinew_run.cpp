@@ -282,8 +282,8 @@ int main(int argc, char** argv) {
         std::fprintf(stderr, "stability guard: iteration %ld: %s; time step halved to %g\n", e.iteration, e.reason.c_str(),
                      e.timeStep);
     if (!report.numericalFailure.empty()) {
-      std::fprintf(stderr, "sinew-run: numerical failure: %s (the outputs hold the last good meshes)\n",
-                   report.numericalFailure.c_str());
+      std::fprintf(stderr, "sinew-run: %s: %s (the outputs hold the last good meshes)\n",
+                   report.shapeFailure ? "degraded" : "numerical failure", report.numericalFailure.c_str());
       return kNumerical;
     }
     return kOk;

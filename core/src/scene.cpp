@@ -347,12 +347,24 @@ SceneDesc parseScene(const std::string& text, const fs::path& file) {
   if (root.has("initialise")) s.initialise = readInitialise(root.at("initialise"));
   if (root.has("stability")) {
     const Node g = root.at("stability");
-    g.expectObject({"guard", "max_step_mm", "max_retries"});
+    g.expectObject({"guard", "max_step_mm", "max_retries", "min_volume_ratio", "max_volume_ratio", "max_drift_mm",
+                    "max_outside_fraction"});
     if (g.has("guard")) s.stability.enabled = g.at("guard").boolean();
     if (g.has("max_step_mm")) s.stability.maxStepMm = g.at("max_step_mm").number();
     if (!(s.stability.maxStepMm > 0.0)) g.at("max_step_mm").fail("must be positive");
     if (g.has("max_retries")) s.stability.maxRetries = g.at("max_retries").integer();
     if (s.stability.maxRetries < 0 || s.stability.maxRetries > 30) g.at("max_retries").fail("must be in [0, 30]");
+    ShapeLimits& shape = s.stability.shape;
+    if (g.has("min_volume_ratio")) shape.minVolumeRatio = g.at("min_volume_ratio").number();
+    if (g.has("max_volume_ratio")) shape.maxVolumeRatio = g.at("max_volume_ratio").number();
+    if (!(shape.minVolumeRatio >= 0.0 && shape.minVolumeRatio < 1.0))
+      g.at("min_volume_ratio").fail("must be in [0, 1) (the smallest volume kept, as a share of the start's)");
+    if (!(shape.maxVolumeRatio > 1.0)) g.at("max_volume_ratio").fail("must be above 1");
+    if (g.has("max_drift_mm")) shape.maxDriftMm = g.at("max_drift_mm").number();
+    if (!(shape.maxDriftMm > 0.0)) g.at("max_drift_mm").fail("must be positive");
+    if (g.has("max_outside_fraction")) shape.maxOutsideFraction = g.at("max_outside_fraction").number();
+    if (!(shape.maxOutsideFraction >= 0.0 && shape.maxOutsideFraction <= 1.0))
+      g.at("max_outside_fraction").fail("must be in [0, 1]");
   }
   if (root.has("report")) {
     const Node r = root.at("report");
@@ -449,8 +461,13 @@ std::string sceneToJson(const SceneDesc& s) {
       break;
     }
   }
-  j["stability"] = {{"guard", s.stability.enabled}, {"max_step_mm", s.stability.maxStepMm},
-                    {"max_retries", s.stability.maxRetries}};
+  j["stability"] = {{"guard", s.stability.enabled},
+                    {"max_step_mm", s.stability.maxStepMm},
+                    {"max_retries", s.stability.maxRetries},
+                    {"min_volume_ratio", s.stability.shape.minVolumeRatio},
+                    {"max_volume_ratio", s.stability.shape.maxVolumeRatio},
+                    {"max_drift_mm", s.stability.shape.maxDriftMm},
+                    {"max_outside_fraction", s.stability.shape.maxOutsideFraction}};
   j["report"] = {{"sample_interval", s.sampleInterval}, {"surface_sample_spacing_mm", s.surfaceSampleSpacingMm}};
   j["outputs"] = {{"mesh_format", s.meshFormat}, {"meshes", s.writeMeshes}, {"label_map", s.labelMapName}};
   return j.dump(2) + "\n";

@@ -495,7 +495,8 @@ RunReport SceneRunner::run() {
     for (int it = 0; it < lv.iterations && report.numericalFailure.empty();) {
       const int chunk = std::min(scene_.sampleInterval - it % scene_.sampleInterval, lv.iterations - it);
       const auto t0 = Clock::now();
-      if (!onBackend([&](ExecutionBackend& b) { runGuarded(b, chunk, report); })) {
+      const auto runChunk = [&] {
+        if (onBackend([&](ExecutionBackend& b) { runGuarded(b, chunk, report); })) return;
         try {
           sim.run(chunk);
         } catch (const NumericalError& e) {
@@ -503,7 +504,12 @@ RunReport SceneRunner::run() {
           report.numericalFailure = e.what();
           if (options_.log) options_.log(std::string("numerical failure: ") + e.what());
         }
-      }
+      };
+      if (sim.stabilityGuard().enabled)
+        runShapeGuarded(runChunk, chunk, report, [&] {
+          if (backend) backend->reload();
+        });
+      else runChunk();
       simSeconds += since(t0);
       it += chunk;
       done += chunk;
@@ -545,6 +551,40 @@ RunReport SceneRunner::run() {
   }
   report.totalSeconds = since(L.created);
   return report;
+}
+
+// The shape guard (shape_guard.h) around one chunk, on either path: the chunk's end state is held
+// against each structure at the start of the simulation; a violation undoes the chunk, halves the
+// step like a numerical failure and runs it again, until the guard has no retry left.
+void SceneRunner::runShapeGuarded(const std::function<void()>& runChunk, int chunk, RunReport& report,
+                                  const std::function<void()>& reload) {
+  Loaded& L = *loaded_;
+  Simulation& sim = *L.sim;
+  MeshStore& store = sim.store();
+  if (!shapeGuard_.captured()) shapeGuard_.capture(store);
+  std::vector<std::string> names;
+  for (const auto& s : scene_.structures) names.push_back(s.name);
+  const std::vector<Vec3> goodX(store.positions().begin(), store.positions().end());
+  std::vector<Vec3> goodPrev;
+  if (store.has(Attribute::PreviousPosition))
+    goodPrev.assign(store.previousPositions().begin(), store.previousPositions().end());
+  for (int attempt = 0;; ++attempt) {
+    runChunk();
+    if (!report.numericalFailure.empty()) return;
+    const std::string problem = shapeGuard_.check(store, L.target->geometry(), sim.stabilityGuard().shape, names);
+    if (problem.empty()) return;
+    if (options_.log) options_.log("stability guard: " + problem + "; the last " + std::to_string(chunk) + " steps undone");
+    sim.countExternalSteps(-chunk);
+    try {
+      sim.recover(goodX, goodPrev, problem, attempt);
+    } catch (const NumericalError& e) {
+      report.numericalFailure = e.what();
+      report.shapeFailure = true;
+      if (options_.log) options_.log(std::string("stopped: ") + e.what());
+      return;
+    }
+    reload();
+  }
 }
 
 // The stability guard for a backend: the chunk's steps are checked together when they come back

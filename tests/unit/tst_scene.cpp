@@ -86,6 +86,8 @@ private slots:
                                           << "/contact_pairs/0/1: no structure is named 'b'";
     QTest::newRow("contact pair self") << R"("attraction_points": {}})" << R"("attraction_points": {}, "contacts": {}}, "contact_pairs": [["a", "a"]])"
                                        << "/contact_pairs/0: a structure cannot be in contact with itself";
+    QTest::newRow("shape limit") << R"("version": 1,)" << R"("version": 1, "stability": {"min_volume_ratio": 1.5},)"
+                                 << "/stability/min_volume_ratio: must be in [0, 1)";
     QTest::newRow("not json") << R"("version": 1,)" << R"("version": 1,,)" << "/data/scene.json: not valid JSON";
   }
   void errorsNameTheJsonPath() {

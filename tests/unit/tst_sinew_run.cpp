@@ -391,6 +391,49 @@ private slots:
     }
     QVERIFY(after <= 0.7 * before);  // at least a 30 % drop of the mean
   }
+
+  // The issue on reliability's case: the demo with implicit Euler at time step 100 (inside the
+  // declared range) once completed with exit 0 and Thalamus_L at a twentieth of its volume. The
+  // shape guard rolls back and halves the step; it must end with exit 4, status "degraded" and the
+  // last good meshes, or with a result better than the start, never exit 0 with a collapse.
+  void shapeGuardCatchesTheCollapsingDemo() {
+    const QString t = "/usr/share/mricron/templates/";
+    if (!QFile::exists(t + "aal.nii.gz")) QSKIP("Debian package mricron-data is not installed");
+    const fs::path scene = path("collapse.json"), out = path("collapse_out");
+    Result r = runTool(SINEW_MAKE_SCENE, {"--atlas", t + "aal.nii.gz", "--labels", t + "aal.nii.txt", "--training",
+                                          t + "ch2better.nii.gz", "--target", t + "ch2.nii.gz", "--seed", "1", "-o",
+                                          QString::fromStdString(scene.string())});
+    QVERIFY2(r.code == 0, qPrintable(r.err));
+    std::ifstream in(scene);
+    std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    in.close();
+    replace(text, R"("name": "damped_verlet")", R"("name": "implicit_euler")");
+    replace(text, R"("time_step": 0.5)", R"("time_step": 100)");
+    replace(text, R"("damping": 0.6)", R"("damping_rate": 3)");
+    std::ofstream(scene) << text;
+    r = sinewRun({QString::fromStdString(scene.string()), "-q", "-o", QString::fromStdString(out.string())});
+    const QJsonObject report = readJson(out / "report.json");
+    double initial = 0, final = 0;
+    for (const auto& v : report["structures"].toArray()) {
+      initial += v.toObject()["assd_mm"].toObject()["initial"].toDouble();
+      final += v.toObject()["assd_mm"].toObject()["final"].toDouble();
+    }
+    qInfo("implicit Euler, time step 100: exit %d, status %s, %d rollbacks, summed ASSD %.2f -> %.2f mm", r.code,
+          qPrintable(report["status"].toString()), report["stability"].toObject()["rollbacks"].toInt(), initial, final);
+    if (r.code == 0) {
+      QVERIFY2(final < initial, "exit 0 with a result worse than the start");
+      return;
+    }
+    QCOMPARE(r.code, 4);
+    QCOMPARE(report["status"].toString(), QString("degraded"));
+    QVERIFY2(r.err.contains("degraded: shape check: structure '"), qPrintable(r.err));
+    const QJsonArray events = report["stability"].toObject()["events"].toArray();
+    QVERIFY(!events.isEmpty() && events.last().toObject()["reason"].toString().startsWith("shape check"));
+    QVERIFY(final < 2.0 * initial);  // the last good state, not the collapse (6.8 mm mean once)
+    const TriangleMesh kept = builtinRegistry().meshIOFor("x.vtp").read(out / "Thalamus_L.vtp");
+    QVERIFY(!kept.points.empty());
+    for (const Vec3& p : kept.points) QVERIFY(p.allFinite());
+  }
 };
 
 QTEST_GUILESS_MAIN(TestSinewRun)

@@ -1,10 +1,13 @@
 // Issue 7's acceptance: the stability suite never produces a non-finite vertex, implicit Euler
 // stays stable at >= 5x the largest stable Verlet step on the stiff cases, and the guard's
 // rollback and clean failure are exercised and reported.
+#include "sinew/core/shape_guard.h"
 #include "stability_suite.h"
 #include "synthetic.h"
 
 #include <QtTest>
+
+#include <functional>
 
 using namespace sinew;
 using namespace sinew::testing;
@@ -153,6 +156,44 @@ private Q_SLOTS:
     QCOMPARE(i.outcome(), std::string("stable"));
     QVERIFY(std::abs(v.errorMm - i.errorMm) < 0.1);
     QVERIFY(i.errorMm < 0.6);
+  }
+
+  // The shape guard (shape_guard.h): each structure against itself at capture. A shrunk, swollen,
+  // carried-off or escaped structure is named with the check that fired; one within the limits,
+  // and the other structure, pass.
+  void shapeGuardNamesTheStructureAndTheCheck() {
+    Simulation sim(forceRegistry());
+    sim.addStructure(sphereStructure("ball", 2, 10.0f, Vec3(50, 50, 50)));
+    sim.addStructure(sphereStructure("other", 2, 5.0f, Vec3(20, 20, 20)));
+    sim.addForce("smoothing");
+    sim.setIntegrator("damped_verlet");
+    sim.initialize();
+    MeshStore& s = sim.store();
+    ImageGeometry image;
+    image.size = {100, 100, 100};
+    ShapeGuard guard;
+    guard.capture(s);
+    const ShapeLimits limits;
+    const std::vector<std::string> names{"ball", "other"};
+    QCOMPARE(QString::fromStdString(guard.check(s, image, limits, names)), QString());
+    const std::vector<Vec3> start(s.positions().begin(), s.positions().end());
+    const auto moveBall = [&](const std::function<Vec3(const Vec3&)>& f, const ShapeLimits& with = ShapeLimits{}) {
+      auto x = s.positionsForWrite();
+      for (Index v = 0; v < s.vertexCount(); ++v) x[v] = s.meshOfVertex()[v] == 0 ? f(start[v]) : start[v];
+      return QString::fromStdString(guard.check(s, image, with, names));
+    };
+    const Vec3 c(50, 50, 50);
+    QCOMPARE(moveBall([&](const Vec3& p) -> Vec3 { return c + 0.95f * (p - c); }), QString());  // 0.86 of the volume
+    const QString shrunk = moveBall([&](const Vec3& p) -> Vec3 { return c + 0.7f * (p - c); });  // 0.34
+    QVERIFY2(shrunk.contains("structure 'ball'") && shrunk.contains("0.343 times its volume"), qPrintable(shrunk));
+    const QString swollen = moveBall([&](const Vec3& p) -> Vec3 { return c + 1.3f * (p - c); });  // 2.2
+    QVERIFY2(swollen.contains("2.2 times its volume"), qPrintable(swollen));
+    const QString drifted = moveBall([&](const Vec3& p) -> Vec3 { return p + Vec3(12, 0, 0); });
+    QVERIFY2(drifted.contains("structure 'ball' drifted 12 mm"), qPrintable(drifted));
+    ShapeLimits onlyInside;  // the other checks out of the way
+    onlyInside.maxDriftMm = 1e9;
+    const QString escaped = moveBall([&](const Vec3& p) -> Vec3 { return p + Vec3(45, 0, 0); }, onlyInside);
+    QVERIFY2(escaped.contains("vertices outside the image"), qPrintable(escaped));
   }
 };
 

@@ -6,6 +6,7 @@
 #include "sinew/core/execution_backend.h"
 #include "sinew/core/io.h"
 #include "sinew/core/scene.h"
+#include "sinew/core/shape_guard.h"
 #include "sinew/core/simulation.h"
 #include "sinew/core/surface_distance.h"
 
@@ -90,6 +91,7 @@ struct RunReport {
   // Why the run stopped early (the guard could not recover; the meshes are the last good ones);
   // empty when it ran its schedule.
   std::string numericalFailure;
+  bool shapeFailure = false;  // the failure is the shape guard's (status "degraded")
   bool hasGroundTruth() const;
 };
 
@@ -129,6 +131,9 @@ public:
 
 private:
   void runGuarded(ExecutionBackend& backend, int chunk, RunReport& report);
+  // reload: brings the backend (if any) the host state after a rollback.
+  void runShapeGuarded(const std::function<void()>& runChunk, int chunk, RunReport& report,
+                       const std::function<void()>& reload);
   struct Loaded;
   void sample(RunReport& report, double seconds);
   void initialise(std::vector<StructureSpec>& specs, const std::function<void(const std::string&)>& log);
@@ -138,6 +143,7 @@ private:
   SceneDesc scene_;
   RunOptions options_;
   std::unique_ptr<Loaded> loaded_;
+  ShapeGuard shapeGuard_;  // each structure at the start of the simulation
 };
 
 // A one-line description of the CPU, e.g. "AMD EPYC (2 threads)".

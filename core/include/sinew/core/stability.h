@@ -9,10 +9,20 @@ namespace sinew {
 // moving farther than maxStepMm in one step, rolls the step back to the last good state and halves
 // the integrator's "time_step" (at most maxRetries times in a row). When that does not help, step()
 // throws NumericalError with the last good state in the store.
+// The shape guard's limits (shape_guard.h): each structure against itself at the start of the
+// simulation, at every report sample.
+struct ShapeLimits {
+  double minVolumeRatio = 0.5;       // volume / volume at the start
+  double maxVolumeRatio = 2.0;
+  double maxDriftMm = 10.0;          // centroid distance from the start
+  double maxOutsideFraction = 0.01;  // of the structure's vertices outside the target image
+};
+
 struct StabilityGuard {
   bool enabled = true;
   double maxStepMm = 20.0;
   int maxRetries = 6;
+  ShapeLimits shape;
 };
 
 struct StabilityEvent {

@@ -1,0 +1,37 @@
+// The guard for shape (the issue on reliability): the numerical guard sees non-finite positions
+// and over-long steps, not a stable but wrong result (a structure collapsed to a twentieth of its
+// volume, or carried off by 12 mm, with exit 0). This one compares each structure with itself at
+// the start of the simulation, at every report sample, on the host, for every backend: its volume
+// (Fig. 1b tessellation), how far its centroid drifted, and how many of its vertices left the
+// image. The scene runner rolls a violating chunk back and halves the step like a numerical failure.
+#pragma once
+
+#include "sinew/core/image.h"
+#include "sinew/core/mesh_store.h"
+#include "sinew/core/stability.h"
+
+#include <string>
+#include <vector>
+
+namespace sinew {
+
+class ShapeGuard {
+public:
+  // Each structure's volume and centroid now become the reference.
+  void capture(MeshStore& store);
+  bool captured() const { return !volume_.empty(); }
+  // What is wrong, naming the structure and the check, or "" when every structure is within the
+  // limits. names: the structures' names in store order.
+  std::string check(MeshStore& store, const ImageGeometry& image, const ShapeLimits& limits,
+                    const std::vector<std::string>& names) const;
+
+private:
+  std::vector<double> volume_;
+  std::vector<Vec3> centroid_;
+};
+
+// A structure's enclosed volume (mm^3) and its vertices' centroid.
+double structureVolume(MeshStore& store, Index mesh);
+Vec3 structureCentroid(MeshStore& store, Index mesh);
+
+}  // namespace sinew
