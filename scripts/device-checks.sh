@@ -33,6 +33,15 @@ for c in ${CHECKS:-parity demo accuracy}; do
       SCHEDULE=${SCALING_SCHEDULE:-20,10,25} EVERY=1 \
         MAKE_SCENE_ARGS="--structures $list --max-rotation-deg 0 --max-translation-mm 0 --scale-min 1 --scale-max 1" \
         bash scripts/collision-kernel-time.sh "$build" /tmp/kscale "${SCALING_LEVELS:-3}" 2>&1 | tee "$out/collision-scaling.md" ;;
+    shape)
+      # The shape guard on the device: the demo with implicit Euler at time step 100 (docs/stability.md).
+      t=/usr/share/mricron/templates
+      "$build/app/sinew-make-scene" --atlas $t/aal.nii.gz --labels $t/aal.nii.txt --training $t/ch2better.nii.gz \
+        --target $t/ch2.nii.gz --seed 1 -o /tmp/shape/scene.json >/dev/null
+      python3 -c 'import json,sys; p=sys.argv[1]; j=json.load(open(p)); j["integrator"]={"name":"implicit_euler","time_step":100}; json.dump(j,open(p,"w"),indent=1)' /tmp/shape/scene.json
+      "$build/app/sinew-run" /tmp/shape/scene.json -o /tmp/shape/run -q --backend cuda > "$out/shape.txt" 2>&1; echo "exit $?" >> "$out/shape.txt"
+      python3 -c 'import json; r=json.load(open("/tmp/shape/run/report.json")); print(r["status"], r["backend"], r["stability"]["rollbacks"])' >> "$out/shape.txt"
+      cat "$out/shape.txt" ;;
     demo) "$build/tests/tst_backend_demo" 2>&1 | tee "$out/demo.txt" | grep -E "PASS|FAIL|QINFO|Totals|SKIP" ;;
     accuracy)
       for backend in ${ACC_BACKENDS:-cuda cpu}; do

@@ -43,8 +43,10 @@ std::string ShapeGuard::check(MeshStore& store, const ImageGeometry& image, cons
     const std::string name = "structure '" + (m < Index(names.size()) ? names[m] : std::to_string(m)) + "'";
     const double ratio = volume_[m] > 0.0 ? structureVolume(store, m) / volume_[m] : 1.0;
     if (!(ratio >= limits.minVolumeRatio && ratio <= limits.maxVolumeRatio)) {
-      std::snprintf(text, sizeof text, "shape check: %s has %.3g times its volume at the start (limits %.3g-%.3g)",
-                    name.c_str(), ratio, limits.minVolumeRatio, limits.maxVolumeRatio);
+      const bool shrunk = !(ratio >= limits.minVolumeRatio);
+      std::snprintf(text, sizeof text, "shape check: %s has %.4g times its volume at the start, %s the %s %.3g",
+                    name.c_str(), ratio, shrunk ? "below" : "above", shrunk ? "minimum" : "maximum",
+                    shrunk ? limits.minVolumeRatio : limits.maxVolumeRatio);
       return text;
     }
     const double drift = (structureCentroid(store, m) - centroid_[m]).norm();

@@ -335,9 +335,16 @@ void Simulation::recover(std::span<const Vec3> goodPositions, std::vector<Vec3>&
   const double halved = e.timeStep / 2.0;
   if (kStep < 0 || attempt >= guard_.maxRetries || halved < integratorParams_.decls()[kStep].min) {
     events_.push_back(e);
-    throw NumericalError(problem + " at iteration " + std::to_string(iteration_) + "; " +
-                         (kStep < 0 ? "the integrator has no time_step to reduce"
-                                    : "still unstable after " + std::to_string(attempt) + " halvings of the time step") +
+    std::string why;
+    if (kStep < 0) why = "the integrator has no time_step to reduce";
+    else if (attempt >= guard_.maxRetries) why = "still unstable after " + std::to_string(attempt) + " halvings of the time step";
+    else {
+      char text[128];
+      std::snprintf(text, sizeof text, "the time step (%g) cannot be halved below the integrator's minimum (%g)", e.timeStep,
+                    integratorParams_.decls()[kStep].min);
+      why = text;
+    }
+    throw NumericalError(problem + " at iteration " + std::to_string(iteration_) + "; " + why +
                          "; the state is the last good one");
   }
   integratorParams_.set(0, kStep, halved);
