@@ -4,7 +4,7 @@
 
 #include "cuda_check.h"
 #include "device_collision.h"
-#include "sinew/core/contact_links.h"
+#include "device_placed.h"
 #include "device_store.h"
 #include "kernels.h"
 
@@ -101,23 +101,12 @@ struct CudaEngine::Impl {
   // force keeps it from its prepare().
   int profileInside = 0, profileOutside = 0;
   float profileSpacing = 0.0f;
-  // Placed points: attraction, include and exclude.
-  DeviceArray<float3> points;
-  DeviceArray<int> pointMesh, pointKind;
-  DeviceArray<unsigned long long> keys;
-  DeviceArray<float> windings;
-  bool constraintPoints = false;  // any include / exclude point among them
-  DeviceCollision collision;  // built while the collision force is active, per level
-  // Deforming contacts: per vertex its partner and reference offset, found once per level while
-  // the contacts force is active (contactsBuilt), and the spring stiffness for implicit Euler.
-  DeviceArray<int> contactPartner;
-  DeviceArray<float3> contactOffset;
-  DeviceArray<float> springPull;
-  bool contactsBuilt = false;
+  DevicePlacedPoints placedPoints;  // attraction, include and exclude points
+  DeviceCollision collision;        // built while the collision force is active, per level
+  DeviceContactLinks contactLinks;  // built while the contacts force is active, per level
   // Drawing: contour segments and their count.
   DeviceArray<float3> contourOut;
   DeviceArray<int> contourCount, contourBase;
-  int pointCount = 0;
   MeshView view;
   std::map<int, cudaGraphExec_t> graphs;  // one per batch length
   std::vector<float> graphSignature;       // what the captured graphs baked in
@@ -137,34 +126,7 @@ struct CudaEngine::Impl {
       f.count = static_cast<int>(t.decls().size());
       f.params.upload(v, stream);
     }
-    // Per structure its attraction points, then its include / exclude points: the CPU force's order.
-    std::vector<float3> pts;
-    std::vector<int> owner, kind;
-    const auto& ap = sim.scene().attractionPoints();
-    const auto& cp = sim.scene().constraintPoints();
-    const auto add = [&](const Vec3& c, size_t m, int k) {
-      pts.push_back(make_float3(c.x(), c.y(), c.z()));
-      owner.push_back(static_cast<int>(m));
-      kind.push_back(k);
-    };
-    for (size_t m = 0; m < std::max(ap.size(), cp.size()); ++m) {
-      if (m < ap.size())
-        for (const Vec3& c : ap[m]) add(c, m, kAttractPoint);
-      if (m < cp.size())
-        for (const ConstraintPoint& c : cp[m]) add(c.at, m, c.include ? kIncludePoint : kExcludePoint);
-    }
-    if (static_cast<int>(pts.size()) != pointCount) invalidateGraph();
-    pointCount = static_cast<int>(pts.size());
-    const float3* oldPoints = points.get();
-    points.upload(pts, stream);
-    pointMesh.upload(owner, stream);
-    pointKind.upload(kind, stream);
-    const float* oldWindings = windings.get();
-    keys.resize(pts.size());
-    windings.resize(pts.size());
-    const bool anyConstraint = std::any_of(kind.begin(), kind.end(), [](int k) { return k != kAttractPoint; });
-    if (points.get() != oldPoints || windings.get() != oldWindings || anyConstraint != constraintPoints) invalidateGraph();
-    constraintPoints = anyConstraint;
+    if (placedPoints.upload(sim.scene(), stream)) invalidateGraph();
     for (const ForceSlot& f : forces)
       if (f.kind == Kind::Gradient) uploadGradient(f);
     if (implicit()) uploadJacobianWeights();
@@ -192,31 +154,17 @@ struct CudaEngine::Impl {
 
   bool contactsActive() const {
     for (const ForceSlot& f : forces)
-      if (f.kind == Kind::Contacts) return contactsBuilt && sim.forceParams(f.name).anyPositive(0);
+      if (f.kind == Kind::Contacts) return contactLinks.built() && sim.forceParams(f.name).anyPositive(0);
     return false;
   }
-  // The level's contact links (core/contact_links.h), found on the host's reference shapes on first
-  // use at each level, before any capture; nothing is allocated without contact pairs.
+  // The level's contact links, found on the host's reference shapes on first use at each level,
+  // before any capture.
   void prepareContacts() {
     for (const ForceSlot& f : forces)
-      if (f.kind == Kind::Contacts && !contactsBuilt && sim.forceParams(f.name).anyPositive(0)) {
+      if (f.kind == Kind::Contacts && !contactLinks.built() && sim.forceParams(f.name).anyPositive(0)) {
         const ParamTable& t = sim.forceParams(f.name);
-        const ContactLinks links =
-            findContactLinks(sim.store(), sim.scene().contactPairs(), t.getf(0, t.indexOf("distance_mm")));
-        contactsBuilt = true;
+        contactLinks.build(sim.store(), sim.scene(), t.getf(0, t.indexOf("distance_mm")), implicit(), stream);
         invalidateGraph();
-        if (links.linked == 0) {
-          contactPartner.resize(0);
-          contactOffset.resize(0);
-          springPull.resize(0);
-          return;
-        }
-        std::vector<int> partner(links.partner.begin(), links.partner.end());
-        contactPartner.upload(partner, stream);
-        uploadAs(contactOffset, std::span<const Vec3>(links.offset), stream);
-        springPull.resize(implicit() ? partner.size() : 0);
-        if (implicit()) SINEW_CUDA(cudaMemsetAsync(springPull.get(), 0, springPull.bytes(), stream));
-        SINEW_CUDA(cudaStreamSynchronize(stream));  // the host vectors go out of scope
       }
   }
 
@@ -355,7 +303,7 @@ struct CudaEngine::Impl {
     if (s.has(Attribute::Area)) area.resize(s.vertexCount());
     if (s.has(Attribute::CellCentre)) centre.resize(s.cellCount());
     collision.clear();  // the level's topology: built again when the force runs
-    contactsBuilt = false;
+    contactLinks.clear();
     if (s.has(Attribute::Mass)) mass.resize(s.vertexCount());
     if (implicit()) {
       for (auto* a : {&implicitA, &implicitB, &implicitOff}) a->resize(s.vertexCount());
@@ -469,9 +417,7 @@ struct CudaEngine::Impl {
                         profileOutside, profileSpacing, stream);
           break;
         case Kind::Attraction:
-          launchAttraction(view, p, t.indexOf("ring"), t.indexOf("margin_mm"), points.get(), pointMesh.get(),
-                           pointKind.get(), meshBegin.get(), meshEnd.get(), pointCount, keys.get(), windings.get(),
-                           constraintPoints, stream);
+          placedPoints.launch(view, p, t.indexOf("ring"), t.indexOf("margin_mm"), meshBegin.get(), meshEnd.get(), stream);
           break;
         case Kind::Collision:
           if (collision.built())
@@ -480,8 +426,7 @@ struct CudaEngine::Impl {
                             std::max(1, int(t.get(0, t.indexOf("full_search_every")))), stream);
           break;
         case Kind::Contacts:
-          if (contactPartner.get())
-            launchContactSprings(view, p, contactPartner.get(), contactOffset.get(), springPull.get(), stream);
+          contactLinks.launch(view, p, stream);
           break;
         case Kind::Plugin: checkPlugin(f, f.device->enqueue(pluginContext(f)), "enqueue"); break;
       }
@@ -496,7 +441,7 @@ struct CudaEngine::Impl {
       return;
     }
     const ImplicitTerms terms{meshPull.get(), meshNormalPull.get(), collisionActive() ? collision.stiffness() : nullptr,
-                              contactsActive() ? springPull.get() : nullptr};
+                              contactsActive() ? contactLinks.stiffness() : nullptr};
     const ImplicitWork work{implicitA.get(), implicitB.get(), implicitOff.get(), implicitVel.get(), implicitRhs.get(),
                             implicitR.get(), implicitZ.get(), implicitP.get(), implicitAp.get(), implicitScalars.get()};
     launchImplicitEuler(view, terms, work, ip.getf(0, ip.indexOf("time_step")), ip.getf(0, ip.indexOf("damping_rate")),
@@ -710,7 +655,7 @@ std::size_t CudaEngine::deviceBytes() const {
          I.image.bytes() + I.profiles.bytes() + I.gradient.bytes() + I.contourOut.bytes() + I.implicitA.bytes() +
          I.implicitB.bytes() + I.implicitOff.bytes() + I.implicitVel.bytes() + I.implicitRhs.bytes() +
          I.implicitR.bytes() + I.implicitZ.bytes() + I.implicitP.bytes() + I.implicitAp.bytes() + I.collision.bytes() +
-         I.contactPartner.bytes() + I.contactOffset.bytes() + I.springPull.bytes();
+         I.contactLinks.bytes();
 }
 
 }  // namespace sinew::cuda

@@ -45,7 +45,8 @@ struct CollisionTree {
 
 // Per vertex of the store, 1 where it lies inside another structure or within `margin` of its
 // surface (pairs nested by design left out): the contact regions a view shows. Builds its own
-// hierarchy and searches without bound, so it is meant on request, not every step.
+// hierarchy and searches without bound, so it is meant on request, not every step. Allocates the
+// store's cell centres when nothing required them yet.
 std::vector<unsigned char> contactMask(MeshStore& store, const SceneData& scene, float margin);
 
 inline const collision::P3* asP3(std::span<const Vec3> v) { return reinterpret_cast<const collision::P3*>(v.data()); }
