@@ -18,6 +18,8 @@ out=${OUT:-/tmp/out}
 for c in ${CHECKS:-parity demo accuracy}; do
   case $c in
     parity) "$build/tests/tst_cuda_parity" 2>&1 | tee "$out/parity.txt" | grep -E "PASS|FAIL|QINFO|Totals|SKIP" ;;
+    run) REPEATS=${RUN_REPEATS:-3} bash scripts/bench-run.sh "$build" /tmp/bench-run 2>&1 | tee "$out/bench-run.md"
+      for b in cpu cuda; do "$build/app/sinew-run" /tmp/bench-run/scene.json -q -v --backend $b -o /tmp/bench-run/v-$b 2>&1 | tail -16; done ;;
     bench) "$build/tests/bench/bench_cuda" ${BENCH_ARGS:-5 2} 2>&1 | tee "$out/bench_cuda.txt" ;;
     collision)
       for backend in ${COST_BACKENDS:-cuda cpu}; do

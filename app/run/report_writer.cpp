@@ -119,6 +119,7 @@ void writeReportJson(const std::filesystem::path& path, const RunReport& r, cons
                         {"level", t.level},
                         {"structure", r.structures.empty() ? Json(t.structure) : Json(r.structures[t.structure].name)},
                         {"assd_mm", number(t.assdMm)},
+                        {"hd95_mm", number(t.hd95Mm)},
                         {"mean_displacement_mm", t.meanDisplacementMm},
                         {"mean_force", t.meanForce}});
   }
@@ -140,10 +141,10 @@ void writeReportCsv(const std::filesystem::path& path, const RunReport& r) {
 
 void writeTimelineCsv(const std::filesystem::path& path, const RunReport& r, const SceneDesc& scene) {
   std::ostringstream s;
-  s << "seconds,iteration,level,structure,assd_mm,mean_displacement_mm,mean_force\n";
+  s << "seconds,iteration,level,structure,assd_mm,hd95_mm,mean_displacement_mm,mean_force\n";
   for (const TimelineSample& t : r.timeline)
     s << csvNumber(t.seconds) << ',' << t.iteration << ',' << t.level << ',' << scene.structures[t.structure].name
-      << ',' << csvNumber(t.assdMm) << ',' << csvNumber(t.meanDisplacementMm) << ',' << csvNumber(t.meanForce)
+      << ',' << csvNumber(t.assdMm) << ',' << csvNumber(t.hd95Mm) << ',' << csvNumber(t.meanDisplacementMm) << ',' << csvNumber(t.meanForce)
       << '\n';
   writeText(path, s.str());
 }

@@ -176,16 +176,21 @@ void listPlugins(const PluginLoader& loader, const Registry& registry) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  const auto processStart = std::chrono::steady_clock::now();
+  auto since = [](std::chrono::steady_clock::time_point t0) {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  };
   CLI::App cli{"sinew-run: segment one subject with the deformable models a scene file describes."};
   cli.footer(kExitCodes);
   std::string scenePath, outDir = "sinew-output";
   int threads = 0;
-  bool quiet = false, list = false;
+  bool quiet = false, list = false, verbose = false;
   std::string backendChoice = "auto";
   cli.add_option("scene", scenePath, "scene file (JSON)");
   cli.add_option("-o,--out", outDir, "output directory (created if missing)")->capture_default_str();
   cli.add_option("-j,--threads", threads, "CPU threads (0 = all)")->check(CLI::NonNegativeNumber);
   cli.add_flag("-q,--quiet", quiet, "no progress output");
+  cli.add_flag("-v,--verbose", verbose, "print the wall time of every stage at the end (as in report.json's stage_seconds)");
   cli.add_option("--backend", backendChoice, "auto: CUDA when a usable GPU exists, else the CPU")
       ->check(CLI::IsMember({"auto", "cuda", "cpu"}))
       ->capture_default_str();
@@ -251,8 +256,11 @@ int main(int argc, char** argv) {
       std::fprintf(stderr, "removed %d staging folder(s) a killed run left in %s\n", lock.staleRemoved(), outDir.c_str());
     SceneRunner runner(registry, scene, options);
     if (!quiet) std::fprintf(stderr, "loading %s\n", scenePath.c_str());
+    const double startup = since(processStart);
     runner.load();
-    const RunReport report = runner.run();
+    RunReport report = runner.run();
+    report.stageSeconds.insert(report.stageSeconds.begin(), {"startup", startup});
+    const auto outputsStart = std::chrono::steady_clock::now();
     for (const auto& s : report.structures)
       for (const Vec3& p : s.surface.points)
         if (!p.allFinite()) throw NumericalError("structure '" + s.name + "' has a non-finite vertex; nothing was written");
@@ -270,12 +278,23 @@ int main(int argc, char** argv) {
       const fs::path tfm = out.file("subject-to-atlas.tfm");
       registry.imageRegistration().writeTransform(tfm, report.initialisation.targetToModel);
     }
+    // The reports cannot time their own writing: the stage ends here, and so does total_seconds
+    // (process start to outputs written).
+    report.stageSeconds.emplace_back("write_outputs", since(outputsStart));
+    report.totalSeconds = since(processStart);
     writeReportJson(out.file("report.json"), report, scene, plugins.plugins());
     writeReportCsv(out.file("report.csv"), report);
     writeTimelineCsv(out.file("timeline.csv"), report, scene);
     writeErrorPlot(out.file("error_vs_time.png"), report, scene);
     out.commit();
     printTable(report);
+    if (verbose) {
+      std::fflush(stdout);
+      std::fprintf(stderr, "stage                 seconds   share\n");
+      for (const auto& [name, seconds] : report.stageSeconds)
+        std::fprintf(stderr, "%-20s %8.3f  %5.1f %%\n", name.c_str(), seconds, 100.0 * seconds / report.totalSeconds);
+      std::fprintf(stderr, "%-20s %8.3f\n", "total", report.totalSeconds);
+    }
     if (!quiet) std::fprintf(stderr, "outputs in %s\n", outDir.c_str());
     for (const StabilityEvent& e : report.stability)
       if (e.recovered && !quiet)

@@ -1,5 +1,7 @@
 #include "sinew/core/scene_runner.h"
 
+#include "sinew/core/sampled_error.h"
+
 #include "sinew/core/model_builder.h"
 #include "sinew/core/model_file.h"
 #include "sinew/core/voxelize.h"
@@ -14,6 +16,11 @@ namespace sinew {
 namespace {
 namespace fs = std::filesystem;
 using Clock = std::chrono::steady_clock;
+
+// The truth sampled for the timeline's error (sampled_error.h): at 2 mm a label surface's
+// triangles are sampled once each, at their centroids. Measured against the exact evaluation on
+// Colin27 (tst_sampled_error): 0.004 mm of ASSD at most, the same as at 1 mm, in half the time.
+constexpr float kSampledSpacingMm = 2.0f;
 
 double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
@@ -47,6 +54,8 @@ struct SceneRunner::Loaded {
   std::unique_ptr<Simulation> sim;
   std::map<fs::path, std::shared_ptr<LabelVolume>> labelMaps;
   std::vector<std::unique_ptr<ReferenceSurface>> truth;  // per structure, null without one
+  std::unique_ptr<SampledError> sampled;                 // the timeline's error; null without any truth
+  double samplingSeconds = 0.0;
   std::vector<std::vector<std::uint8_t>> truthMask;
   std::vector<const ImageGeometry*> truthGrid;
   std::shared_ptr<Image3D> target;
@@ -140,6 +149,7 @@ void SceneRunner::load() {
 
   L.sim = std::make_unique<Simulation>(registry_, options_.threads);
   t0 = Clock::now();
+  double truthSeconds = 0.0;
   std::vector<StructureSpec> specs;
   for (const auto& [a, b] : scene_.contactPairs) {
     std::array<Index, 2> pair{-1, -1};
@@ -207,6 +217,7 @@ void SceneRunner::load() {
 
     if (d.groundTruth) {
       log("structure '" + d.name + "': ground-truth surface");
+      const auto t1 = Clock::now();
       const LabelVolume& gt = labels(d.groundTruth->labelMap);
       try {
         L.truth.push_back(std::make_unique<ReferenceSurface>(
@@ -219,6 +230,7 @@ void SceneRunner::load() {
       for (size_t v = 0; v < mask.size(); ++v) mask[v] = gt.voxels()[v] == d.groundTruth->label;
       L.truthMask.push_back(std::move(mask));
       L.truthGrid.push_back(&gt.geometry());
+      truthSeconds += since(t1);
     } else {
       L.truth.push_back(nullptr);
       L.truthMask.emplace_back();
@@ -226,7 +238,13 @@ void SceneRunner::load() {
     }
     specs.push_back(std::move(spec));
   }
-  stage(L.model ? "structures" : "build_model", t0);
+  L.stageSeconds.emplace_back(L.model ? "structures" : "build_model", since(t0) - truthSeconds);
+  t0 = Clock::now();
+  std::vector<const TriangleMesh*> truths;
+  for (const auto& t : L.truth) truths.push_back(t ? &t->surface() : nullptr);
+  if (std::any_of(truths.begin(), truths.end(), [](const TriangleMesh* t) { return t != nullptr; }))
+    L.sampled = std::make_unique<SampledError>(truths, kSampledSpacingMm);
+  L.stageSeconds.emplace_back("ground_truth", truthSeconds + since(t0));
 
   t0 = Clock::now();
   initialise(specs, log);
@@ -403,12 +421,26 @@ StructureResult SceneRunner::evaluatePositions(Index i, const std::vector<Vec3>&
   return r;
 }
 
-void SceneRunner::sample(RunReport& report, double seconds) {
+std::vector<std::optional<SurfaceDistanceStats>> SceneRunner::sampledError(ExecutionBackend* backend) {
+  Loaded& L = *loaded_;
+  std::vector<std::optional<SurfaceDistanceStats>> error(L.sim->structureCount());
+  if (!L.sampled) return error;
+  try {
+    if (backend && backend->measureError(*L.sampled, error)) return error;
+  } catch (const std::runtime_error& e) {  // the device failed: the host has the same state
+    if (options_.log) options_.log(std::string("error sampling on the device failed (") + e.what() + "); sampling on the host");
+  }
+  return L.sampled->measure(L.sim->store());
+}
+
+void SceneRunner::sample(RunReport& report, double seconds, ExecutionBackend* backend) {
   Loaded& L = *loaded_;
   MeshStore& store = L.sim->store();
   const auto x = store.positions();
   const auto prev = store.previousPositions();
   const auto f = store.forces();
+  const auto t0 = Clock::now();
+  const std::vector<std::optional<SurfaceDistanceStats>> error = sampledError(backend);
   for (Index i = 0; i < store.meshCount(); ++i) {
     const MeshRange& r = store.range(i);
     TimelineSample s;
@@ -426,9 +458,10 @@ void SceneRunner::sample(RunReport& report, double seconds) {
     }
     s.meanDisplacementMm = disp / r.vertexCount();
     s.meanForce = force / r.vertexCount();
-    if (L.truth[i]) s.assdMm = evaluate(i, false).assdFinalMm;
+    if (error[i]) s.assdMm = error[i]->assd, s.hd95Mm = error[i]->hd95;
     report.timeline.push_back(s);
   }
+  L.samplingSeconds += since(t0);
 }
 
 RunReport SceneRunner::run() {
@@ -438,12 +471,14 @@ RunReport SceneRunner::run() {
   report.threads = sim.executor().threads();
   report.device = cpuDescription(report.threads);
   std::vector<StructureResult> initial, model;
+  auto t0 = Clock::now();
   for (Index i = 0; i < sim.structureCount(); ++i) initial.push_back(evaluate(i, true));
-  report.stageSeconds = L.stageSeconds;
   report.initialisation = L.init;
   const bool initialised = scene_.initialise.method != InitialiseDesc::Method::None;
   for (Index i = 0; i < sim.structureCount(); ++i)
     model.push_back(initialised && sim.level() == 0 ? evaluatePositions(i, L.modelPositions[i], true) : initial[i]);
+  report.stageSeconds = L.stageSeconds;
+  report.stageSeconds.emplace_back("evaluate_start", since(t0));
   auto stageOf = [&](std::string name, double seconds, const std::vector<StructureResult>& rs) {
     StageResult st{std::move(name), seconds, {}};
     for (const auto& x : rs) st.assdMm.push_back(x.assdFinalMm);
@@ -481,7 +516,7 @@ RunReport SceneRunner::run() {
   long total = 0, done = 0;
   for (const auto& l : scene_.schedule) total += l.iterations;
   double simSeconds = 0.0;
-  sample(report, 0.0);
+  sample(report, 0.0, backend.get());
   for (int level = 0; level < levels && report.numericalFailure.empty(); ++level) {
     const LevelDesc& lv = scene_.schedule[level];
     if (level > 0) {
@@ -513,7 +548,7 @@ RunReport SceneRunner::run() {
       simSeconds += since(t0);
       it += chunk;
       done += chunk;
-      sample(report, simSeconds);
+      sample(report, simSeconds, backend.get());
       if (options_.progress) options_.progress({level, levels, it, lv.iterations, done, total, simSeconds});
     }
     // The level's error is that of its last sample.
@@ -523,7 +558,10 @@ RunReport SceneRunner::run() {
     report.stages.push_back(std::move(st));
   }
   report.simulationSeconds = simSeconds;
+  report.stageSeconds.emplace_back("simulation", simSeconds);
+  report.stageSeconds.emplace_back("sample_error", L.samplingSeconds);
   report.stability = sim.stabilityEvents();
+  t0 = Clock::now();
   for (Index i = 0; i < sim.structureCount(); ++i) {
     StructureResult r = evaluate(i, true);
     r.assdInitialMm = initial[i].assdFinalMm;
@@ -533,8 +571,9 @@ RunReport SceneRunner::run() {
     r.seconds = simSeconds;
     report.structures.push_back(std::move(r));
   }
+  report.stageSeconds.emplace_back("evaluate_end", since(t0));
   if (sim.structureCount() > 1) {
-    const auto t0 = Clock::now();
+    t0 = Clock::now();
     std::vector<const TriangleMesh*> start, end;
     for (Index i = 0; i < sim.structureCount(); ++i) {
       start.push_back(&initial[i].surface);

@@ -1,6 +1,5 @@
 #include "sinew/core/surface_distance.h"
 
-#include "sinew/core/collision_bvh.h"
 #include "sinew/core/executor.h"
 
 #include <Eigen/Geometry>
@@ -12,108 +11,87 @@
 namespace sinew {
 
 namespace {
-
-// Closest point on triangle: the routine the collision detection uses (collision_bvh.h).
-Vec3 closestOnTriangle(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c) {
-  using collision::P3;
-  const P3 q = collision::closestOnTriangle(P3{p.x(), p.y(), p.z()}, P3{a.x(), a.y(), a.z()}, P3{b.x(), b.y(), b.z()},
-                                            P3{c.x(), c.y(), c.z()});
-  return {q.x, q.y, q.z};
-}
-
-using Box = Eigen::AlignedBox3f;
-
-}  // namespace
-
-struct SurfaceDistanceQuery::Impl {
-  struct Node {
-    Box box;
-    int left = -1, right = -1;  // children, or -1 for a leaf
-    int begin = 0, end = 0;     // triangle range in order
-  };
-  std::vector<Vec3> a, b, c;
+struct Builder {
+  const TriangleMesh& mesh;
   std::vector<int> order;
-  std::vector<Node> nodes;
+  std::vector<Vec3> centroid;
+  TriangleBvh& out;
 
-  int build(int begin, int end) {
-    Node n;
-    n.begin = begin;
-    n.end = end;
-    Box centroids;
-    for (int i = begin; i < end; ++i) {
-      const int t = order[i];
-      n.box.extend(a[t]).extend(b[t]).extend(c[t]);
-      centroids.extend((a[t] + b[t] + c[t]) / 3.0f);
+  int build(int first, int end) {
+    trianglebvh::Node n{collision::emptyBox(), -1, -1, first, end - first};
+    Eigen::AlignedBox3f centroids;
+    for (int i = first; i < end; ++i) {
+      for (Index k : mesh.triangles[order[i]]) collision::extend(n.box, asP3(mesh.points[k]));
+      centroids.extend(centroid[order[i]]);
     }
-    const int id = static_cast<int>(nodes.size());
-    nodes.push_back(n);
-    if (end - begin <= 8) return id;
+    const int id = int(out.nodes.size());
+    out.nodes.push_back(n);
+    if (end - first <= trianglebvh::kLeafTriangles) return id;
     int axis;
     centroids.sizes().maxCoeff(&axis);
-    const int mid = (begin + end) / 2;
-    std::nth_element(order.begin() + begin, order.begin() + mid, order.begin() + end, [&](int s, int t) {
-      return (a[s] + b[s] + c[s])[axis] < (a[t] + b[t] + c[t])[axis];
-    });
-    const int l = build(begin, mid);
-    const int r = build(mid, end);
-    nodes[id].left = l;
-    nodes[id].right = r;
+    const int mid = (first + end) / 2;
+    std::nth_element(order.begin() + first, order.begin() + mid, order.begin() + end,
+                     [&](int s, int t) { return centroid[s][axis] < centroid[t][axis]; });
+    const int left = build(first, mid);
+    const int right = build(mid, end);
+    out.nodes[id].left = left;
+    out.nodes[id].right = right;
     return id;
   }
-
-  Vec3 query(const Vec3& p) const {
-    float best2 = std::numeric_limits<float>::max();
-    Vec3 bestPoint = p;
-    int stack[128];
-    int top = 0;
-    stack[top++] = 0;
-    while (top > 0) {
-      const Node& n = nodes[stack[--top]];
-      if (n.box.squaredExteriorDistance(p) >= best2) continue;
-      if (n.left < 0) {
-        for (int i = n.begin; i < n.end; ++i) {
-          const int t = order[i];
-          const Vec3 q = closestOnTriangle(p, a[t], b[t], c[t]);
-          const float d2 = (q - p).squaredNorm();
-          if (d2 < best2) {
-            best2 = d2;
-            bestPoint = q;
-          }
-        }
-        continue;
-      }
-      const float dl = nodes[n.left].box.squaredExteriorDistance(p);
-      const float dr = nodes[n.right].box.squaredExteriorDistance(p);
-      // Visit the nearer child first (pushed last).
-      if (dl < dr) {
-        stack[top++] = n.right;
-        stack[top++] = n.left;
-      } else {
-        stack[top++] = n.left;
-        stack[top++] = n.right;
-      }
-    }
-    return bestPoint;
-  }
 };
+}  // namespace
 
-SurfaceDistanceQuery::SurfaceDistanceQuery(const TriangleMesh& mesh) : impl_(std::make_unique<Impl>()) {
+TriangleBvh TriangleBvh::build(const TriangleMesh& mesh) {
   if (mesh.triangles.empty()) throw InputError("surface distance: the mesh has no triangles");
-  for (const auto& t : mesh.triangles) {
-    impl_->a.push_back(mesh.points[t[0]]);
-    impl_->b.push_back(mesh.points[t[1]]);
-    impl_->c.push_back(mesh.points[t[2]]);
+  TriangleBvh bvh;
+  Builder b{mesh, std::vector<int>(mesh.triangles.size()), {}, bvh};
+  std::iota(b.order.begin(), b.order.end(), 0);
+  for (const auto& t : mesh.triangles) b.centroid.push_back((mesh.points[t[0]] + mesh.points[t[1]] + mesh.points[t[2]]) / 3.0f);
+  b.build(0, int(mesh.triangles.size()));
+  bvh.corners.reserve(3 * mesh.triangles.size());
+  for (int t : b.order) {
+    bvh.triangles.push_back(mesh.triangles[t]);
+    for (Index k : mesh.triangles[t]) bvh.corners.push_back(asP3(mesh.points[k]));
   }
-  impl_->order.resize(mesh.triangles.size());
-  std::iota(impl_->order.begin(), impl_->order.end(), 0);
-  impl_->build(0, static_cast<int>(mesh.triangles.size()));
+  return bvh;
 }
 
-SurfaceDistanceQuery::~SurfaceDistanceQuery() = default;
-SurfaceDistanceQuery::SurfaceDistanceQuery(SurfaceDistanceQuery&&) noexcept = default;
+int TriangleBvh::append(const TriangleBvh& other, Index pointShift) {
+  const int root = int(nodes.size()), shift = int(corners.size() / 3);
+  for (trianglebvh::Node n : other.nodes) {
+    if (n.left >= 0) n.left += root, n.right += root;
+    n.first += shift;
+    nodes.push_back(n);
+  }
+  corners.insert(corners.end(), other.corners.begin(), other.corners.end());
+  for (auto t : other.triangles) triangles.push_back({t[0] + pointShift, t[1] + pointShift, t[2] + pointShift});
+  return root;
+}
 
-float SurfaceDistanceQuery::distance(const Vec3& p) const { return (impl_->query(p) - p).norm(); }
-Vec3 SurfaceDistanceQuery::closestPoint(const Vec3& p) const { return impl_->query(p); }
+void TriangleBvh::refit(std::span<const Vec3> points, const Executor& executor) {
+  executor.forEach(Index(triangles.size()), [&](Index t) {
+    for (int k = 0; k < 3; ++k) corners[3 * t + k] = asP3(points[triangles[t][k]]);
+  });
+  // Children come after their parents: from the last node back, every child is done first.
+  for (int id = int(nodes.size()) - 1; id >= 0; --id) {
+    trianglebvh::Node& n = nodes[id];
+    if (n.left >= 0) {
+      n.box = collision::merge(nodes[n.left].box, nodes[n.right].box);
+      continue;
+    }
+    n.box = collision::emptyBox();
+    for (int i = 3 * n.first; i < 3 * (n.first + n.count); ++i) collision::extend(n.box, corners[i]);
+  }
+}
+
+float SurfaceDistanceQuery::distance(const Vec3& p) const {
+  return std::sqrt(trianglebvh::closestSquaredDistance(bvh_.view(), 0, asP3(p), 3.0e38f));
+}
+Vec3 SurfaceDistanceQuery::closestPoint(const Vec3& p) const {
+  collision::P3 q = asP3(p);
+  trianglebvh::closestSquaredDistance(bvh_.view(), 0, asP3(p), 3.0e38f, &q);
+  return asVec3(q);
+}
 
 std::vector<SurfaceSample> sampleSurface(const TriangleMesh& mesh, float spacing) {
   std::vector<SurfaceSample> out;

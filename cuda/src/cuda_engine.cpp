@@ -4,6 +4,7 @@
 
 #include "cuda_check.h"
 #include "device_collision.h"
+#include "device_error.h"
 #include "device_placed.h"
 #include "device_store.h"
 #include "kernels.h"
@@ -104,6 +105,7 @@ struct CudaEngine::Impl {
   DevicePlacedPoints placedPoints;  // attraction, include and exclude points
   DeviceCollision collision;        // built while the collision force is active, per level
   DeviceContactLinks contactLinks;  // built while the contacts force is active, per level
+  DeviceSampledError sampledError;  // used when a run samples its error on the device
   // Drawing: contour segments and their count.
   DeviceArray<float3> contourOut;
   DeviceArray<int> contourCount, contourBase;
@@ -572,6 +574,12 @@ void CudaEngine::download() {
 
 void CudaEngine::reload() { impl_->upload(); }
 
+bool CudaEngine::measureError(SampledError& error, std::vector<std::optional<SurfaceDistanceStats>>& out) {
+  Impl& I = *impl_;
+  out = I.sampledError.measure(error, I.sim.store(), I.view, I.stream);
+  return true;
+}
+
 void CudaEngine::levelChanged() {
   Impl& I = *impl_;
   const Simulation& sim = I.sim;
@@ -654,7 +662,7 @@ std::size_t CudaEngine::deviceBytes() const {
          I.prev.bytes() + I.force.bytes() + I.normal.bytes() + I.centre.bytes() + I.reference.bytes() +
          I.image.bytes() + I.profiles.bytes() + I.gradient.bytes() + I.contourOut.bytes() + I.implicitA.bytes() +
          I.implicitB.bytes() + I.implicitOff.bytes() + I.implicitVel.bytes() + I.implicitRhs.bytes() +
-         I.implicitR.bytes() + I.implicitZ.bytes() + I.implicitP.bytes() + I.implicitAp.bytes() + I.collision.bytes() +
+         I.implicitR.bytes() + I.implicitZ.bytes() + I.implicitP.bytes() + I.implicitAp.bytes() + I.collision.bytes() + I.sampledError.bytes() +
          I.contactLinks.bytes();
 }
 

@@ -10,7 +10,14 @@ namespace sinew::collision {
 struct Node;
 struct Box;
 struct Tri;
+struct P3;
 }  // namespace sinew::collision
+namespace sinew::trianglebvh {
+struct Node;
+}  // namespace sinew::trianglebvh
+namespace sinew {
+struct WeightedDistance;
+}  // namespace sinew
 
 namespace sinew::cuda {
 
@@ -124,6 +131,30 @@ void launchContactSprings(const MeshView& m, ParamView p, const int* partner, co
 // every: a full search every this many steps (collision::contactResponse).
 void launchCollision(const MeshView& m, ParamView p, const CollisionDevice& c, float margin, float damping, float reach,
                      int every, cudaStream_t s);
+
+// The timeline's sampled error (error_kernels.cu; core/sampled_error.h): device copies of its
+// hierarchies and samples, and where the distances go.
+struct SampledErrorDevice {
+  trianglebvh::Node* meshNodes = nullptr;  // refitted here
+  const int* parents = nullptr;            // per mesh node, -1 at roots
+  const int* leaves = nullptr;
+  const int3* triangles = nullptr;         // point indices, in leaf order
+  const int* triangleStructure = nullptr;
+  const int* meshRoots = nullptr;
+  collision::P3* points = nullptr;         // vertices, then cell centres
+  collision::P3* corners = nullptr;
+  int* visits = nullptr;
+  const trianglebvh::Node* truthNodes = nullptr;
+  const collision::P3* truthCorners = nullptr;
+  const int* truthRoots = nullptr;         // per structure, -1 without a truth
+  const float3* samples = nullptr;         // the truths' samples
+  const float* sampleAreas = nullptr;
+  const int* sampleStructure = nullptr;
+  WeightedDistance* toTruth = nullptr;     // kSubTriangles per triangle
+  WeightedDistance* fromTruth = nullptr;   // one per sample
+  int meshNodeCount = 0, leafCount = 0, triangleCount = 0, sampleCount = 0;
+};
+void launchSampledError(const MeshView& m, const SampledErrorDevice& e, cudaStream_t s);
 
 void launchProlong(const int* rowOffsets, const int* index, const float* weight, int rows, const float3* coarse,
                    float3* fine, cudaStream_t s);

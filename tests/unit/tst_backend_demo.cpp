@@ -1,6 +1,6 @@
 // The Colin27 demo (reduced: four structures, two levels) on both backends through sinew-run
 // (label gpu): the same ASSD within 0.01 mm per structure, and the same mesh files. Skips without a
-// GPU or mricron-data.
+// GPU or mricron-data. The timeline's sampled error agrees too (sampled on the device for CUDA).
 #include "sinew/cuda/cuda_engine.h"
 
 #include <QJsonArray>
@@ -19,11 +19,12 @@ int run(const QString& program, const QStringList& args, QString* err = nullptr)
   return p.exitStatus() == QProcess::NormalExit ? p.exitCode() : -1;
 }
 
-QJsonArray structures(const QString& report) {
-  QFile f(report);
+QJsonObject report(const QString& file) {
+  QFile f(file);
   f.open(QIODevice::ReadOnly);
-  return QJsonDocument::fromJson(f.readAll()).object()["structures"].toArray();
+  return QJsonDocument::fromJson(f.readAll()).object();
 }
+QJsonArray structures(const QString& file) { return report(file)["structures"].toArray(); }
 }  // namespace
 
 class TestBackendDemo : public QObject {
@@ -59,6 +60,19 @@ private slots:
       QVERIFY(fa.open(QIODevice::ReadOnly) && fb.open(QIODevice::ReadOnly));
       QVERIFY2(fa.readAll() == fb.readAll(), qPrintable(name + ": meshes differ"));
     }
+    // The timeline's error, sampled on the device for the CUDA run (device_error.h) and on the host
+    // for the CPU run, by the same inline queries: the same values at every sample.
+    const QJsonArray tc = report(dir.filePath("cpu/report.json"))["timeline"].toArray();
+    const QJsonArray tg = report(dir.filePath("cuda/report.json"))["timeline"].toArray();
+    QCOMPARE(tc.size(), tg.size());
+    double worst = 0;
+    for (int k = 0; k < tc.size(); ++k)
+      for (const char* key : {"assd_mm", "hd95_mm"}) {
+        QVERIFY(tg[k].toObject()[key].isDouble());
+        worst = std::max(worst, std::abs(tc[k].toObject()[key].toDouble() - tg[k].toObject()[key].toDouble()));
+      }
+    qInfo("timeline: %lld samples, largest difference cpu/cuda %.2e mm", qint64(tc.size()), worst);
+    QVERIFY(worst <= 1e-4);
   }
 };
 

@@ -149,9 +149,9 @@ const SessionSample& SegmentationSession::sample() {
   s.displacementMm = disp / std::max<Index>(store.vertexCount(), 1);
   double assd = 0.0;
   int withTruth = 0;
-  for (Index i = 0; i < sim.structureCount(); ++i)
-    if (runner_->hasGroundTruth(i)) {
-      assd += runner_->evaluate(i, false).assdFinalMm;
+  for (const auto& e : runner_->sampledError(backend_.get()))  // on the device with the CUDA backend
+    if (e) {
+      assd += e->assd;
       ++withTruth;
     }
   s.assdMm = withTruth ? assd / withTruth : std::nan("");

@@ -6,6 +6,7 @@
 #include "sinew/core/collision_bvh.h"
 #include "sinew/core/mesh_store.h"
 #include "sinew/core/scene_data.h"
+#include "sinew/core/surface_distance.h"  // asP3
 
 #include <span>
 #include <string>
@@ -23,8 +24,9 @@ struct CollisionTree {
   std::vector<unsigned char> exempt;   // meshes x meshes, 1 where a pair is left out; empty: none
 
   // Each structure's vertices split at the median along the widest axis down to leaves of at most
-  // four; boxes from the store's current positions.
-  static CollisionTree build(MeshStore& store);
+  // four; boxes from the store's current positions and its cell centres, or `centres` where given
+  // (the store's then need not be allocated).
+  static CollisionTree build(MeshStore& store, std::span<const Vec3> centres = {});
   // Boxes from positions and cell centres: leaves in parallel, then the inner nodes from below.
   void refit(std::span<const Vec3> positions, std::span<const Vec3> centres, const Executor& executor);
   collision::BvhView view();
@@ -48,9 +50,5 @@ struct CollisionTree {
 // hierarchy and searches without bound, so it is meant on request, not every step. Allocates the
 // store's cell centres when nothing required them yet.
 std::vector<unsigned char> contactMask(MeshStore& store, const SceneData& scene, float margin);
-
-inline const collision::P3* asP3(std::span<const Vec3> v) { return reinterpret_cast<const collision::P3*>(v.data()); }
-inline collision::P3 asP3(const Vec3& v) { return {v.x(), v.y(), v.z()}; }
-inline Vec3 asVec3(const collision::P3& p) { return {p.x, p.y, p.z}; }
 
 }  // namespace sinew

@@ -3,7 +3,11 @@
 // store, runs batches of steps, and hands the state back only when asked.
 #pragma once
 
+#include "sinew/core/sampled_error.h"
+
+#include <optional>
 #include <string>
+#include <vector>
 
 namespace sinew {
 
@@ -20,6 +24,12 @@ public:
   // After Simulation::advanceLevel(): carry the backend's own state to the new level (the host's
   // copy may be older); by default the host's state is uploaded.
   virtual void levelChanged() { reload(); }
+  // The timeline's error (sampled_error.h) measured where the state is, into `out`; false where
+  // this backend cannot (the host then measures it from the downloaded state).
+  virtual bool measureError(SampledError& error, std::vector<std::optional<SurfaceDistanceStats>>& out) {
+    (void)error, (void)out;
+    return false;
+  }
 };
 
 }  // namespace sinew

@@ -28,7 +28,8 @@ struct TimelineSample {
   long iteration = 0;
   int level = 0;
   int structure = 0;
-  double assdMm = std::numeric_limits<double>::quiet_NaN();  // NaN without ground truth
+  double assdMm = std::numeric_limits<double>::quiet_NaN();  // NaN without ground truth (sampled_error.h)
+  double hd95Mm = std::numeric_limits<double>::quiet_NaN();
   double meanDisplacementMm = 0.0;  // mean |x - x_prev| over the structure's vertices
   double meanForce = 0.0;           // mean |f|
 };
@@ -127,6 +128,10 @@ public:
   // (NaN without one) and, when final, Dice.
   StructureResult evaluate(Index structure, bool final);
   bool hasGroundTruth(Index structure) const;
+  // Every structure's error as the timeline samples it (sampled_error.h; nullopt without a ground
+  // truth): by the backend where it can measure on its device, else from the host store, which
+  // must then be current.
+  std::vector<std::optional<SurfaceDistanceStats>> sampledError(ExecutionBackend* backend = nullptr);
   const InitialisationResult& initialisation() const;
 
 private:
@@ -135,7 +140,8 @@ private:
   void runShapeGuarded(const std::function<void()>& runChunk, int chunk, RunReport& report,
                        const std::function<void()>& reload);
   struct Loaded;
-  void sample(RunReport& report, double seconds);
+  // backend: where the state is (may be null: the host); the host store must be current.
+  void sample(RunReport& report, double seconds, ExecutionBackend* backend);
   void initialise(std::vector<StructureSpec>& specs, const std::function<void(const std::string&)>& log);
   StructureResult evaluatePositions(Index structure, const std::vector<Vec3>& positions, bool final);
 

@@ -3,24 +3,44 @@
 #pragma once
 
 #include "sinew/core/executor.h"
+#include "sinew/core/triangle_bvh.h"
 #include "sinew/core/triangle_mesh.h"
 
-#include <memory>
+#include <span>
+#include <vector>
 
 namespace sinew {
 
-// Exact point-to-triangle-mesh distance with an axis-aligned bounding-box tree.
+inline const collision::P3* asP3(std::span<const Vec3> v) { return reinterpret_cast<const collision::P3*>(v.data()); }
+inline collision::P3 asP3(const Vec3& v) { return {v.x(), v.y(), v.z()}; }
+inline Vec3 asVec3(const collision::P3& p) { return {p.x, p.y, p.z}; }
+
+// The hierarchy of triangle_bvh.h, built on the host: median splits along the widest axis of the
+// triangles' centroids, down to leaves of at most eight.
+struct TriangleBvh {
+  std::vector<trianglebvh::Node> nodes;          // pre-order, root first
+  std::vector<trianglebvh::P3> corners;          // three per triangle, in leaf order
+  std::vector<std::array<Index, 3>> triangles;   // the mesh's point indices, in leaf order (for refit)
+
+  // Throws InputError for a mesh without triangles.
+  static TriangleBvh build(const TriangleMesh& mesh);
+  trianglebvh::View view() const { return {nodes.data(), corners.data()}; }
+  // Appends `other` (its indices shifted; its point indices by pointShift); returns its root.
+  int append(const TriangleBvh& other, Index pointShift = 0);
+  // The same mesh moved to `points`: corners and boxes again, the tree kept.
+  void refit(std::span<const Vec3> points, const Executor& executor);
+};
+
+// Exact point-to-triangle-mesh distance.
 class SurfaceDistanceQuery {
 public:
-  explicit SurfaceDistanceQuery(const TriangleMesh& mesh);
-  ~SurfaceDistanceQuery();
-  SurfaceDistanceQuery(SurfaceDistanceQuery&&) noexcept;
+  explicit SurfaceDistanceQuery(const TriangleMesh& mesh) : bvh_(TriangleBvh::build(mesh)) {}
   float distance(const Vec3& p) const;
   Vec3 closestPoint(const Vec3& p) const;
+  const TriangleBvh& bvh() const { return bvh_; }
 
 private:
-  struct Impl;
-  std::unique_ptr<Impl> impl_;
+  TriangleBvh bvh_;
 };
 
 struct SurfaceSample {

@@ -39,6 +39,8 @@ public:
   // After Simulation::advanceLevel(): positions and previous positions are prolongated on the
   // device (the state never visits the host); topology, reference and profiles come from the host.
   void levelChanged() override;
+  // The sampled error on the device: only the distances come back (device_error.h).
+  bool measureError(SampledError& error, std::vector<std::optional<SurfaceDistanceStats>>& out) override;
 
   // Drawing from the device store (the workstation's interop path). Structure `mesh`'s
   // tessellation points, vertices then cell centres, as packed xyz floats, written to device memory

@@ -1,0 +1,76 @@
+// A bounding-volume hierarchy over a fixed triangle mesh (a ground-truth surface), for exact
+// point-to-surface distances; built on the host (TriangleBvh, surface_distance.h). The query is inline and compiles for the host and the device (like
+// collision_bvh.h, whose closest-point routine it uses), so the exact evaluation, the sampled error
+// on the CPU and its CUDA kernel find the same distances.
+#pragma once
+
+#include "sinew/core/collision_bvh.h"
+
+namespace sinew::trianglebvh {
+using collision::Box;
+using collision::P3;
+
+constexpr int kLeafTriangles = 8;
+constexpr int kStackDepth = 64;
+
+// Leaves have left == -1 and hold the triangles first .. first + count (corners 3 t .. 3 t + 2).
+struct Node {
+  Box box;
+  int left, right, first, count;
+};
+
+// Several meshes' hierarchies may share the arrays (node and triangle indices absolute); a query
+// starts at one mesh's root.
+struct View {
+  const Node* nodes = nullptr;
+  const P3* corners = nullptr;
+};
+
+// The squared distance from p to the closest point of the mesh under `root`, or maxD2 when it is
+// farther (branch and bound, nearer child first). `closest` receives the point when not null.
+SINEW_HD float closestSquaredDistance(const View& v, int root, P3 p, float maxD2, P3* closest = nullptr) {
+  float best = maxD2;
+  int stack[kStackDepth];
+  int top = 0;
+  stack[top++] = root;
+  while (top > 0) {
+    const Node& n = v.nodes[stack[--top]];
+    if (collision::squaredDistance(n.box, p) >= best) continue;
+    if (n.left < 0) {
+      for (int t = n.first; t < n.first + n.count; ++t) {
+        const P3 q = collision::closestOnTriangle(p, v.corners[3 * t], v.corners[3 * t + 1], v.corners[3 * t + 2]);
+        const P3 d = collision::sub(p, q);
+        const float d2 = collision::dot3(d, d);
+        if (d2 < best) {
+          best = d2;
+          if (closest) *closest = q;
+        }
+      }
+      continue;
+    }
+    const float dl = collision::squaredDistance(v.nodes[n.left].box, p);
+    const float dr = collision::squaredDistance(v.nodes[n.right].box, p);
+    if (top + 2 > kStackDepth) continue;  // unreachable for median splits; never overrun
+    stack[top++] = dl < dr ? n.right : n.left;
+    stack[top++] = dl < dr ? n.left : n.right;
+  }
+  return best;
+}
+}  // namespace sinew::trianglebvh
+
+namespace sinew {
+// A distance with the area it stands for.
+struct WeightedDistance {
+  float d, w;
+};
+
+// The sampled error's (sampled_error.h) samples of a triangle: the centroids of its four midpoint
+// sub-triangles (the corner ones, then the middle one).
+inline constexpr int kSubTriangles = 4;
+SINEW_HD collision::P3 subTriangleCentroid(collision::P3 a, collision::P3 b, collision::P3 c, int q) {
+  using namespace collision;
+  const P3 centroid = scale(add(a, add(b, c)), 1.0f / 3.0f);
+  const P3 corner = q == 0 ? a : q == 1 ? b : c;
+  return q == 3 ? centroid : scale(add(corner, centroid), 0.5f);  // halfway from a corner to the centroid
+}
+}  // namespace sinew

@@ -1,0 +1,123 @@
+#include "sinew/core/sampled_error.h"
+
+#include "sinew/core/simplex_mesh.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace sinew {
+
+SampledError::SampledError(const std::vector<const TriangleMesh*>& truths, float spacing) {
+  sampleOffsets_.push_back(0);
+  for (const TriangleMesh* t : truths) {
+    truthRoots_.push_back(t ? truth_.append(TriangleBvh::build(*t)) : -1);
+    if (t) {
+      const std::vector<SurfaceSample> s = sampleSurface(*t, spacing);
+      samples_.insert(samples_.end(), s.begin(), s.end());
+    }
+    sampleOffsets_.push_back(Index(samples_.size()));
+  }
+}
+
+bool SampledError::prepare(MeshStore& store) {
+  if (store.meshCount() != Index(truthRoots_.size())) throw std::logic_error("sampled error: structure count changed");
+  const Index nv = store.vertexCount();
+  if (builtFor_ == nv) return false;
+  meshes_ = {};
+  meshRoots_.clear();
+  meshTriangleOffsets_.assign(1, 0);
+  const auto x = store.positions();
+  for (Index m = 0; m < store.meshCount(); ++m) {
+    const MeshRange& r = store.range(m);
+    const auto local = store.mesh(x, m);
+    TriangleBvh bvh = TriangleBvh::build(tessellate(store.topologyOf(m), std::vector<Vec3>(local.begin(), local.end())));
+    for (auto& tri : bvh.triangles)  // local indices to the points' layout
+      for (Index& k : tri) k = k < r.vertexCount() ? r.vertexBegin + k : nv + r.cellBegin + (k - r.vertexCount());
+    meshRoots_.push_back(meshes_.append(bvh));
+    meshTriangleOffsets_.push_back(Index(meshes_.triangles.size()));
+  }
+  builtFor_ = nv;
+  return true;
+}
+
+std::vector<std::optional<SurfaceDistanceStats>> SampledError::measure(MeshStore& store) {
+  prepare(store);
+  const auto x = store.positions();
+  const auto offsets = store.cellOffsets();
+  const auto cellVertices = store.cellVertices();
+  const Index nv = store.vertexCount();
+  const Executor& ex = store.executor();
+  points_.resize(nv + store.cellCount());
+  std::copy(x.begin(), x.end(), points_.begin());
+  ex.forEach(store.cellCount(), [&](Index c) {
+    Vec3 sum = Vec3::Zero();
+    for (Index i = offsets[c]; i < offsets[c + 1]; ++i) sum += x[cellVertices[i]];
+    points_[nv + c] = sum / float(offsets[c + 1] - offsets[c]);
+  });
+  meshes_.refit(points_, ex);
+  const trianglebvh::View mesh = meshes_.view();
+  const trianglebvh::View truth = truth_.view();
+  toTruth_.assign(kSubTriangles * meshes_.triangles.size(), {0.0f, 0.0f});
+  fromTruth_.resize(samples_.size());
+  for (Index m = 0; m < store.meshCount(); ++m) {
+    if (truthRoots_[m] < 0) continue;
+    const Index firstTriangle = meshTriangleOffsets_[m];
+    ex.forEach(meshTriangleOffsets_[m + 1] - firstTriangle, [&](Index i) {
+      const Index t = firstTriangle + i;
+      const collision::P3* c = mesh.corners + 3 * t;
+      const collision::P3 n = collision::cross3(collision::sub(c[1], c[0]), collision::sub(c[2], c[0]));
+      const float area = 0.5f * std::sqrt(collision::dot3(n, n)) / float(kSubTriangles);
+      for (int q = 0; q < kSubTriangles; ++q) {
+        const collision::P3 p = subTriangleCentroid(c[0], c[1], c[2], q);
+        toTruth_[kSubTriangles * t + q] = {std::sqrt(trianglebvh::closestSquaredDistance(truth, truthRoots_[m], p, 3.0e38f)),
+                                           area};
+      }
+    });
+    const Index first = sampleOffsets_[m];
+    ex.forEach(sampleOffsets_[m + 1] - first, [&](Index i) {
+      const SurfaceSample& s = samples_[first + i];
+      fromTruth_[first + i] = {std::sqrt(trianglebvh::closestSquaredDistance(mesh, meshRoots_[m], asP3(s.point), 3.0e38f)),
+                               s.area};
+    });
+  }
+  return summarise(toTruth_, fromTruth_);
+}
+
+std::vector<std::optional<SurfaceDistanceStats>> SampledError::summarise(std::span<const WeightedDistance> toTruth,
+                                                                         std::span<const WeightedDistance> fromTruth) const {
+  std::vector<std::optional<SurfaceDistanceStats>> out(truthRoots_.size());
+  for (size_t m = 0; m < out.size(); ++m)
+    if (truthRoots_[m] >= 0) {
+      const Index a = kSubTriangles * meshTriangleOffsets_[m], b = kSubTriangles * meshTriangleOffsets_[m + 1];
+      out[m] = summariseBinned(toTruth.subspan(a, b - a),
+                               fromTruth.subspan(sampleOffsets_[m], sampleOffsets_[m + 1] - sampleOffsets_[m]), kBinMm);
+    }
+  return out;
+}
+
+SurfaceDistanceStats summariseBinned(std::span<const WeightedDistance> toTruth, std::span<const WeightedDistance> fromTruth,
+                                     float binMm) {
+  SurfaceDistanceStats st;
+  double sumA = 0, areaA = 0, sumB = 0, areaB = 0;
+  float longest = 0.0f;
+  for (const WeightedDistance& w : toTruth) sumA += double(w.d) * w.w, areaA += w.w, longest = std::max(longest, w.d);
+  for (const WeightedDistance& w : fromTruth) sumB += double(w.d) * w.w, areaB += w.w, longest = std::max(longest, w.d);
+  st.meanAtoB = areaA > 0 ? sumA / areaA : 0.0;
+  st.meanBtoA = areaB > 0 ? sumB / areaB : 0.0;
+  st.assd = (sumA + sumB) / std::max(areaA + areaB, 1e-30);
+  std::vector<double> bins(size_t(longest / binMm) + 1, 0.0);
+  for (const auto* set : {&toTruth, &fromTruth})
+    for (const WeightedDistance& w : *set) bins[std::min(bins.size() - 1, size_t(w.d / binMm))] += w.w;
+  const double target = 0.95 * (areaA + areaB);
+  double acc = 0;
+  for (size_t b = 0; b < bins.size(); ++b) {
+    acc += bins[b];
+    if (acc >= target) {
+      st.hd95 = std::min(double(longest), double(b + 1) * binMm);
+      break;
+    }
+  }
+  return st;
+}
+
+}  // namespace sinew

@@ -1,0 +1,102 @@
+#include "device_error.h"
+
+namespace sinew::cuda {
+
+void DeviceSampledError::uploadTruth(const SampledError& error, cudaStream_t stream) {
+  truthNodes_.upload(error.truth().nodes, stream);
+  truthCorners_.upload(error.truth().corners, stream);
+  truthRoots_.upload(error.truthRoots(), stream);
+  const auto& samples = error.truthSamples();
+  const auto& offsets = error.truthSampleOffsets();
+  std::vector<float3> points;
+  std::vector<float> areas;
+  std::vector<int> structure;
+  for (size_t m = 0; m + 1 < offsets.size(); ++m)
+    for (Index i = offsets[m]; i < offsets[m + 1]; ++i) {
+      points.push_back(make_float3(samples[i].point.x(), samples[i].point.y(), samples[i].point.z()));
+      areas.push_back(samples[i].area);
+      structure.push_back(int(m));
+    }
+  samples_.upload(points, stream);
+  sampleAreas_.upload(areas, stream);
+  sampleStructure_.upload(structure, stream);
+  fromTruth_.resize(points.size());
+  SINEW_CUDA(cudaStreamSynchronize(stream));  // the host vectors go out of scope
+  truthOf_ = &error;
+}
+
+void DeviceSampledError::uploadMeshes(const SampledError& error, cudaStream_t stream) {
+  const TriangleBvh& bvh = error.meshes();
+  std::vector<int> parents(bvh.nodes.size(), -1), leaves;
+  for (size_t id = 0; id < bvh.nodes.size(); ++id) {
+    const trianglebvh::Node& n = bvh.nodes[id];
+    if (n.left < 0) leaves.push_back(int(id));
+    else parents[n.left] = parents[n.right] = int(id);
+  }
+  std::vector<int3> triangles;
+  for (const auto& t : bvh.triangles) triangles.push_back(make_int3(int(t[0]), int(t[1]), int(t[2])));
+  std::vector<int> structure;
+  const auto& offsets = error.meshTriangleOffsets();
+  for (size_t m = 0; m + 1 < offsets.size(); ++m) structure.insert(structure.end(), offsets[m + 1] - offsets[m], int(m));
+  meshNodes_.upload(bvh.nodes, stream);
+  parents_.upload(parents, stream);
+  leaves_.upload(leaves, stream);
+  triangles_.upload(triangles, stream);
+  triangleStructure_.upload(structure, stream);
+  meshRoots_.upload(error.meshRoots(), stream);
+  corners_.resize(bvh.corners.size());
+  visits_.resize(bvh.nodes.size());
+  toTruth_.resize(kSubTriangles * triangles.size());
+  SINEW_CUDA(cudaStreamSynchronize(stream));
+}
+
+std::vector<std::optional<SurfaceDistanceStats>> DeviceSampledError::measure(SampledError& error, MeshStore& store,
+                                                                             const MeshView& view, cudaStream_t stream) {
+  if (truthOf_ != &error) {
+    uploadTruth(error, stream);
+    error.prepare(store);
+    uploadMeshes(error, stream);
+  } else if (error.prepare(store)) {
+    uploadMeshes(error, stream);
+  }
+  points_.resize(size_t(view.vertices + view.cells));
+  SampledErrorDevice e;
+  e.meshNodes = meshNodes_.get();
+  e.parents = parents_.get();
+  e.leaves = leaves_.get();
+  e.triangles = triangles_.get();
+  e.triangleStructure = triangleStructure_.get();
+  e.meshRoots = meshRoots_.get();
+  e.points = points_.get();
+  e.corners = corners_.get();
+  e.visits = visits_.get();
+  e.truthNodes = truthNodes_.get();
+  e.truthCorners = truthCorners_.get();
+  e.truthRoots = truthRoots_.get();
+  e.samples = samples_.get();
+  e.sampleAreas = sampleAreas_.get();
+  e.sampleStructure = sampleStructure_.get();
+  e.toTruth = toTruth_.get();
+  e.fromTruth = fromTruth_.get();
+  e.meshNodeCount = int(meshNodes_.size());
+  e.leafCount = int(leaves_.size());
+  e.triangleCount = int(triangles_.size());
+  e.sampleCount = int(samples_.size());
+  launchSampledError(view, e, stream);
+  hostTo_.resize(toTruth_.size());
+  hostFrom_.resize(fromTruth_.size());
+  toTruth_.download(hostTo_.data(), hostTo_.size(), stream);
+  fromTruth_.download(hostFrom_.data(), hostFrom_.size(), stream);
+  SINEW_CUDA(cudaStreamSynchronize(stream));
+  SINEW_CUDA(cudaGetLastError());
+  return error.summarise(hostTo_, hostFrom_);
+}
+
+std::size_t DeviceSampledError::bytes() const {
+  return truthNodes_.bytes() + meshNodes_.bytes() + truthCorners_.bytes() + corners_.bytes() + points_.bytes() +
+         truthRoots_.bytes() + sampleStructure_.bytes() + parents_.bytes() + leaves_.bytes() + triangleStructure_.bytes() +
+         meshRoots_.bytes() + visits_.bytes() + triangles_.bytes() + samples_.bytes() + sampleAreas_.bytes() +
+         toTruth_.bytes() + fromTruth_.bytes();
+}
+
+}  // namespace sinew::cuda

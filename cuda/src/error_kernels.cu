@@ -1,0 +1,105 @@
+// The timeline's sampled error on the device (core/sampled_error.h, whose inline queries these
+// kernels run): the tessellation's points gathered, its hierarchy refitted bottom up (the last
+// child to arrive merges), then one thread per sample in each direction.
+#include "cuda_check.h"
+#include "kernels.h"
+
+#include "sinew/core/triangle_bvh.h"
+
+namespace sinew::cuda {
+
+namespace {
+constexpr unsigned kThreads = 128;
+using collision::P3;
+using trianglebvh::Node;
+
+unsigned blocks(int n) { return (unsigned(n) + kThreads - 1) / kThreads; }
+
+// Vertices, then cell centres (the mean of the cell's vertices, as the host computes them).
+__global__ void gatherPoints(const float3* x, const int* cellOffsets, const int* cellVertices, int vertices, int cells,
+                             P3* points) {
+  const int i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i < vertices) {
+    points[i] = {x[i].x, x[i].y, x[i].z};
+  } else if (i < vertices + cells) {
+    const int c = i - vertices;
+    float sx = 0, sy = 0, sz = 0;
+    for (int k = cellOffsets[c]; k < cellOffsets[c + 1]; ++k) {
+      const float3 p = x[cellVertices[k]];
+      sx += p.x, sy += p.y, sz += p.z;
+    }
+    const float n = float(cellOffsets[c + 1] - cellOffsets[c]);
+    points[i] = {sx / n, sy / n, sz / n};
+  }
+}
+
+__global__ void refit(Node* nodes, const int* parents, const int* leaves, int leafCount, const int3* triangles,
+                      const P3* points, P3* corners, int* visits) {
+  const int l = blockIdx.x * blockDim.x + threadIdx.x;
+  if (l >= leafCount) return;
+  const int id = leaves[l];
+  collision::Box box = collision::emptyBox();
+  for (int t = nodes[id].first; t < nodes[id].first + nodes[id].count; ++t) {
+    const int3 k = triangles[t];
+    corners[3 * t] = points[k.x], corners[3 * t + 1] = points[k.y], corners[3 * t + 2] = points[k.z];
+    collision::extend(box, points[k.x]);
+    collision::extend(box, points[k.y]);
+    collision::extend(box, points[k.z]);
+  }
+  nodes[id].box = box;
+  for (int parent = parents[id]; parent >= 0; parent = parents[parent]) {
+    __threadfence();
+    if (atomicAdd(&visits[parent], 1) == 0) return;
+    const volatile Node* n = nodes;
+    const int a = n[parent].left, b = n[parent].right;
+    collision::Box left, right;
+    left.lo = {n[a].box.lo.x, n[a].box.lo.y, n[a].box.lo.z};
+    left.hi = {n[a].box.hi.x, n[a].box.hi.y, n[a].box.hi.z};
+    right.lo = {n[b].box.lo.x, n[b].box.lo.y, n[b].box.lo.z};
+    right.hi = {n[b].box.hi.x, n[b].box.hi.y, n[b].box.hi.z};
+    nodes[parent].box = collision::merge(left, right);
+  }
+}
+
+// Mesh to truth: kSubTriangles threads per tessellation triangle.
+__global__ void toTruth(trianglebvh::View mesh, trianglebvh::View truth, const int* structureOf, const int* truthRoots,
+                        int triangles, WeightedDistance* out) {
+  const int i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i >= triangles * kSubTriangles) return;
+  const int t = i / kSubTriangles, q = i % kSubTriangles;
+  const int root = truthRoots[structureOf[t]];
+  if (root < 0) {
+    out[i] = {0.0f, 0.0f};
+    return;
+  }
+  const P3* c = mesh.corners + 3 * t;
+  const P3 n = collision::cross3(collision::sub(c[1], c[0]), collision::sub(c[2], c[0]));
+  const float area = 0.5f * sqrtf(collision::dot3(n, n)) / float(kSubTriangles);
+  const P3 p = subTriangleCentroid(c[0], c[1], c[2], q);
+  out[i] = {sqrtf(trianglebvh::closestSquaredDistance(truth, root, p, 3.0e38f)), area};
+}
+
+// Truth to mesh: one thread per truth sample.
+__global__ void fromTruth(trianglebvh::View mesh, const float3* samples, const float* areas, const int* structureOf,
+                          const int* meshRoots, int count, WeightedDistance* out) {
+  const int i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i >= count) return;
+  const P3 p{samples[i].x, samples[i].y, samples[i].z};
+  out[i] = {sqrtf(trianglebvh::closestSquaredDistance(mesh, meshRoots[structureOf[i]], p, 3.0e38f)), areas[i]};
+}
+}  // namespace
+
+void launchSampledError(const MeshView& m, const SampledErrorDevice& e, cudaStream_t s) {
+  gatherPoints<<<blocks(m.vertices + m.cells), kThreads, 0, s>>>(m.x, m.cellOffsets, m.cellVertices, m.vertices, m.cells,
+                                                                 e.points);
+  SINEW_CUDA(cudaMemsetAsync(e.visits, 0, sizeof(int) * e.meshNodeCount, s));
+  refit<<<blocks(e.leafCount), kThreads, 0, s>>>(e.meshNodes, e.parents, e.leaves, e.leafCount, e.triangles, e.points,
+                                                 e.corners, e.visits);
+  const trianglebvh::View mesh{e.meshNodes, e.corners}, truth{e.truthNodes, e.truthCorners};
+  toTruth<<<blocks(e.triangleCount * kSubTriangles), kThreads, 0, s>>>(mesh, truth, e.triangleStructure, e.truthRoots,
+                                                                       e.triangleCount, e.toTruth);
+  fromTruth<<<blocks(e.sampleCount), kThreads, 0, s>>>(mesh, e.samples, e.sampleAreas, e.sampleStructure, e.meshRoots,
+                                                       e.sampleCount, e.fromTruth);
+}
+
+}  // namespace sinew::cuda

@@ -1,0 +1,73 @@
+// The timeline's sampled error (sampled_error.h) against the exact evaluation, its oracle, on the
+// Colin27 demo: at every report sample of a three-level run, per structure.
+#include "sinew/core/sampled_error.h"
+#include "sinew/core/scene.h"
+#include "sinew/core/scene_runner.h"
+#include "sinew/core/simulation.h"
+
+#include "run_tool.h"
+#include "synthetic.h"
+
+#include <QFile>
+#include <QTemporaryDir>
+#include <QtTest>
+
+#include <cmath>
+
+using namespace sinew;
+
+class TestSampledError : public QObject {
+  Q_OBJECT
+  QTemporaryDir dir_;
+
+private slots:
+  // Both directions and the summary on a case with a known answer: concentric spheres 0.5 mm
+  // apart, every distance 0.5, so ASSD = HD95 = 0.5.
+  void binnedSummaryOfConstantDistances() {
+    std::vector<WeightedDistance> a(100, {0.5f, 0.3f}), b(50, {0.5f, 0.7f});
+    const SurfaceDistanceStats s = summariseBinned(a, b, SampledError::kBinMm);
+    QVERIFY(std::abs(s.assd - 0.5) < 1e-6);
+    QVERIFY(std::abs(s.hd95 - 0.5) <= SampledError::kBinMm);
+    // The 95th percentile by area, not by count: 96 % of the area at 0.1, the rest at 2.
+    std::vector<WeightedDistance> c{{0.1f, 96.0f}, {2.0f, 4.0f}};
+    QVERIFY(std::abs(summariseBinned(c, {}, SampledError::kBinMm).hd95 - 0.1) <= SampledError::kBinMm);
+  }
+
+  void agreesWithTheExactEvaluationOnColin27() {
+    const QString t = "/usr/share/mricron/templates/";
+    if (!QFile::exists(t + "aal.nii.gz")) QSKIP("Debian package mricron-data is not installed");
+    const QString scenePath = dir_.filePath("colin.json");
+    const auto r = testing::runTool(SINEW_MAKE_SCENE,
+                                    {"--atlas", t + "aal.nii.gz", "--labels", t + "aal.nii.txt", "--training",
+                                     t + "ch2better.nii.gz", "--target", t + "ch2.nii.gz", "--structures",
+                                     "Hippocampus_L,Caudate_R,Pallidum_L,Thalamus_R", "--iterations", "60,40,20",
+                                     "--seed", "5", "-o", scenePath});
+    QVERIFY2(r.code == 0, qPrintable(r.err));
+    SceneRunner* current = nullptr;
+    std::vector<StructureResult> exact;  // at every sample, structure by structure
+    RunOptions options;
+    options.progress = [&](const RunProgress&) {
+      for (Index i = 0; i < current->simulation().structureCount(); ++i) exact.push_back(current->evaluate(i, false));
+    };
+    SceneRunner runner(testing::builtinRegistry(), readScene(scenePath.toStdString()), options);
+    current = &runner;
+    runner.load();
+    const RunReport report = runner.run();
+    const size_t n = 4;
+    QCOMPARE(report.timeline.size(), exact.size() + n);  // the first sample comes before any progress
+    double worstAssd = 0, worstHd95 = 0;
+    for (size_t k = 0; k < exact.size(); ++k) {
+      const TimelineSample& s = report.timeline[k + n];
+      QVERIFY(std::isfinite(s.assdMm) && std::isfinite(s.hd95Mm));
+      worstAssd = std::max(worstAssd, std::abs(s.assdMm - exact[k].assdFinalMm));
+      worstHd95 = std::max(worstHd95, std::abs(s.hd95Mm - exact[k].hd95Mm));
+    }
+    qInfo("%zu samples: largest difference to the exact evaluation %.4f mm (ASSD), %.4f mm (HD95)", exact.size(), worstAssd,
+          worstHd95);
+    QVERIFY2(worstAssd <= 0.02, qPrintable(QString::number(worstAssd)));
+    QVERIFY2(worstHd95 <= 0.05, qPrintable(QString::number(worstHd95)));
+  }
+};
+
+QTEST_GUILESS_MAIN(TestSampledError)
+#include "tst_sampled_error.moc"
