@@ -278,14 +278,14 @@ int main(int argc, char** argv) {
       const fs::path tfm = out.file("subject-to-atlas.tfm");
       registry.imageRegistration().writeTransform(tfm, report.initialisation.targetToModel);
     }
-    // The reports cannot time their own writing: the stage ends here, and so does total_seconds
+    writeReportCsv(out.file("report.csv"), report);
+    writeTimelineCsv(out.file("timeline.csv"), report, scene);
+    writeErrorPlot(out.file("error_vs_time.png"), report, scene);
+    // report.json cannot time its own writing: the stage ends here, and so does total_seconds
     // (process start to outputs written).
     report.stageSeconds.emplace_back("write_outputs", since(outputsStart));
     report.totalSeconds = since(processStart);
     writeReportJson(out.file("report.json"), report, scene, plugins.plugins());
-    writeReportCsv(out.file("report.csv"), report);
-    writeTimelineCsv(out.file("timeline.csv"), report, scene);
-    writeErrorPlot(out.file("error_vs_time.png"), report, scene);
     out.commit();
     printTable(report);
     if (verbose) {

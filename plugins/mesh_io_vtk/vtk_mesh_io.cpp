@@ -199,22 +199,31 @@ void writeMesh(const fs::path& path, const TriangleMesh& m) {
 // space, then mapped to world millimetres through the image's index-to-world transform.
 TriangleMesh labelSurface(const LabelVolume& labels, std::int32_t label, const LabelSurfaceOptions& opt) {
   const ImageGeometry& g = labels.geometry();
-  vtkNew<vtkImageData> mask;
-  mask->SetDimensions(g.size[0] + 2, g.size[1] + 2, g.size[2] + 2);
-  mask->SetOrigin(-1, -1, -1);
-  mask->AllocateScalars(VTK_UNSIGNED_CHAR, 1);
-  auto* buffer = static_cast<unsigned char*>(mask->GetScalarPointer());
-  const std::size_t px = g.size[0] + 2, py = g.size[1] + 2, pz = g.size[2] + 2;
-  std::fill(buffer, buffer + px * py * pz, 0);
+  // The mask covers the label's bounding box and one voxel of background around it, not the whole
+  // volume: a structure is a small part of a brain, and the iso-surface costs what the mask holds.
+  int lo[3] = {g.size[0], g.size[1], g.size[2]}, hi[3] = {-1, -1, -1};
   std::size_t count = 0;
   for (int k = 0; k < g.size[2]; ++k)
     for (int j = 0; j < g.size[1]; ++j)
       for (int i = 0; i < g.size[0]; ++i)
         if (labels.at(i, j, k) == label) {
-          buffer[((k + 1) * py + (j + 1)) * px + (i + 1)] = 1;
+          const int at[3] = {i, j, k};
+          for (int a = 0; a < 3; ++a) lo[a] = std::min(lo[a], at[a]), hi[a] = std::max(hi[a], at[a]);
           ++count;
         }
   if (count == 0) throw InputError("label " + std::to_string(label) + " is absent from the label map");
+  vtkNew<vtkImageData> mask;
+  const int px = hi[0] - lo[0] + 3, py = hi[1] - lo[1] + 3, pz = hi[2] - lo[2] + 3;
+  mask->SetDimensions(px, py, pz);
+  mask->SetOrigin(lo[0] - 1, lo[1] - 1, lo[2] - 1);  // index coordinates, as over the whole volume
+  mask->AllocateScalars(VTK_UNSIGNED_CHAR, 1);
+  auto* buffer = static_cast<unsigned char*>(mask->GetScalarPointer());
+  std::fill(buffer, buffer + std::size_t(px) * py * pz, 0);
+  for (int k = lo[2]; k <= hi[2]; ++k)
+    for (int j = lo[1]; j <= hi[1]; ++j)
+      for (int i = lo[0]; i <= hi[0]; ++i)
+        if (labels.at(i, j, k) == label)
+          buffer[(std::size_t(k - lo[2] + 1) * py + (j - lo[1] + 1)) * px + (i - lo[0] + 1)] = 1;
   vtkNew<vtkFlyingEdges3D> iso;
   iso->SetInputData(mask);
   iso->SetValue(0, 0.5);
