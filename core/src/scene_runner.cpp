@@ -7,6 +7,9 @@
 #include "sinew/core/voxelize.h"
 
 #include <chrono>
+#include <exception>
+#include <functional>
+#include <optional>
 #include <cmath>
 #include <fstream>
 #include <map>
@@ -159,6 +162,60 @@ void SceneRunner::load() {
     }
     L.sim->scene().contactPairs().push_back(pair);  // the parser checked both names
   }
+  // The reference shapes from label maps and the ground-truth surfaces, every structure at once:
+  // each one's iso-surface, decimation and relaxation are independent of the others', and one after
+  // the other they were the longest stages of a run on the GPU. The first failure in the scene's
+  // order is the one reported.
+  const size_t n = scene_.structures.size();
+  for (const StructureDesc& d : scene_.structures) {  // shared inputs, read once, before the threads
+    if (d.reference.label && !d.reference.mesh) labels(d.reference.label->labelMap);
+    if (d.groundTruth) labels(d.groundTruth->labelMap);
+  }
+  auto inParallel = [&](const std::function<void(size_t)>& body) {
+    std::vector<std::exception_ptr> failed(n);
+    L.sim->executor().forEach(
+        Index(n),
+        [&](Index i) {
+          try {
+            body(size_t(i));
+          } catch (...) {
+            failed[i] = std::current_exception();
+          }
+        },
+        1);
+    for (const auto& f : failed)
+      if (f) std::rethrow_exception(f);
+  };
+  std::vector<std::optional<BuiltModel>> builtFromLabel(n);
+  if (std::any_of(scene_.structures.begin(), scene_.structures.end(),
+                  [](const StructureDesc& d) { return d.reference.label && !d.reference.mesh; })) {
+    log("building the reference shapes from the label maps at " + std::to_string(levels) + " levels of detail");
+    inParallel([&](size_t i) {
+      const StructureDesc& d = scene_.structures[i];
+      if (d.reference.mesh || !d.reference.label) return;
+      builtFromLabel[i] = buildModelFromLabel(registry_, *L.labelMaps.at(d.reference.label->labelMap), d.reference.label->labelMap,
+                                              d.reference.label->label, d.name, scene_.coarseSpacingMm, levels,
+                                              L.sim->executor());
+    });
+  }
+  std::vector<std::unique_ptr<ReferenceSurface>> truthSurfaces(n);
+  {
+    const auto t1 = Clock::now();
+    if (std::any_of(scene_.structures.begin(), scene_.structures.end(), [](const StructureDesc& d) { return bool(d.groundTruth); }))
+      log("ground-truth surfaces");
+    inParallel([&](size_t i) {
+      const StructureDesc& d = scene_.structures[i];
+      if (!d.groundTruth) return;
+      try {
+        truthSurfaces[i] = std::make_unique<ReferenceSurface>(
+            registry_.labelSurfaceBuilder().labelSurface(*L.labelMaps.at(d.groundTruth->labelMap), d.groundTruth->label, {0, 0}),
+            static_cast<float>(scene_.surfaceSampleSpacingMm));
+      } catch (const InputError& e) {
+        throw InputError(d.groundTruth->labelMap.string() + ": ground truth of '" + d.name + "': " + e.what());
+      }
+    });
+    truthSeconds += since(t1);
+  }
   for (size_t i = 0; i < scene_.structures.size(); ++i) {
     const StructureDesc& d = scene_.structures[i];
     const std::string where = "/structures/" + std::to_string(i);
@@ -174,14 +231,12 @@ void SceneRunner::load() {
       spec.referencePositions = ms->positions[0];
       spec.finerReferences.assign(ms->positions.begin() + 1, ms->positions.begin() + levels);
     } else {
-      log("structure " + std::to_string(i + 1) + "/" + std::to_string(scene_.structures.size()) + " '" + d.name +
-          "': building the reference shape at " + std::to_string(levels) + " levels of detail");
-      BuiltModel model =
-          d.reference.mesh
-              ? buildModelFromMesh(registry_.meshIOFor(*d.reference.mesh).read(*d.reference.mesh), *d.reference.mesh,
-                                   levels, L.sim->executor())
-              : buildModelFromLabel(registry_, labels(d.reference.label->labelMap), d.reference.label->labelMap,
-                                    d.reference.label->label, d.name, scene_.coarseSpacingMm, levels, L.sim->executor());
+      if (d.reference.mesh)
+        log("structure " + std::to_string(i + 1) + "/" + std::to_string(scene_.structures.size()) + " '" + d.name +
+            "': building the reference shape at " + std::to_string(levels) + " levels of detail");
+      BuiltModel model = d.reference.mesh ? buildModelFromMesh(registry_.meshIOFor(*d.reference.mesh).read(*d.reference.mesh),
+                                                               *d.reference.mesh, levels, L.sim->executor())
+                                          : std::move(*builtFromLabel[i]);
       spec.levels = std::move(model.levels);
       spec.referencePositions = model.positions[0];
       spec.finerReferences.assign(model.positions.begin() + 1, model.positions.end());
@@ -216,16 +271,9 @@ void SceneRunner::load() {
     }
 
     if (d.groundTruth) {
-      log("structure '" + d.name + "': ground-truth surface");
       const auto t1 = Clock::now();
       const LabelVolume& gt = labels(d.groundTruth->labelMap);
-      try {
-        L.truth.push_back(std::make_unique<ReferenceSurface>(
-            registry_.labelSurfaceBuilder().labelSurface(gt, d.groundTruth->label, {0, 0}),
-            static_cast<float>(scene_.surfaceSampleSpacingMm)));
-      } catch (const InputError& e) {
-        throw InputError(d.groundTruth->labelMap.string() + ": ground truth of '" + d.name + "': " + e.what());
-      }
+      L.truth.push_back(std::move(truthSurfaces[i]));
       std::vector<std::uint8_t> mask(gt.voxels().size());
       for (size_t v = 0; v < mask.size(); ++v) mask[v] = gt.voxels()[v] == d.groundTruth->label;
       L.truthMask.push_back(std::move(mask));
