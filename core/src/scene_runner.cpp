@@ -60,6 +60,7 @@ struct SceneRunner::Loaded {
   std::unique_ptr<SampledError> sampled;                 // the timeline's error; null without any truth
   double samplingSeconds = 0.0;
   std::vector<std::vector<std::uint8_t>> truthMask;
+  std::vector<std::size_t> truthCount;  // voxels set in each mask
   std::vector<const ImageGeometry*> truthGrid;
   std::shared_ptr<Image3D> target;
   std::optional<Model> model;
@@ -275,13 +276,16 @@ void SceneRunner::load() {
       const LabelVolume& gt = labels(d.groundTruth->labelMap);
       L.truth.push_back(std::move(truthSurfaces[i]));
       std::vector<std::uint8_t> mask(gt.voxels().size());
-      for (size_t v = 0; v < mask.size(); ++v) mask[v] = gt.voxels()[v] == d.groundTruth->label;
+      std::size_t count = 0;
+      for (size_t v = 0; v < mask.size(); ++v) count += mask[v] = gt.voxels()[v] == d.groundTruth->label;
       L.truthMask.push_back(std::move(mask));
+      L.truthCount.push_back(count);
       L.truthGrid.push_back(&gt.geometry());
       truthSeconds += since(t1);
     } else {
       L.truth.push_back(nullptr);
       L.truthMask.emplace_back();
+      L.truthCount.push_back(0);
       L.truthGrid.push_back(nullptr);
     }
     specs.push_back(std::move(spec));
@@ -464,7 +468,7 @@ StructureResult SceneRunner::evaluatePositions(Index i, const std::vector<Vec3>&
     const SurfaceDistanceStats st = L.truth[i]->compare(r.surface, L.sim->executor());
     r.assdFinalMm = st.assd;
     r.hd95Mm = st.hd95;
-    if (final) r.dice = dice(voxelize(r.surface, *L.truthGrid[i]), L.truthMask[i]);
+    if (final) r.dice = diceOfMesh(r.surface, *L.truthGrid[i], L.truthMask[i], L.truthCount[i]);
   }
   return r;
 }

@@ -5,10 +5,13 @@
 
 namespace sinew {
 
-std::vector<std::uint8_t> voxelize(const TriangleMesh& mesh, const ImageGeometry& grid) {
+namespace {
+// The inside of a closed mesh on a grid, row by row: span(offset of the row's first voxel, i0, i1)
+// for every run of voxels whose centres are inside (even-odd rule along the grid's first axis).
+template <class Span>
+void insideSpans(const TriangleMesh& mesh, const ImageGeometry& grid, Span&& span) {
   const Eigen::Matrix3d toIndex = grid.indexToWorldMatrix().inverse();
   const int nx = grid.size[0], ny = grid.size[1], nz = grid.size[2];
-  std::vector<std::uint8_t> mask(grid.voxelCount(), 0);
   // Work in continuous index space; rays run along i at (j, k) slightly offset so they never
   // pass exactly through a vertex or an edge of a mesh built on the same grid.
   constexpr double dj = 1.234567e-4, dk = 2.345678e-4;
@@ -39,10 +42,28 @@ std::vector<std::uint8_t> voxelize(const TriangleMesh& mesh, const ImageGeometry
       std::sort(xs.begin(), xs.end());
       for (std::size_t q = 0; q + 1 < xs.size(); q += 2) {
         const int i0 = std::max(0, int(std::ceil(xs[q]))), i1 = std::min(nx - 1, int(std::floor(xs[q + 1])));
-        for (int i = i0; i <= i1; ++i) mask[(static_cast<std::size_t>(k) * ny + j) * nx + i] = 1;
+        if (i0 <= i1) span((static_cast<std::size_t>(k) * ny + j) * nx, i0, i1);
       }
     }
+}
+}  // namespace
+
+std::vector<std::uint8_t> voxelize(const TriangleMesh& mesh, const ImageGeometry& grid) {
+  std::vector<std::uint8_t> mask(grid.voxelCount(), 0);
+  insideSpans(mesh, grid, [&](std::size_t row, int i0, int i1) {
+    for (int i = i0; i <= i1; ++i) mask[row + i] = 1;
+  });
   return mask;
+}
+
+double diceOfMesh(const TriangleMesh& mesh, const ImageGeometry& grid, const std::vector<std::uint8_t>& mask,
+                  std::size_t maskCount) {
+  std::size_t inside = 0, both = 0;
+  insideSpans(mesh, grid, [&](std::size_t row, int i0, int i1) {
+    inside += std::size_t(i1 - i0 + 1);
+    for (int i = i0; i <= i1; ++i) both += mask[row + i] != 0;
+  });
+  return inside + maskCount ? 2.0 * double(both) / double(inside + maskCount) : 1.0;
 }
 
 namespace {

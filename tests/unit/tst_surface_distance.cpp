@@ -56,6 +56,23 @@ private slots:
     QCOMPARE(pairs.size(), size_t(2));  // a-b, b-far
     QVERIFY(pairs[0].a == 0 && pairs[0].b == 1 && pairs[1].a == 1 && pairs[1].b == 2);
   }
+
+  // Dice straight from the mesh's inside runs equals Dice of the two masks, and both match the
+  // volumes: spheres of radius 10 and 8 mm, concentric, on a 0.5 mm grid: 2 * 8^3 / (10^3 + 8^3).
+  void diceOfMeshMatchesTheMasks() {
+    ImageGeometry grid;
+    grid.size = {50, 50, 50};
+    grid.spacing = Eigen::Vector3d::Constant(0.5);
+    grid.origin = Eigen::Vector3d::Constant(-12.25);
+    const std::vector<std::uint8_t> truth = voxelize(icosphere(5, 10.0f), grid);
+    std::size_t count = 0;
+    for (auto v : truth) count += v;
+    const TriangleMesh inner = icosphere(5, 8.0f);
+    const double fromMasks = dice(voxelize(inner, grid), truth), fromMesh = diceOfMesh(inner, grid, truth, count);
+    QCOMPARE(fromMesh, fromMasks);
+    QVERIFY(std::abs(fromMesh - 2.0 * 512.0 / 1512.0) < 0.01);
+    QCOMPARE(diceOfMesh(icosphere(5, 10.0f), grid, truth, count), 1.0);
+  }
 };
 
 QTEST_APPLESS_MAIN(TestSurfaceDistance)

@@ -25,6 +25,11 @@ struct PairOverlap {
 // Every overlapping pair of the meshes, in order of (a, b).
 std::vector<PairOverlap> pairwiseOverlaps(const std::vector<const TriangleMesh*>& meshes, double spacingMm);
 
+// Dice of a closed mesh, rasterised as voxelize() does, against a mask on the same grid holding
+// maskCount set voxels; without the mesh's mask (only the runs inside it are visited).
+double diceOfMesh(const TriangleMesh& mesh, const ImageGeometry& grid, const std::vector<std::uint8_t>& mask,
+                  std::size_t maskCount);
+
 // Dice coefficient of two masks of the same size.
 double dice(const std::vector<std::uint8_t>& a, const std::vector<std::uint8_t>& b);
 
