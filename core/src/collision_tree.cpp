@@ -43,7 +43,7 @@ struct Builder {
 };
 }  // namespace
 
-CollisionTree CollisionTree::build(MeshStore& store, std::span<const Vec3> centres) {
+CollisionTree CollisionTree::build(MeshStore& store) {
   CollisionTree tree;
   const auto offsets = store.cellOffsets();
   const auto cellVertices = store.cellVertices();
@@ -64,7 +64,7 @@ CollisionTree CollisionTree::build(MeshStore& store, std::span<const Vec3> centr
   for (Index m = 0; m < store.meshCount(); ++m)
     tree.roots.push_back(b.build(int(store.range(m).vertexBegin), int(store.range(m).vertexEnd), -1));
   tree.boxes.resize(tree.nodes.size());
-  tree.refit(x, centres.empty() ? store.cellCentres() : centres, store.executor());
+  tree.refit(x, store.cellCentres(), store.executor());
   return tree;
 }
 

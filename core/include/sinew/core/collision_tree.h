@@ -24,9 +24,8 @@ struct CollisionTree {
   std::vector<unsigned char> exempt;   // meshes x meshes, 1 where a pair is left out; empty: none
 
   // Each structure's vertices split at the median along the widest axis down to leaves of at most
-  // four; boxes from the store's current positions and its cell centres, or `centres` where given
-  // (the store's then need not be allocated).
-  static CollisionTree build(MeshStore& store, std::span<const Vec3> centres = {});
+  // four; boxes from the store's current positions.
+  static CollisionTree build(MeshStore& store);
   // Boxes from positions and cell centres: leaves in parallel, then the inner nodes from below.
   void refit(std::span<const Vec3> positions, std::span<const Vec3> centres, const Executor& executor);
   collision::BvhView view();

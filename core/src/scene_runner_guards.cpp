@@ -1,0 +1,74 @@
+// SceneRunner's guards around a chunk of steps: the shape guard on either path and the numerical
+// guard for a backend (scene_runner.cpp runs the schedule).
+#include "sinew/core/scene_runner.h"
+
+namespace sinew {
+
+// The shape guard (shape_guard.h) around one chunk, on either path: the chunk's end state is held
+// against each structure at the start of the simulation; a violation undoes the chunk, halves the
+// step like a numerical failure and runs it again, until the guard has no retry left.
+void SceneRunner::runShapeGuarded(const std::function<void()>& runChunk, int chunk, RunReport& report,
+                                  const std::function<void()>& reload) {
+  Simulation& sim = simulation();
+  MeshStore& store = sim.store();
+  if (!shapeGuard_.captured()) shapeGuard_.capture(store);
+  std::vector<std::string> names;
+  for (const auto& s : scene_.structures) names.push_back(s.name);
+  const std::vector<Vec3> goodX(store.positions().begin(), store.positions().end());
+  std::vector<Vec3> goodPrev;
+  if (store.has(Attribute::PreviousPosition))
+    goodPrev.assign(store.previousPositions().begin(), store.previousPositions().end());
+  for (int attempt = 0;; ++attempt) {
+    runChunk();
+    if (!report.numericalFailure.empty()) return;
+    const std::string problem = shapeGuard_.check(store, sim.scene().targetImage().geometry(), sim.stabilityGuard().shape, names);
+    if (problem.empty()) return;
+    if (options_.log) options_.log("stability guard: " + problem + "; the last " + std::to_string(chunk) + " steps undone");
+    sim.countExternalSteps(-chunk);
+    try {
+      sim.recover(goodX, goodPrev, problem, attempt);
+    } catch (const NumericalError& e) {
+      report.numericalFailure = e.what();
+      report.shapeFailure = true;
+      if (options_.log) options_.log(std::string("stopped: ") + e.what());
+      return;
+    }
+    reload();
+  }
+}
+
+// The stability guard for a backend: the chunk's steps are checked together when they come back
+// (the host store holds the state the chunk started from), against the one-step limit; a failed chunk is undone on the host,
+// the step halved, and the backend reloaded to run it again.
+void SceneRunner::runGuarded(ExecutionBackend& backend, int chunk, RunReport& report) {
+  Simulation& sim = simulation();
+  if (!sim.stabilityGuard().enabled) {
+    backend.run(chunk);
+    backend.download();
+    return;
+  }
+  MeshStore& store = sim.store();
+  const std::vector<Vec3> goodX(store.positions().begin(), store.positions().end());
+  std::vector<Vec3> goodPrev;
+  if (store.has(Attribute::PreviousPosition))
+    goodPrev.assign(store.previousPositions().begin(), store.previousPositions().end());
+  for (int attempt = 0;; ++attempt) {
+    backend.run(chunk);
+    backend.download();
+    // A whole chunk may move a vertex no farther than one step may on the CPU: legitimate motion is
+    // far slower, and a looser bound would let oscillation just below the explosion through.
+    const std::string problem = sim.checkStep(goodX);
+    if (problem.empty()) return;
+    sim.countExternalSteps(-chunk);  // the chunk is undone
+    try {
+      sim.recover(goodX, goodPrev, problem, attempt);
+    } catch (const NumericalError& e) {
+      report.numericalFailure = e.what();
+      if (options_.log) options_.log(std::string("numerical failure: ") + e.what());
+      return;
+    }
+    backend.reload();
+  }
+}
+
+}  // namespace sinew
