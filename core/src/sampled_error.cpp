@@ -7,12 +7,12 @@
 
 namespace sinew {
 
-SampledError::SampledError(const std::vector<const TriangleMesh*>& truths, float spacing) {
+SampledError::SampledError(const std::vector<const ReferenceSurface*>& truths, float spacing) {
   sampleOffsets_.push_back(0);
-  for (const TriangleMesh* t : truths) {
-    truthRoots_.push_back(t ? truth_.append(TriangleBvh::build(*t)) : -1);
+  for (const ReferenceSurface* t : truths) {
+    truthRoots_.push_back(t ? truth_.append(t->query().bvh()) : -1);
     if (t) {
-      const std::vector<SurfaceSample> s = sampleSurface(*t, spacing);
+      const std::vector<SurfaceSample> s = sampleSurface(t->surface(), spacing);
       samples_.insert(samples_.end(), s.begin(), s.end());
     }
     sampleOffsets_.push_back(Index(samples_.size()));

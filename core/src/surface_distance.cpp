@@ -112,19 +112,15 @@ std::vector<SurfaceSample> sampleSurface(const TriangleMesh& mesh, float spacing
 }
 
 namespace {
-struct Weighted {
-  float d, w;
-};
-
-SurfaceDistanceStats combine(std::vector<Weighted>& all, double sumAB, double areaA, double sumBA, double areaB) {
+SurfaceDistanceStats combine(std::vector<WeightedDistance>& all, double sumAB, double areaA, double sumBA, double areaB) {
   SurfaceDistanceStats st;
   st.meanAtoB = areaA > 0 ? sumAB / areaA : 0.0;
   st.meanBtoA = areaB > 0 ? sumBA / areaB : 0.0;
   st.assd = (sumAB + sumBA) / std::max(areaA + areaB, 1e-30);
-  std::sort(all.begin(), all.end(), [](const Weighted& x, const Weighted& y) { return x.d < y.d; });
+  std::sort(all.begin(), all.end(), [](const WeightedDistance& x, const WeightedDistance& y) { return x.d < y.d; });
   const double target = 0.95 * (areaA + areaB);
   double acc = 0;
-  for (const Weighted& w : all) {
+  for (const WeightedDistance& w : all) {
     acc += w.w;
     if (acc >= target) {
       st.hd95 = w.d;
@@ -137,7 +133,7 @@ SurfaceDistanceStats combine(std::vector<Weighted>& all, double sumAB, double ar
 // Distances from samples of one surface to another, accumulated with their areas.
 // Distances are computed in parallel and summed in order, so the result does not depend on threads.
 void accumulate(const std::vector<SurfaceSample>& samples, const SurfaceDistanceQuery& to,
-                std::vector<Weighted>& all, double& sum, double& area, const Executor& executor) {
+                std::vector<WeightedDistance>& all, double& sum, double& area, const Executor& executor) {
   const size_t first = all.size();
   all.resize(first + samples.size());
   executor.forEach(static_cast<Index>(samples.size()), [&](Index i) {
@@ -160,7 +156,7 @@ ReferenceSurface::ReferenceSurface(TriangleMesh surface, float spacing)
 
 SurfaceDistanceStats ReferenceSurface::compare(const TriangleMesh& other, const Executor& executor) const {
   const SurfaceDistanceQuery otherQuery(other);
-  std::vector<Weighted> all;
+  std::vector<WeightedDistance> all;
   double sumAB = 0, areaA = 0, sumBA = 0, areaB = 0;
   accumulate(sampleSurface(other, spacing_), query_, all, sumAB, areaA, executor);
   accumulate(samples_, otherQuery, all, sumBA, areaB, executor);

@@ -21,8 +21,8 @@ class TestSampledError : public QObject {
   QTemporaryDir dir_;
 
 private slots:
-  // Both directions and the summary on a case with a known answer: concentric spheres 0.5 mm
-  // apart, every distance 0.5, so ASSD = HD95 = 0.5.
+  // The summary on cases with a known answer: every distance 0.5 mm in both directions (as for
+  // concentric spheres 0.5 mm apart), so ASSD = HD95 = 0.5.
   void binnedSummaryOfConstantDistances() {
     std::vector<WeightedDistance> a(100, {0.5f, 0.3f}), b(50, {0.5f, 0.7f});
     const SurfaceDistanceStats s = summariseBinned(a, b, SampledError::kBinMm);

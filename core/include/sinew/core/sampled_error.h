@@ -4,11 +4,12 @@
 //
 // The distances are exact; there are fewer of them, and no hierarchy is built per sample:
 // - mesh to truth: four samples per triangle of the Fig. 1b tessellation (the output surface), at
-//   the centroids of its midpoint split, into the truth's hierarchy (built once, triangle_bvh.h);
-// - truth to mesh: one sample per truth triangle (sampleSurface at a spacing no triangle reaches)
+//   the centroids of its midpoint split, into the truth's hierarchy (the exact evaluation's,
+//   triangle_bvh.h);
+// - truth to mesh: the truth sampled at a coarser spacing than the exact evaluation's (sampleSurface)
 //   into a hierarchy of the tessellation, built once per level and refitted at each sample;
 // - HD95 from a histogram of 0.005 mm bins instead of a sort.
-// The CUDA backend runs the same inline queries in its kernels (measureOnDevice).
+// The CUDA backend runs the same inline queries in its kernels (ExecutionBackend::measureError).
 #pragma once
 
 #include "sinew/core/mesh_store.h"
@@ -23,8 +24,9 @@ class SampledError {
 public:
   static constexpr float kBinMm = 0.005f;  // the histogram HD95 is read from
 
-  // One truth per structure, null where a structure has none; truths sampled at `spacing`.
-  SampledError(const std::vector<const TriangleMesh*>& truths, float spacing);
+  // One truth per structure, null where a structure has none; their hierarchies are copied, their
+  // surfaces sampled at `spacing`.
+  SampledError(const std::vector<const ReferenceSurface*>& truths, float spacing);
 
   // ASSD and HD95 of every structure with a truth, for the store's current positions.
   std::vector<std::optional<SurfaceDistanceStats>> measure(MeshStore& store);

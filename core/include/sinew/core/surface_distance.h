@@ -69,6 +69,7 @@ public:
   ReferenceSurface(TriangleMesh surface, float spacing);
   SurfaceDistanceStats compare(const TriangleMesh& other, const Executor& executor = Executor()) const;
   const TriangleMesh& surface() const { return surface_; }
+  const SurfaceDistanceQuery& query() const { return query_; }
 
 private:
   TriangleMesh surface_;
