@@ -50,6 +50,8 @@ void writeReportJson(const std::filesystem::path& path, const RunReport& r, cons
   j["level_start_seconds"] = r.levelStartSeconds;
   j["stage_seconds"] = Json::object();
   for (const auto& [name, seconds] : r.stageSeconds) j["stage_seconds"][name] = seconds;
+  j["background_seconds"] = Json::object();
+  for (const auto& [name, seconds] : r.backgroundSeconds) j["background_seconds"][name] = seconds;
   {
     const InitialisationResult& in = r.initialisation;
     Json init{{"method", in.method}, {"seconds", in.seconds}};

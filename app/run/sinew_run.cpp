@@ -12,6 +12,9 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <functional>
+#include <future>
+#include <thread>
 #include <iostream>
 #include <unistd.h>
 
@@ -265,22 +268,37 @@ int main(int argc, char** argv) {
       for (const Vec3& p : s.surface.points)
         if (!p.allFinite()) throw NumericalError("structure '" + s.name + "' has a non-finite vertex; nothing was written");
     Staging out(outDir);
+    // The outputs are independent files: written at once (one after the other with -j 1); the
+    // first failure, in this order, is the one reported.
+    const bool atOnce = threads != 1 && std::thread::hardware_concurrency() > 1;
+    std::vector<std::future<void>> writes;
+    auto write = [&](std::function<void()> task) { writes.push_back(std::async(atOnce ? std::launch::async : std::launch::deferred, std::move(task))); };
     if (scene.writeMeshes)
       for (const auto& s : report.structures) {
         const fs::path target = out.file(s.name + scene.meshFormat);
-        registry.meshIOFor(target).write(target, s.surface);
+        write([&, target] { registry.meshIOFor(target).write(target, s.surface); });
       }
-    const fs::path labels = out.file(scene.labelMapName);
-    const LabelVolume labelMap = runner.labelMap(report);
-    registry.imageIOFor(labels).writeLabels(labels, labelMap);
-    writeSliceOverlay(out.file("slices.png"), runner.simulation().scene().targetImage(), labelMap, scene);
+    const fs::path labels = out.file(scene.labelMapName), slices = out.file("slices.png");
+    LabelVolume labelMap;
+    write([&] {
+      labelMap = runner.labelMap(report);
+      auto picture = std::async(atOnce ? std::launch::async : std::launch::deferred,
+                                [&] { writeSliceOverlay(slices, runner.simulation().scene().targetImage(), labelMap, scene); });
+      registry.imageIOFor(labels).writeLabels(labels, labelMap);
+      picture.get();
+    });
     if (report.initialisation.hasAffine) {
       const fs::path tfm = out.file("subject-to-atlas.tfm");
-      registry.imageRegistration().writeTransform(tfm, report.initialisation.targetToModel);
+      write([&, tfm] { registry.imageRegistration().writeTransform(tfm, report.initialisation.targetToModel); });
     }
-    writeReportCsv(out.file("report.csv"), report);
-    writeTimelineCsv(out.file("timeline.csv"), report, scene);
-    writeErrorPlot(out.file("error_vs_time.png"), report, scene);
+    const fs::path reportCsv = out.file("report.csv"), timelineCsv = out.file("timeline.csv"), plot = out.file("error_vs_time.png");
+    write([&] {
+      writeReportCsv(reportCsv, report);
+      writeTimelineCsv(timelineCsv, report, scene);
+      writeErrorPlot(plot, report, scene);
+    });
+    for (auto& w : writes) w.wait();
+    for (auto& w : writes) w.get();
     // report.json cannot time its own writing: the stage ends here, and so does total_seconds
     // (process start to outputs written).
     report.stageSeconds.emplace_back("write_outputs", since(outputsStart));
@@ -294,6 +312,8 @@ int main(int argc, char** argv) {
       for (const auto& [name, seconds] : report.stageSeconds)
         std::fprintf(stderr, "%-20s %8.3f  %5.1f %%\n", name.c_str(), seconds, 100.0 * seconds / report.totalSeconds);
       std::fprintf(stderr, "%-20s %8.3f\n", "total", report.totalSeconds);
+      for (const auto& [name, seconds] : report.backgroundSeconds)
+        std::fprintf(stderr, "  beside the stages: %s %.3f s\n", name.c_str(), seconds);
     }
     if (!quiet) std::fprintf(stderr, "outputs in %s\n", outDir.c_str());
     for (const StabilityEvent& e : report.stability)

@@ -6,13 +6,17 @@
 #include "sinew/core/model_file.h"
 #include "sinew/core/voxelize.h"
 
+#include <algorithm>
 #include <chrono>
 #include <exception>
 #include <functional>
 #include <optional>
 #include <cmath>
 #include <fstream>
+#include <future>
 #include <map>
+#include <mutex>
+#include <thread>
 
 namespace sinew {
 
@@ -54,8 +58,17 @@ void applyParams(const SceneDesc& scene, ParamTable& table, const std::vector<st
 }  // namespace
 
 struct SceneRunner::Loaded {
+  // Files are read in the background from the start of load() (when more than one thread may run),
+  // each once; whoever needs one waits for it, and a reading error surfaces there.
+  template <class T>
+  using Pending = std::shared_future<std::shared_ptr<T>>;
+  std::launch reading = std::launch::deferred;
+  std::mutex readTimesMutex;
+  std::vector<std::pair<std::string, double>> backgroundSeconds;  // each background read's own wall time
+  std::map<fs::path, Pending<LabelVolume>> labelMaps;
+  std::map<fs::path, Pending<Image3D>> images;
+
   std::unique_ptr<Simulation> sim;
-  std::map<fs::path, std::shared_ptr<LabelVolume>> labelMaps;
   std::vector<std::unique_ptr<ReferenceSurface>> truth;  // per structure, null without one
   std::unique_ptr<SampledError> sampled;                 // the timeline's error; null without any truth
   double samplingSeconds = 0.0;
@@ -64,18 +77,32 @@ struct SceneRunner::Loaded {
   std::vector<const ImageGeometry*> truthGrid;
   std::shared_ptr<Image3D> target;
   std::optional<Model> model;
-  std::map<fs::path, std::shared_ptr<Image3D>> images;  // each file read once
   std::vector<std::vector<Vec3>> modelPositions;         // level 0, before the initialisation
   InitialisationResult init;
   SpatialMap trainingMap;  // target -> training image: the inverse of the initialisation
   std::vector<std::pair<std::string, double>> stageSeconds;
   Clock::time_point created = Clock::now();
 
-  std::shared_ptr<Image3D> image(const Registry& registry, const fs::path& p) {
-    auto& slot = images[p];
-    if (!slot) slot = std::make_shared<Image3D>(registry.imageIOFor(p).readImage(p));
+  template <class T, class Read>
+  Pending<T>& startReading(std::map<fs::path, Pending<T>>& files, const fs::path& p, Read read) {
+    auto& slot = files[p];
+    if (!slot.valid())
+      slot = std::async(reading, [this, p, read] {
+               const auto t0 = Clock::now();
+               auto file = std::make_shared<T>(read(p));
+               const std::lock_guard lock(readTimesMutex);
+               backgroundSeconds.emplace_back("read " + p.filename().string(), since(t0));
+               return file;
+             }).share();
     return slot;
   }
+  Pending<Image3D>& startImage(const Registry& registry, const fs::path& p) {
+    return startReading(images, p, [&registry](const fs::path& f) { return registry.imageIOFor(f).readImage(f); });
+  }
+  Pending<LabelVolume>& startLabels(const Registry& registry, const fs::path& p) {
+    return startReading(labelMaps, p, [&registry](const fs::path& f) { return registry.imageIOFor(f).readLabels(f); });
+  }
+  std::shared_ptr<Image3D> image(const Registry& registry, const fs::path& p) { return startImage(registry, p).get(); }
 };
 
 bool RunReport::hasGroundTruth() const {
@@ -132,15 +159,17 @@ void SceneRunner::load() {
     if (options_.log) options_.log(m + " (" + std::to_string(since(L.created)).substr(0, 5) + " s)");
   };
   auto stage = [&](const char* name, Clock::time_point t0) { L.stageSeconds.emplace_back(name, since(t0)); };
+  // Every file the scene names starts reading now, in the background, when threads allow: the
+  // images' decompression then overlaps the model building. The read_* stages are the waits.
+  if (options_.threads != 1 && std::thread::hardware_concurrency() > 1) L.reading = std::launch::async;
+  L.startImage(registry_, scene_.targetImage);
+  if (scene_.trainingImage) L.startImage(registry_, *scene_.trainingImage);
+  for (const StructureDesc& d : scene_.structures) {
+    if (d.reference.label && !d.reference.mesh) L.startLabels(registry_, d.reference.label->labelMap);
+    if (d.groundTruth) L.startLabels(registry_, d.groundTruth->labelMap);
+  }
   auto t0 = Clock::now();
-  log("reading " + scene_.targetImage.string());
-  L.target = L.image(registry_, scene_.targetImage);
-  stage("read_target", t0);
-  auto labels = [&](const fs::path& p) -> const LabelVolume& {
-    auto& slot = L.labelMaps[p];
-    if (!slot) slot = std::make_shared<LabelVolume>(registry_.imageIOFor(p).readLabels(p));
-    return *slot;
-  };
+  auto labels = [&](const fs::path& p) -> const LabelVolume& { return *L.startLabels(registry_, p).get(); };
   if (scene_.model) {
     t0 = Clock::now();
     log("reading the model " + scene_.model->string());
@@ -149,11 +178,11 @@ void SceneRunner::load() {
       sceneError(scene_, "/schedule", std::to_string(levels) + " levels, but the model " + scene_.model->string() +
                                           " has " + std::to_string(L.model->levelCount()));
     stage("read_model", t0);
+    if (!scene_.trainingImage) L.startImage(registry_, L.model->atlasImage);
   }
 
   L.sim = std::make_unique<Simulation>(registry_, options_.threads);
   t0 = Clock::now();
-  double truthSeconds = 0.0;
   std::vector<StructureSpec> specs;
   for (const auto& [a, b] : scene_.contactPairs) {
     std::array<Index, 2> pair{-1, -1};
@@ -168,54 +197,53 @@ void SceneRunner::load() {
   // the other they were the longest stages of a run on the GPU. The first failure in the scene's
   // order is the one reported.
   const size_t n = scene_.structures.size();
-  for (const StructureDesc& d : scene_.structures) {  // shared inputs, read once, before the threads
-    if (d.reference.label && !d.reference.mesh) labels(d.reference.label->labelMap);
-    if (d.groundTruth) labels(d.groundTruth->labelMap);
+  std::map<fs::path, const LabelVolume*> labelMap;  // shared inputs, read once, before the threads
+  for (const StructureDesc& d : scene_.structures) {
+    if (d.reference.label && !d.reference.mesh) labelMap[d.reference.label->labelMap] = &labels(d.reference.label->labelMap);
+    if (d.groundTruth) labelMap[d.groundTruth->labelMap] = &labels(d.groundTruth->labelMap);
   }
-  auto inParallel = [&](const std::function<void(size_t)>& body) {
-    std::vector<std::exception_ptr> failed(n);
+  // Tasks 0 .. n-1 build the reference shapes, n .. 2n-1 the ground truths: one pool, so that a
+  // large structure's task does not hold the others back at a barrier between the two.
+  std::vector<std::optional<BuiltModel>> builtFromLabel(n);
+  std::vector<std::unique_ptr<ReferenceSurface>> truthSurfaces(n);
+  std::vector<std::vector<std::uint8_t>> truthMasks(n);
+  const auto buildReference = [&](size_t i) {
+    const StructureDesc& d = scene_.structures[i];
+    if (d.reference.mesh || !d.reference.label) return;
+    builtFromLabel[i] = buildModelFromLabel(registry_, *labelMap.at(d.reference.label->labelMap), d.reference.label->labelMap,
+                                            d.reference.label->label, d.name, scene_.coarseSpacingMm, levels,
+                                            L.sim->executor());
+  };
+  const auto buildTruth = [&](size_t i) {
+      const StructureDesc& d = scene_.structures[i];
+      if (!d.groundTruth) return;
+      try {
+        truthSurfaces[i] = std::make_unique<ReferenceSurface>(
+            registry_.labelSurfaceBuilder().labelSurface(*labelMap.at(d.groundTruth->labelMap), d.groundTruth->label, {0, 0}),
+            static_cast<float>(scene_.surfaceSampleSpacingMm));
+      } catch (const InputError& e) {
+        throw InputError(d.groundTruth->labelMap.string() + ": ground truth of '" + d.name + "': " + e.what());
+      }
+      const LabelVolume& gt = *labelMap.at(d.groundTruth->labelMap);
+      truthMasks[i].resize(gt.voxels().size());
+      for (size_t v = 0; v < gt.voxels().size(); ++v) truthMasks[i][v] = gt.voxels()[v] == d.groundTruth->label;
+  };
+  log("building the reference shapes at " + std::to_string(levels) + " levels of detail and the ground-truth surfaces");
+  {
+    std::vector<std::exception_ptr> failed(2 * n);
     L.sim->executor().forEach(
-        Index(n),
-        [&](Index i) {
+        Index(2 * n),
+        [&](Index k) {
           try {
-            body(size_t(i));
+            if (size_t(k) < n) buildReference(size_t(k));
+            else buildTruth(size_t(k) - n);
           } catch (...) {
-            failed[i] = std::current_exception();
+            failed[k] = std::current_exception();
           }
         },
         1);
     for (const auto& f : failed)
       if (f) std::rethrow_exception(f);
-  };
-  std::vector<std::optional<BuiltModel>> builtFromLabel(n);
-  if (std::any_of(scene_.structures.begin(), scene_.structures.end(),
-                  [](const StructureDesc& d) { return d.reference.label && !d.reference.mesh; })) {
-    log("building the reference shapes from the label maps at " + std::to_string(levels) + " levels of detail");
-    inParallel([&](size_t i) {
-      const StructureDesc& d = scene_.structures[i];
-      if (d.reference.mesh || !d.reference.label) return;
-      builtFromLabel[i] = buildModelFromLabel(registry_, *L.labelMaps.at(d.reference.label->labelMap), d.reference.label->labelMap,
-                                              d.reference.label->label, d.name, scene_.coarseSpacingMm, levels,
-                                              L.sim->executor());
-    });
-  }
-  std::vector<std::unique_ptr<ReferenceSurface>> truthSurfaces(n);
-  {
-    const auto t1 = Clock::now();
-    if (std::any_of(scene_.structures.begin(), scene_.structures.end(), [](const StructureDesc& d) { return bool(d.groundTruth); }))
-      log("ground-truth surfaces");
-    inParallel([&](size_t i) {
-      const StructureDesc& d = scene_.structures[i];
-      if (!d.groundTruth) return;
-      try {
-        truthSurfaces[i] = std::make_unique<ReferenceSurface>(
-            registry_.labelSurfaceBuilder().labelSurface(*L.labelMaps.at(d.groundTruth->labelMap), d.groundTruth->label, {0, 0}),
-            static_cast<float>(scene_.surfaceSampleSpacingMm));
-      } catch (const InputError& e) {
-        throw InputError(d.groundTruth->labelMap.string() + ": ground truth of '" + d.name + "': " + e.what());
-      }
-    });
-    truthSeconds += since(t1);
   }
   for (size_t i = 0; i < scene_.structures.size(); ++i) {
     const StructureDesc& d = scene_.structures[i];
@@ -272,16 +300,10 @@ void SceneRunner::load() {
     }
 
     if (d.groundTruth) {
-      const auto t1 = Clock::now();
-      const LabelVolume& gt = labels(d.groundTruth->labelMap);
       L.truth.push_back(std::move(truthSurfaces[i]));
-      std::vector<std::uint8_t> mask(gt.voxels().size());
-      std::size_t count = 0;
-      for (size_t v = 0; v < mask.size(); ++v) count += mask[v] = gt.voxels()[v] == d.groundTruth->label;
-      L.truthMask.push_back(std::move(mask));
-      L.truthCount.push_back(count);
-      L.truthGrid.push_back(&gt.geometry());
-      truthSeconds += since(t1);
+      L.truthCount.push_back(std::count(truthMasks[i].begin(), truthMasks[i].end(), std::uint8_t(1)));
+      L.truthMask.push_back(std::move(truthMasks[i]));
+      L.truthGrid.push_back(&labelMap.at(d.groundTruth->labelMap)->geometry());
     } else {
       L.truth.push_back(nullptr);
       L.truthMask.emplace_back();
@@ -290,13 +312,17 @@ void SceneRunner::load() {
     }
     specs.push_back(std::move(spec));
   }
-  L.stageSeconds.emplace_back(L.model ? "structures" : "build_model", since(t0) - truthSeconds);
+  L.stageSeconds.emplace_back(L.model ? "structures" : "build_model", since(t0));
   t0 = Clock::now();
   std::vector<const ReferenceSurface*> truths;
   for (const auto& t : L.truth) truths.push_back(t.get());
   if (std::any_of(truths.begin(), truths.end(), [](const ReferenceSurface* t) { return t != nullptr; }))
     L.sampled = std::make_unique<SampledError>(truths, kSampledSpacingMm);
-  L.stageSeconds.emplace_back("ground_truth", truthSeconds + since(t0));
+  L.stageSeconds.emplace_back("ground_truth", since(t0));
+  t0 = Clock::now();
+  log("reading " + scene_.targetImage.string());
+  L.target = L.image(registry_, scene_.targetImage);
+  stage("read_target", t0);
 
   t0 = Clock::now();
   initialise(specs, log);
@@ -457,20 +483,28 @@ StructureResult SceneRunner::evaluate(Index i, bool final) {
 }
 
 StructureResult SceneRunner::evaluatePositions(Index i, const std::vector<Vec3>& positions, bool final) {
-  Loaded& L = *loaded_;
-  MeshStore& store = L.sim->store();
+  StructureResult r = surfaceOf(i, positions);
+  score(i, r, final);
+  return r;
+}
+
+StructureResult SceneRunner::surfaceOf(Index i, const std::vector<Vec3>& positions) const {
+  const MeshStore& store = loaded_->sim->store();
   StructureResult r;
   r.name = scene_.structures[i].name;
   r.label = scene_.structures[i].label;
   r.vertices = store.range(i).vertexCount();
   r.surface = tessellate(store.topologyOf(i), positions);
-  if (L.truth[i]) {
-    const SurfaceDistanceStats st = L.truth[i]->compare(r.surface, L.sim->executor());
-    r.assdFinalMm = st.assd;
-    r.hd95Mm = st.hd95;
-    if (final) r.dice = diceOfMesh(r.surface, *L.truthGrid[i], L.truthMask[i], L.truthCount[i]);
-  }
   return r;
+}
+
+void SceneRunner::score(Index i, StructureResult& r, bool final) const {
+  const Loaded& L = *loaded_;
+  if (!L.truth[i]) return;
+  const SurfaceDistanceStats st = L.truth[i]->compare(r.surface, L.sim->executor());
+  r.assdFinalMm = st.assd;
+  r.hd95Mm = st.hd95;
+  if (final) r.dice = diceOfMesh(r.surface, *L.truthGrid[i], L.truthMask[i], L.truthCount[i]);
 }
 
 std::vector<std::optional<SurfaceDistanceStats>> SceneRunner::sampledError(ExecutionBackend* backend) {
@@ -522,28 +556,41 @@ RunReport SceneRunner::run() {
   RunReport report;
   report.threads = sim.executor().threads();
   report.device = cpuDescription(report.threads);
-  std::vector<StructureResult> initial, model;
-  auto t0 = Clock::now();
-  for (Index i = 0; i < sim.structureCount(); ++i) initial.push_back(evaluate(i, true));
   report.initialisation = L.init;
-  const bool initialised = scene_.initialise.method != InitialiseDesc::Method::None;
-  for (Index i = 0; i < sim.structureCount(); ++i)
-    model.push_back(initialised && sim.level() == 0 ? evaluatePositions(i, L.modelPositions[i], true) : initial[i]);
   report.stageSeconds = L.stageSeconds;
-  report.stageSeconds.emplace_back("evaluate_start", since(t0));
-  auto stageOf = [&](std::string name, double seconds, const std::vector<StructureResult>& rs) {
-    StageResult st{std::move(name), seconds, {}};
-    for (const auto& x : rs) st.assdMm.push_back(x.assdFinalMm);
-    report.stages.push_back(std::move(st));
-  };
-  stageOf("model", 0.0, model);
-  if (initialised) stageOf("initialisation", L.init.seconds, initial);
-
+  {
+    const std::lock_guard lock(L.readTimesMutex);
+    report.backgroundSeconds = L.backgroundSeconds;
+  }
   std::unique_ptr<ExecutionBackend> backend = options_.backend ? options_.backend(sim) : nullptr;
   if (backend) {
     report.backend = backend->name();
     report.device = backend->device();
   }
+  // The start and the model, evaluated exactly. With a device running the steps, the host's threads
+  // are free meanwhile, so the scoring runs beside the simulation (the surfaces are taken now).
+  auto t0 = Clock::now();
+  std::vector<StructureResult> initial, model;
+  const bool initialised = scene_.initialise.method != InitialiseDesc::Method::None;
+  for (Index i = 0; i < sim.structureCount(); ++i) {
+    const auto x = sim.store().mesh(sim.store().positions(), i);
+    initial.push_back(surfaceOf(i, std::vector<Vec3>(x.begin(), x.end())));
+    model.push_back(initialised && sim.level() == 0 ? surfaceOf(i, L.modelPositions[i]) : StructureResult{});
+  }
+  const bool ownModel = initialised && sim.level() == 0;
+  const auto scoreStart = [this, &initial, &model, ownModel] {
+    const auto t1 = Clock::now();
+    for (size_t i = 0; i < initial.size(); ++i) {
+      score(Index(i), initial[i], true);
+      if (ownModel) score(Index(i), model[i], true);
+      else model[i] = initial[i];
+    }
+    return since(t1);
+  };
+  const bool scoredBeside = backend && L.reading == std::launch::async;
+  std::future<double> startScores = std::async(scoredBeside ? std::launch::async : std::launch::deferred, scoreStart);
+  if (!scoredBeside) startScores.wait();
+  report.stageSeconds.emplace_back("evaluate_start", since(t0));
   // A backend that fails mid-run (device memory, a lost device) hands over to the CPU, which goes on
   // from the last state the backend downloaded.
   auto onBackend = [&](const std::function<void(ExecutionBackend&)>& work) {
@@ -612,6 +659,21 @@ RunReport SceneRunner::run() {
   report.simulationSeconds = simSeconds;
   report.stageSeconds.emplace_back("simulation", simSeconds);
   report.stageSeconds.emplace_back("sample_error", L.samplingSeconds);
+  t0 = Clock::now();
+  const double startScoring = startScores.get();
+  if (scoredBeside) {
+    report.stageSeconds.emplace_back("evaluate_start_wait", since(t0));
+    report.backgroundSeconds.emplace_back("evaluate_start", startScoring);
+  }
+  std::vector<StageResult> firstStages;  // before the levels'
+  auto stageOf = [&](std::string name, double seconds, const std::vector<StructureResult>& rs) {
+    StageResult st{std::move(name), seconds, {}};
+    for (const auto& x : rs) st.assdMm.push_back(x.assdFinalMm);
+    firstStages.push_back(std::move(st));
+  };
+  stageOf("model", 0.0, model);
+  if (initialised) stageOf("initialisation", L.init.seconds, initial);
+  report.stages.insert(report.stages.begin(), firstStages.begin(), firstStages.end());
   report.stability = sim.stabilityEvents();
   t0 = Clock::now();
   for (Index i = 0; i < sim.structureCount(); ++i) {
@@ -660,11 +722,10 @@ bool SceneRunner::hasGroundTruth(Index structure) const { return loaded_->truth[
 
 LabelVolume SceneRunner::labelMap(const RunReport& report) const {
   LabelVolume out(loaded_->target->geometry(), 0);
-  for (const StructureResult& s : report.structures) {
-    const auto mask = voxelize(s.surface, out.geometry());
-    for (size_t v = 0; v < mask.size(); ++v)
-      if (mask[v]) out.voxels()[v] = s.label;
-  }
+  for (const StructureResult& s : report.structures)  // in order: a later structure's voxels win
+    forEachInsideRun(s.surface, out.geometry(), [&](std::size_t first, std::size_t count) {
+      std::fill_n(out.voxels().begin() + std::ptrdiff_t(first), count, s.label);
+    });
   return out;
 }
 

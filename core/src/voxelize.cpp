@@ -56,6 +56,11 @@ std::vector<std::uint8_t> voxelize(const TriangleMesh& mesh, const ImageGeometry
   return mask;
 }
 
+void forEachInsideRun(const TriangleMesh& mesh, const ImageGeometry& grid,
+                      const std::function<void(std::size_t first, std::size_t count)>& inside) {
+  insideSpans(mesh, grid, [&](std::size_t row, int i0, int i1) { inside(row + std::size_t(i0), std::size_t(i1 - i0 + 1)); });
+}
+
 double diceOfMesh(const TriangleMesh& mesh, const ImageGeometry& grid, const std::vector<std::uint8_t>& mask,
                   std::size_t maskCount) {
   std::size_t inside = 0, both = 0;

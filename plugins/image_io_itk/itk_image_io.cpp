@@ -16,6 +16,8 @@
 #include <zlib.h>
 
 #include <cmath>
+#include <future>
+#include <mutex>
 #include <sstream>
 
 namespace sinew {
@@ -53,7 +55,7 @@ void checkHeader(const fs::path& path, itk::ImageIOBase& io) {
 }
 
 // ITK's NIfTI reader does not notice a gzip stream that ends early (it reads zeros), so compressed
-// files are checked to the end first: a truncated or corrupt stream is refused here.
+// files are also decompressed to the end here: a truncated or corrupt stream is refused.
 void checkGzipStream(const fs::path& path) {
   gzFile f = gzopen(path.c_str(), "rb");
   if (!f) fail(path, "cannot be opened");
@@ -65,6 +67,34 @@ void checkGzipStream(const fs::path& path) {
   gzerror(f, &code);
   gzclose(f);
   if (n < 0 || code != Z_OK) fail(path, "the compressed data ends early or is corrupt (truncated file?)");
+}
+
+// A single-file image (not a DICOM series), its header checked.
+template <class ImageType>
+typename ImageType::Pointer readNonSeries(const fs::path& path) {
+  {
+    itk::ImageIOBase::Pointer io;
+    {
+      // Images are read on several threads at once (scene_runner.cpp); ITK's factory list is not
+      // guarded for concurrent first use.
+      static std::mutex factoryMutex;
+      const std::lock_guard lock(factoryMutex);
+      io = itk::ImageIOFactory::CreateImageIO(path.c_str(), itk::CommonEnums::IOFileMode::ReadMode);
+    }
+    if (!io) fail(path, "is not an image in a format Sinew reads (NIfTI, NRRD, MetaImage, DICOM), or it is corrupt");
+    io->SetFileName(path.string());
+    try {
+      io->ReadImageInformation();
+    } catch (const itk::ExceptionObject& e) {
+      fail(path, "cannot read the image header: " + brief(e));
+    }
+    checkHeader(path, *io);
+    auto reader = itk::ImageFileReader<ImageType>::New();
+    reader->SetImageIO(io);
+    reader->SetFileName(path.string());
+    reader->Update();
+    return reader->GetOutput();
+  }
 }
 
 template <class Pixel>
@@ -88,21 +118,21 @@ typename itk::Image<Pixel, 3>::Pointer readItk(const fs::path& path) {
       reader->Update();
       return reader->GetOutput();
     }
-    if (ioExtension(path) == ".nii.gz") checkGzipStream(path);
-    auto io = itk::ImageIOFactory::CreateImageIO(path.c_str(), itk::CommonEnums::IOFileMode::ReadMode);
-    if (!io) fail(path, "is not an image in a format Sinew reads (NIfTI, NRRD, MetaImage, DICOM), or it is corrupt");
-    io->SetFileName(path.string());
+    // ITK reads a truncated or corrupt gzip stream without complaint, so the stream is checked
+    // (its CRC) by a second decompression, which runs beside ITK's; its verdict comes first.
+    std::future<void> streamCheck;
+    if (ioExtension(path) == ".nii.gz") streamCheck = std::async(std::launch::async, [path] { checkGzipStream(path); });
+    const auto verdict = [&] {
+      if (streamCheck.valid()) streamCheck.get();
+    };
     try {
-      io->ReadImageInformation();
-    } catch (const itk::ExceptionObject& e) {
-      fail(path, "cannot read the image header: " + brief(e));
+      auto image = readNonSeries<ImageType>(path);
+      verdict();
+      return image;
+    } catch (...) {
+      verdict();
+      throw;
     }
-    checkHeader(path, *io);
-    auto reader = itk::ImageFileReader<ImageType>::New();
-    reader->SetImageIO(io);
-    reader->SetFileName(path.string());
-    reader->Update();
-    return reader->GetOutput();
   } catch (const itk::ExceptionObject& e) {
     fail(path, "cannot read the voxel data (truncated or corrupt file?): " + brief(e));
   }

@@ -9,6 +9,7 @@
 #include <QJsonArray>
 #include <QJsonDocument>
 #include <QJsonObject>
+#include <QThread>
 #include <QProcess>
 #include <QTemporaryDir>
 #include <QtTest>
@@ -172,6 +173,17 @@ private slots:
       QVERIFY2(fs::exists(out / f), f);
     const QJsonObject report = readJson(out / "report.json");
     for (const char* key : {"backend", "device", "total_seconds", "structures", "timeline"}) QVERIFY(report.contains(key));
+    // The stages add up to the total (work beside them is counted by its wait); with more than one
+    // thread, the images were read in the background, each once.
+    double stageSum = 0.0;
+    for (const QJsonValue v : report["stage_seconds"].toObject()) stageSum += v.toDouble();
+    const double total = report["total_seconds"].toDouble();
+    QVERIFY2(std::abs(stageSum - total) <= 0.02 * total + 0.005, qPrintable(QString("%1 vs %2").arg(stageSum).arg(total)));
+    if (QThread::idealThreadCount() > 1) {
+      const QJsonObject background = report["background_seconds"].toObject();
+      QVERIFY2(background.contains("read image.nii.gz") && background.contains("read labels.nii.gz"),
+               qPrintable(QJsonDocument(background).toJson()));
+    }
     const QJsonObject s = report["structures"].toArray()[0].toObject();
     const double before = s["assd_mm"].toObject()["initial"].toDouble(), after = s["assd_mm"].toObject()["final"].toDouble();
     qInfo("synthetic: ASSD %.3f -> %.3f mm, Dice %.3f -> %.3f", before, after, s["dice_initial"].toDouble(),
@@ -198,6 +210,24 @@ private slots:
     const LabelVolume seg = builtinRegistry().imageIOFor("x.nii.gz").readLabels(out / "segmentation.nii.gz");
     QCOMPARE(seg.at(32, 32, 32), 7);
     QCOMPARE(seg.at(2, 2, 2), 0);
+  }
+
+  // Reading, building and writing at once (the default) or one after the other (-j 1): the same
+  // meshes, byte for byte, and the same label map.
+  void sameOutputsWithOneThreadAndMany() {
+    const QString scene = QString::fromStdString(writeScene("threads.json").string());
+    for (const char* j : {"1", "0"}) {
+      const Result r = sinewRun({scene, "-q", "-j", j, "-o", QString::fromStdString(path(std::string("threads-") + j).string())});
+      QVERIFY2(r.code == 0, qPrintable(r.err));
+    }
+    auto bytes = [&](const fs::path& p) {
+      std::ifstream in(p, std::ios::binary);
+      return std::string(std::istreambuf_iterator<char>(in), {});
+    };
+    for (const char* f : {"ellipsoid.vtp", "segmentation.nii.gz"}) {
+      const std::string one = bytes(path("threads-1") / f), many = bytes(path("threads-0") / f);
+      QVERIFY2(!one.empty() && one == many, f);
+    }
   }
 
   // A Verlet step far beyond its stable limit: the guard rolls back and halves it, the run completes

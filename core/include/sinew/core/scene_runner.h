@@ -88,6 +88,9 @@ struct RunReport {
   std::vector<StageResult> stages;
   InitialisationResult initialisation;
   std::vector<std::pair<std::string, double>> stageSeconds;  // wall time of each set-up stage, in order
+  // Work that ran beside the stages (each input file's read, the start's evaluation), with its own
+  // wall time; the stages count only the waits for it.
+  std::vector<std::pair<std::string, double>> backgroundSeconds;
   std::vector<OverlapResult> overlaps;  // every pair that overlaps before or after (two structures or more)
   // Why the run stopped early (the guard could not recover; the meshes are the last good ones);
   // empty when it ran its schedule.
@@ -144,6 +147,10 @@ private:
   void sample(RunReport& report, double seconds, ExecutionBackend* backend);
   void initialise(std::vector<StructureSpec>& specs, const std::function<void(const std::string&)>& log);
   StructureResult evaluatePositions(Index structure, const std::vector<Vec3>& positions, bool final);
+  // evaluatePositions in two parts: the surface (reads the store's topology), then its scores
+  // against the truth (reads only what load() left, so it may run beside the simulation).
+  StructureResult surfaceOf(Index structure, const std::vector<Vec3>& positions) const;
+  void score(Index structure, StructureResult& result, bool final) const;
 
   const Registry& registry_;
   SceneDesc scene_;

@@ -5,6 +5,7 @@
 #include "sinew/core/triangle_mesh.h"
 
 #include <cstdint>
+#include <functional>
 #include <vector>
 
 namespace sinew {
@@ -12,6 +13,10 @@ namespace sinew {
 // 1 for every voxel whose centre is inside the closed mesh (even-odd rule along rows of the
 // grid's first axis), 0 elsewhere; in the grid's voxel order. Works for any direction matrix.
 std::vector<std::uint8_t> voxelize(const TriangleMesh& mesh, const ImageGeometry& grid);
+// The same voxels as runs along the first axis: inside(first voxel's index, count), without a
+// full-grid mask.
+void forEachInsideRun(const TriangleMesh& mesh, const ImageGeometry& grid,
+                      const std::function<void(std::size_t first, std::size_t count)>& inside);
 
 // Volume (mm^3) where two closed meshes overlap: both rasterised on an axis-aligned grid of this
 // spacing over the intersection of their bounding boxes (0 when the boxes do not meet). An
