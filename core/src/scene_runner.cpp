@@ -72,9 +72,9 @@ struct SceneRunner::Loaded {
   std::vector<std::unique_ptr<ReferenceSurface>> truth;  // per structure, null without one
   std::unique_ptr<SampledError> sampled;                 // the timeline's error; null without any truth
   double samplingSeconds = 0.0;
-  std::vector<std::vector<std::uint8_t>> truthMask;
-  std::vector<std::size_t> truthCount;  // voxels set in each mask
-  std::vector<const ImageGeometry*> truthGrid;
+  // Each truth's label map and label (for Dice) and how many voxels hold the label.
+  std::vector<std::pair<const LabelVolume*, std::int32_t>> truthLabels;
+  std::vector<std::size_t> truthCount;
   std::shared_ptr<Image3D> target;
   std::optional<Model> model;
   std::vector<std::vector<Vec3>> modelPositions;         // level 0, before the initialisation
@@ -206,7 +206,7 @@ void SceneRunner::load() {
   // large structure's task does not hold the others back at a barrier between the two.
   std::vector<std::optional<BuiltModel>> builtFromLabel(n);
   std::vector<std::unique_ptr<ReferenceSurface>> truthSurfaces(n);
-  std::vector<std::vector<std::uint8_t>> truthMasks(n);
+  std::vector<std::size_t> truthCounts(n, 0);
   const auto buildReference = [&](size_t i) {
     const StructureDesc& d = scene_.structures[i];
     if (d.reference.mesh || !d.reference.label) return;
@@ -225,8 +225,7 @@ void SceneRunner::load() {
         throw InputError(d.groundTruth->labelMap.string() + ": ground truth of '" + d.name + "': " + e.what());
       }
       const LabelVolume& gt = *labelMap.at(d.groundTruth->labelMap);
-      truthMasks[i].resize(gt.voxels().size());
-      for (size_t v = 0; v < gt.voxels().size(); ++v) truthMasks[i][v] = gt.voxels()[v] == d.groundTruth->label;
+      truthCounts[i] = std::size_t(std::count(gt.voxels().begin(), gt.voxels().end(), d.groundTruth->label));
   };
   log("building the reference shapes at " + std::to_string(levels) + " levels of detail and the ground-truth surfaces");
   {
@@ -301,14 +300,12 @@ void SceneRunner::load() {
 
     if (d.groundTruth) {
       L.truth.push_back(std::move(truthSurfaces[i]));
-      L.truthCount.push_back(std::count(truthMasks[i].begin(), truthMasks[i].end(), std::uint8_t(1)));
-      L.truthMask.push_back(std::move(truthMasks[i]));
-      L.truthGrid.push_back(&labelMap.at(d.groundTruth->labelMap)->geometry());
+      L.truthCount.push_back(truthCounts[i]);
+      L.truthLabels.emplace_back(labelMap.at(d.groundTruth->labelMap), d.groundTruth->label);
     } else {
       L.truth.push_back(nullptr);
-      L.truthMask.emplace_back();
+      L.truthLabels.emplace_back(nullptr, 0);
       L.truthCount.push_back(0);
-      L.truthGrid.push_back(nullptr);
     }
     specs.push_back(std::move(spec));
   }
@@ -504,7 +501,7 @@ void SceneRunner::score(Index i, StructureResult& r, bool final) const {
   const SurfaceDistanceStats st = L.truth[i]->compare(r.surface, L.sim->executor());
   r.assdFinalMm = st.assd;
   r.hd95Mm = st.hd95;
-  if (final) r.dice = diceOfMesh(r.surface, *L.truthGrid[i], L.truthMask[i], L.truthCount[i]);
+  if (final) r.dice = diceOfMesh(r.surface, *L.truthLabels[i].first, L.truthLabels[i].second, L.truthCount[i]);
 }
 
 std::vector<std::optional<SurfaceDistanceStats>> SceneRunner::sampledError(ExecutionBackend* backend) {

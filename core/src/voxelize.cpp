@@ -61,14 +61,14 @@ void forEachInsideRun(const TriangleMesh& mesh, const ImageGeometry& grid,
   insideSpans(mesh, grid, [&](std::size_t row, int i0, int i1) { inside(row + std::size_t(i0), std::size_t(i1 - i0 + 1)); });
 }
 
-double diceOfMesh(const TriangleMesh& mesh, const ImageGeometry& grid, const std::vector<std::uint8_t>& mask,
-                  std::size_t maskCount) {
+double diceOfMesh(const TriangleMesh& mesh, const LabelVolume& labels, std::int32_t label, std::size_t labelCount) {
   std::size_t inside = 0, both = 0;
-  insideSpans(mesh, grid, [&](std::size_t row, int i0, int i1) {
+  const std::vector<std::int32_t>& v = labels.voxels();
+  insideSpans(mesh, labels.geometry(), [&](std::size_t row, int i0, int i1) {
     inside += std::size_t(i1 - i0 + 1);
-    for (int i = i0; i <= i1; ++i) both += mask[row + i] != 0;
+    for (int i = i0; i <= i1; ++i) both += v[row + i] == label;
   });
-  return inside + maskCount ? 2.0 * double(both) / double(inside + maskCount) : 1.0;
+  return inside + labelCount ? 2.0 * double(both) / double(inside + labelCount) : 1.0;
 }
 
 namespace {

@@ -8,8 +8,8 @@
 
 namespace sinew {
 
-template <class T, class ItkImage>
-Volume<T> toVolume(const ItkImage& image) {
+template <class ItkImage>
+ImageGeometry geometryOf(const ItkImage& image) {
   ImageGeometry g;
   const auto size = image.GetLargestPossibleRegion().GetSize();
   for (int a = 0; a < 3; ++a) {
@@ -18,6 +18,12 @@ Volume<T> toVolume(const ItkImage& image) {
     g.origin[a] = image.GetOrigin()[a];
     for (int b = 0; b < 3; ++b) g.direction(a, b) = image.GetDirection()[a][b];
   }
+  return g;
+}
+
+template <class T, class ItkImage>
+Volume<T> toVolume(const ItkImage& image) {
+  const ImageGeometry g = geometryOf(image);
   Volume<T> v(g);
   const auto* buffer = image.GetBufferPointer();
   for (std::size_t i = 0; i < g.voxelCount(); ++i) v.voxels()[i] = static_cast<T>(buffer[i]);

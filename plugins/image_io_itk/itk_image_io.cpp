@@ -69,9 +69,11 @@ void checkGzipStream(const fs::path& path) {
   if (n < 0 || code != Z_OK) fail(path, "the compressed data ends early or is corrupt (truncated file?)");
 }
 
-// A single-file image (not a DICOM series), its header checked.
-template <class ImageType>
-typename ImageType::Pointer readNonSeries(const fs::path& path) {
+// A single-file image (not a DICOM series), its header checked, read straight into the volume's
+// buffer: no second full-size copy (the training image is 230 MB as floats).
+template <class Pixel>
+Volume<Pixel> readNonSeries(const fs::path& path) {
+  using ImageType = itk::Image<Pixel, 3>;
   {
     itk::ImageIOBase::Pointer io;
     {
@@ -92,13 +94,19 @@ typename ImageType::Pointer readNonSeries(const fs::path& path) {
     auto reader = itk::ImageFileReader<ImageType>::New();
     reader->SetImageIO(io);
     reader->SetFileName(path.string());
+    reader->UpdateOutputInformation();
+    ImageType* image = reader->GetOutput();
+    Volume<Pixel> volume(geometryOf(*image));
+    image->GetPixelContainer()->SetImportPointer(volume.voxels().data(), volume.voxels().size(), false);
     reader->Update();
-    return reader->GetOutput();
+    // ITK kept the buffer it was given unless its pipeline chose otherwise; then the voxels are copied.
+    if (image->GetBufferPointer() != volume.voxels().data()) return toVolume<Pixel>(*image);
+    return volume;
   }
 }
 
 template <class Pixel>
-typename itk::Image<Pixel, 3>::Pointer readItk(const fs::path& path) {
+Volume<Pixel> readItk(const fs::path& path) {
   using ImageType = itk::Image<Pixel, 3>;
   std::error_code ec;
   if (!fs::exists(path, ec)) fail(path, "no such file or directory");
@@ -116,7 +124,7 @@ typename itk::Image<Pixel, 3>::Pointer readItk(const fs::path& path) {
       reader->UpdateOutputInformation();
       checkHeader(path, *dicom);
       reader->Update();
-      return reader->GetOutput();
+      return toVolume<Pixel>(*reader->GetOutput());
     }
     // ITK reads a truncated or corrupt gzip stream without complaint, so the stream is checked
     // (its CRC) by a second decompression, which runs beside ITK's; its verdict comes first.
@@ -126,7 +134,7 @@ typename itk::Image<Pixel, 3>::Pointer readItk(const fs::path& path) {
       if (streamCheck.valid()) streamCheck.get();
     };
     try {
-      auto image = readNonSeries<ImageType>(path);
+      auto image = readNonSeries<Pixel>(path);
       verdict();
       return image;
     } catch (...) {
@@ -159,8 +167,8 @@ void registerItkImageIO(Registry& registry) {
   d.name = "itk";
   d.summary = "NIfTI, NRRD, MetaImage and DICOM series through ITK (LPS world coordinates)";
   d.extensions = {".nii", ".nii.gz", ".nrrd", ".nhdr", ".mha", ".mhd", "/"};
-  d.readImage = [](const fs::path& p) { return toVolume<float>(*readItk<float>(p)); };
-  d.readLabels = [](const fs::path& p) { return toVolume<std::int32_t>(*readItk<std::int32_t>(p)); };
+  d.readImage = [](const fs::path& p) { return readItk<float>(p); };
+  d.readLabels = [](const fs::path& p) { return readItk<std::int32_t>(p); };
   d.writeLabels = [](const fs::path& p, const LabelVolume& v) {
     for (std::int32_t l : v.voxels())
       if (l < 0 || l > 32767) fail(p, "label value " + std::to_string(l) + " does not fit a 16-bit label map");

@@ -65,13 +65,14 @@ private slots:
     grid.spacing = Eigen::Vector3d::Constant(0.5);
     grid.origin = Eigen::Vector3d::Constant(-12.25);
     const std::vector<std::uint8_t> truth = voxelize(icosphere(5, 10.0f), grid);
+    LabelVolume labels(grid, 0);  // label 7 inside the truth, 3 elsewhere
     std::size_t count = 0;
-    for (auto v : truth) count += v;
+    for (size_t v = 0; v < truth.size(); ++v) count += truth[v], labels.voxels()[v] = truth[v] ? 7 : 3;
     const TriangleMesh inner = icosphere(5, 8.0f);
-    const double fromMasks = dice(voxelize(inner, grid), truth), fromMesh = diceOfMesh(inner, grid, truth, count);
+    const double fromMasks = dice(voxelize(inner, grid), truth), fromMesh = diceOfMesh(inner, labels, 7, count);
     QCOMPARE(fromMesh, fromMasks);
     QVERIFY(std::abs(fromMesh - 2.0 * 512.0 / 1512.0) < 0.01);
-    QCOMPARE(diceOfMesh(icosphere(5, 10.0f), grid, truth, count), 1.0);
+    QCOMPARE(diceOfMesh(icosphere(5, 10.0f), labels, 7, count), 1.0);
   }
 };
 

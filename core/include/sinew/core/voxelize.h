@@ -2,6 +2,7 @@
 #pragma once
 
 #include "sinew/core/image.h"
+#include "sinew/core/io.h"
 #include "sinew/core/triangle_mesh.h"
 
 #include <cstdint>
@@ -30,10 +31,10 @@ struct PairOverlap {
 // Every overlapping pair of the meshes, in order of (a, b).
 std::vector<PairOverlap> pairwiseOverlaps(const std::vector<const TriangleMesh*>& meshes, double spacingMm);
 
-// Dice of a closed mesh, rasterised as voxelize() does, against a mask on the same grid holding
-// maskCount set voxels; without the mesh's mask (only the runs inside it are visited).
-double diceOfMesh(const TriangleMesh& mesh, const ImageGeometry& grid, const std::vector<std::uint8_t>& mask,
-                  std::size_t maskCount);
+// Dice of a closed mesh, rasterised as voxelize() does, against the voxels of `labels` (on the
+// same grid) equal to `label`, of which there are labelCount; without a mask of either (only the
+// runs inside the mesh are visited).
+double diceOfMesh(const TriangleMesh& mesh, const LabelVolume& labels, std::int32_t label, std::size_t labelCount);
 
 // Dice coefficient of two masks of the same size.
 double dice(const std::vector<std::uint8_t>& a, const std::vector<std::uint8_t>& b);
