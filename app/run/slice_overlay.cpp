@@ -17,23 +17,25 @@ namespace sinew {
 void writeSliceOverlay(const std::filesystem::path& path, const Image3D& image, const LabelVolume& labels,
                        const SceneDesc& scene) {
   const auto& g = image.geometry();
-  // Centre: the mean voxel of all labels; grey window: 1st to 99th percentile.
+  // Centre: the mean voxel of all labels; grey window: 1st to 99th percentile of at most about a
+  // million voxels taken at a fixed stride (a window for display, not a measurement).
   Eigen::Vector3d centre = Eigen::Vector3d::Zero();
   long count = 0;
-  for (int k = 0; k < g.size[2]; ++k)
-    for (int j = 0; j < g.size[1]; ++j)
-      for (int i = 0; i < g.size[0]; ++i)
-        if (labels.at(i, j, k)) {
-          centre += Eigen::Vector3d(i, j, k);
-          ++count;
-        }
+  const std::vector<std::int32_t>& l = labels.voxels();
+  const std::size_t nx = std::size_t(g.size[0]), nxy = nx * std::size_t(g.size[1]);
+  for (std::size_t v = 0; v < l.size(); ++v)
+    if (l[v]) {
+      centre += Eigen::Vector3d(double(v % nx), double(v % nxy / nx), double(v / nxy));
+      ++count;
+    }
   centre = count ? Eigen::Vector3d(centre / double(count)) : Eigen::Vector3d(g.size[0] / 2.0, g.size[1] / 2.0, g.size[2] / 2.0);
+  const std::size_t stride = std::max<std::size_t>(1, image.voxels().size() / (1u << 20));
   std::vector<float> sorted;
-  sorted.reserve(image.voxels().size());
-  for (float v : image.voxels())
-    if (std::isfinite(v)) sorted.push_back(v);
+  sorted.reserve(image.voxels().size() / stride + 1);
+  for (std::size_t v = 0; v < image.voxels().size(); v += stride)
+    if (std::isfinite(image.voxels()[v])) sorted.push_back(image.voxels()[v]);
   if (sorted.empty()) sorted.push_back(0.0f);
-  // Two selections, not a sort: a sort of every voxel took most of this picture's time.
+  // Two selections, not a sort.
   auto percentile = [&](size_t at) {
     std::nth_element(sorted.begin(), sorted.begin() + at, sorted.end());
     return sorted[at];
