@@ -1,4 +1,5 @@
 #include "sinew/core/scene_runner.h"
+#include "scene_runner_loaded.h"
 
 #include "sinew/core/sampled_error.h"
 
@@ -22,14 +23,11 @@ namespace sinew {
 
 namespace {
 namespace fs = std::filesystem;
-using Clock = std::chrono::steady_clock;
 
 // The truth sampled for the timeline's error (sampled_error.h): at 2 mm, a label surface from a
 // 1 mm grid is sampled once per triangle, at its centroid. Measured against the exact evaluation on
 // Colin27 (tst_sampled_error): 0.004 mm of ASSD at most, the same as at 1 mm, in half the time.
 constexpr float kSampledSpacingMm = 2.0f;
-
-double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
 [[noreturn]] void sceneError(const SceneDesc& s, const std::string& where, const std::string& problem) {
   throw InputError(s.file.string() + ": " + where + ": " + problem);
@@ -57,53 +55,6 @@ void applyParams(const SceneDesc& scene, ParamTable& table, const std::vector<st
 }
 }  // namespace
 
-struct SceneRunner::Loaded {
-  // Files are read in the background from the start of load() (when more than one thread may run),
-  // each once; whoever needs one waits for it, and a reading error surfaces there.
-  template <class T>
-  using Pending = std::shared_future<std::shared_ptr<T>>;
-  std::launch reading = std::launch::deferred;
-  std::mutex readTimesMutex;
-  std::vector<std::pair<std::string, double>> backgroundSeconds;  // each background read's own wall time
-  std::map<fs::path, Pending<LabelVolume>> labelMaps;
-  std::map<fs::path, Pending<Image3D>> images;
-
-  std::unique_ptr<Simulation> sim;
-  std::vector<std::unique_ptr<ReferenceSurface>> truth;  // per structure, null without one
-  std::unique_ptr<SampledError> sampled;                 // the timeline's error; null without any truth
-  double samplingSeconds = 0.0;
-  // Each truth's label map and label (for Dice) and how many voxels hold the label.
-  std::vector<std::pair<const LabelVolume*, std::int32_t>> truthLabels;
-  std::vector<std::size_t> truthCount;
-  std::shared_ptr<Image3D> target;
-  std::optional<Model> model;
-  std::vector<std::vector<Vec3>> modelPositions;         // level 0, before the initialisation
-  InitialisationResult init;
-  SpatialMap trainingMap;  // target -> training image: the inverse of the initialisation
-  std::vector<std::pair<std::string, double>> stageSeconds;
-  Clock::time_point created = Clock::now();
-
-  template <class T, class Read>
-  Pending<T>& startReading(std::map<fs::path, Pending<T>>& files, const fs::path& p, Read read) {
-    auto& slot = files[p];
-    if (!slot.valid())
-      slot = std::async(reading, [this, p, read] {
-               const auto t0 = Clock::now();
-               auto file = std::make_shared<T>(read(p));
-               const std::lock_guard lock(readTimesMutex);
-               backgroundSeconds.emplace_back("read " + p.filename().string(), since(t0));
-               return file;
-             }).share();
-    return slot;
-  }
-  Pending<Image3D>& startImage(const Registry& registry, const fs::path& p) {
-    return startReading(images, p, [&registry](const fs::path& f) { return registry.imageIOFor(f).readImage(f); });
-  }
-  Pending<LabelVolume>& startLabels(const Registry& registry, const fs::path& p) {
-    return startReading(labelMaps, p, [&registry](const fs::path& f) { return registry.imageIOFor(f).readLabels(f); });
-  }
-  std::shared_ptr<Image3D> image(const Registry& registry, const fs::path& p) { return startImage(registry, p).get(); }
-};
 
 bool RunReport::hasGroundTruth() const {
   for (const auto& s : structures)
@@ -473,48 +424,7 @@ void SceneRunner::initialise(std::vector<StructureSpec>& specs, const std::funct
 
 const InitialisationResult& SceneRunner::initialisation() const { return loaded_->init; }
 
-StructureResult SceneRunner::evaluate(Index i, bool final) {
-  MeshStore& store = loaded_->sim->store();
-  const auto x = store.mesh(store.positions(), i);
-  return evaluatePositions(i, std::vector<Vec3>(x.begin(), x.end()), final);
-}
 
-StructureResult SceneRunner::evaluatePositions(Index i, const std::vector<Vec3>& positions, bool final) {
-  StructureResult r = surfaceOf(i, positions);
-  score(i, r, final);
-  return r;
-}
-
-StructureResult SceneRunner::surfaceOf(Index i, const std::vector<Vec3>& positions) const {
-  const MeshStore& store = loaded_->sim->store();
-  StructureResult r;
-  r.name = scene_.structures[i].name;
-  r.label = scene_.structures[i].label;
-  r.vertices = store.range(i).vertexCount();
-  r.surface = tessellate(store.topologyOf(i), positions);
-  return r;
-}
-
-void SceneRunner::score(Index i, StructureResult& r, bool final) const {
-  const Loaded& L = *loaded_;
-  if (!L.truth[i]) return;
-  const SurfaceDistanceStats st = L.truth[i]->compare(r.surface, L.sim->executor());
-  r.assdFinalMm = st.assd;
-  r.hd95Mm = st.hd95;
-  if (final) r.dice = diceOfMesh(r.surface, *L.truthLabels[i].first, L.truthLabels[i].second, L.truthCount[i]);
-}
-
-std::vector<std::optional<SurfaceDistanceStats>> SceneRunner::sampledError(ExecutionBackend* backend) {
-  Loaded& L = *loaded_;
-  std::vector<std::optional<SurfaceDistanceStats>> error(L.sim->structureCount());
-  if (!L.sampled) return error;
-  try {
-    if (backend && backend->measureError(*L.sampled, error)) return error;
-  } catch (const std::runtime_error& e) {  // the device failed: the host has the same state
-    if (options_.log) options_.log(std::string("error sampling on the device failed (") + e.what() + "); sampling on the host");
-  }
-  return L.sampled->measure(L.sim->store());
-}
 
 void SceneRunner::sample(RunReport& report, double seconds, ExecutionBackend* backend) {
   Loaded& L = *loaded_;
@@ -556,7 +466,7 @@ RunReport SceneRunner::run() {
   report.initialisation = L.init;
   report.stageSeconds = L.stageSeconds;
   {
-    const std::lock_guard lock(L.readTimesMutex);
+    const std::lock_guard lock(L.backgroundMutex);
     report.backgroundSeconds = L.backgroundSeconds;
   }
   std::unique_ptr<ExecutionBackend> backend = options_.backend ? options_.backend(sim) : nullptr;
@@ -673,8 +583,9 @@ RunReport SceneRunner::run() {
   report.stages.insert(report.stages.begin(), firstStages.begin(), firstStages.end());
   report.stability = sim.stabilityEvents();
   t0 = Clock::now();
+  std::vector<StructureResult> end = evaluateEnd(backend.get());
   for (Index i = 0; i < sim.structureCount(); ++i) {
-    StructureResult r = evaluate(i, true);
+    StructureResult r = std::move(end[i]);
     r.assdInitialMm = initial[i].assdFinalMm;
     r.diceInitial = initial[i].dice;
     r.assdModelMm = model[i].assdFinalMm;
@@ -715,16 +626,7 @@ bool SceneRunner::enterNextLevel() {
   return sim.advanceLevel();
 }
 
-bool SceneRunner::hasGroundTruth(Index structure) const { return loaded_->truth[structure] != nullptr; }
 
-LabelVolume SceneRunner::labelMap(const RunReport& report) const {
-  LabelVolume out(loaded_->target->geometry(), 0);
-  for (const StructureResult& s : report.structures)  // in order: a later structure's voxels win
-    forEachInsideRun(s.surface, out.geometry(), [&](std::size_t first, std::size_t count) {
-      std::fill_n(out.voxels().begin() + std::ptrdiff_t(first), count, s.label);
-    });
-  return out;
-}
 
 std::string cpuDescription(int threads) {
   std::ifstream in("/proc/cpuinfo");

@@ -130,19 +130,15 @@ SurfaceDistanceStats combine(std::vector<WeightedDistance>& all, double sumAB, d
   return st;
 }
 
-// Distances from samples of one surface to another, accumulated with their areas.
-// Distances are computed in parallel and summed in order, so the result does not depend on threads.
-void accumulate(const std::vector<SurfaceSample>& samples, const SurfaceDistanceQuery& to,
-                std::vector<WeightedDistance>& all, double& sum, double& area, const Executor& executor) {
+// Distances from samples of one surface to another, with their areas, appended to `all`; computed
+// in parallel, summed later in order, so the result does not depend on threads.
+void distances(const std::vector<SurfaceSample>& samples, const SurfaceDistanceQuery& to, std::vector<WeightedDistance>& all,
+               const Executor& executor) {
   const size_t first = all.size();
   all.resize(first + samples.size());
   executor.forEach(static_cast<Index>(samples.size()), [&](Index i) {
     all[first + i] = {to.distance(samples[i].point), samples[i].area};
   });
-  for (size_t i = first; i < all.size(); ++i) {
-    sum += static_cast<double>(all[i].d) * all[i].w;
-    area += all[i].w;
-  }
 }
 }  // namespace
 
@@ -157,9 +153,20 @@ ReferenceSurface::ReferenceSurface(TriangleMesh surface, float spacing)
 SurfaceDistanceStats ReferenceSurface::compare(const TriangleMesh& other, const Executor& executor) const {
   const SurfaceDistanceQuery otherQuery(other);
   std::vector<WeightedDistance> all;
+  distances(sampleSurface(other, spacing_), query_, all, executor);
+  const std::size_t toThis = all.size();
+  distances(samples_, otherQuery, all, executor);
+  return summarise(std::move(all), toThis);
+}
+
+SurfaceDistanceStats ReferenceSurface::summarise(std::vector<WeightedDistance> all, std::size_t toThis) {
   double sumAB = 0, areaA = 0, sumBA = 0, areaB = 0;
-  accumulate(sampleSurface(other, spacing_), query_, all, sumAB, areaA, executor);
-  accumulate(samples_, otherQuery, all, sumBA, areaB, executor);
+  for (std::size_t i = 0; i < all.size(); ++i) {
+    double& sum = i < toThis ? sumAB : sumBA;
+    double& area = i < toThis ? areaA : areaB;
+    sum += static_cast<double>(all[i].d) * all[i].w;
+    area += all[i].w;
+  }
   return combine(all, sumAB, areaA, sumBA, areaB);
 }
 

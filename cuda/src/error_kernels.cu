@@ -87,7 +87,16 @@ __global__ void fromTruth(trianglebvh::View mesh, const float3* samples, const f
   const P3 p{samples[i].x, samples[i].y, samples[i].z};
   out[i] = {sqrtf(trianglebvh::closestSquaredDistance(mesh, meshRoots[structureOf[i]], p, 3.0e38f)), areas[i]};
 }
+__global__ void closestDistances(trianglebvh::View meshes, const P3* points, const int* roots, int count, float* out) {
+  const int i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i < count) out[i] = sqrtf(trianglebvh::closestSquaredDistance(meshes, roots[i], points[i], 3.0e38f));
+}
 }  // namespace
+
+void launchClosestDistances(const Node* nodes, const P3* corners, const P3* points, const int* roots, int count, float* out,
+                            cudaStream_t s) {
+  if (count > 0) closestDistances<<<blocks(count), kThreads, 0, s>>>({nodes, corners}, points, roots, count, out);
+}
 
 void launchSampledError(const MeshView& m, const SampledErrorDevice& e, cudaStream_t s) {
   gatherPoints<<<blocks(m.vertices + m.cells), kThreads, 0, s>>>(m.x, m.cellOffsets, m.cellVertices, m.vertices, m.cells,

@@ -155,6 +155,9 @@ struct SampledErrorDevice {
   int meshNodeCount = 0, leafCount = 0, triangleCount = 0, sampleCount = 0;
 };
 void launchSampledError(const MeshView& m, const SampledErrorDevice& e, cudaStream_t s);
+// out[k]: the exact distance from points[k] to the mesh under roots[k] (the exact evaluation's).
+void launchClosestDistances(const trianglebvh::Node* nodes, const collision::P3* corners, const collision::P3* points,
+                            const int* roots, int count, float* out, cudaStream_t s);
 
 void launchProlong(const int* rowOffsets, const int* index, const float* weight, int rows, const float3* coarse,
                    float3* fine, cudaStream_t s);

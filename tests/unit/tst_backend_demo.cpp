@@ -55,6 +55,11 @@ private slots:
       const QString name = cpu[i].toObject()["name"].toString();
       qInfo("%s: ASSD cpu %.4f mm, cuda %.4f mm", qPrintable(name), a, b);
       QVERIFY(std::abs(a - b) <= 0.01);
+      // The final evaluation's distances, searched on the device for the CUDA run
+      // (closestDistances) and on the host for the CPU run: the same scores.
+      for (const char* key : {"hd95_mm", "dice"})
+        QVERIFY2(std::abs(cpu[i].toObject()[key].toDouble() - gpu[i].toObject()[key].toDouble()) <= 1e-6, key);
+      QVERIFY(std::abs(a - b) <= 1e-6);
       // Stronger: the written meshes are the same bytes.
       QFile fa(dir.filePath("cpu/" + name + ".vtp")), fb(dir.filePath("cuda/" + name + ".vtp"));
       QVERIFY(fa.open(QIODevice::ReadOnly) && fb.open(QIODevice::ReadOnly));

@@ -6,6 +6,7 @@
 #include "sinew/core/sampled_error.h"
 
 #include <optional>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -28,6 +29,13 @@ public:
   // this backend cannot (the host then measures it from the downloaded state).
   virtual bool measureError(SampledError& error, std::vector<std::optional<SurfaceDistanceStats>>& out) {
     (void)error, (void)out;
+    return false;
+  }
+  // Exact distances (triangle_bvh.h) from each point to the mesh of `meshes` whose root is
+  // roots[k], into out[k] (the same values as the host's query); false where this backend cannot.
+  virtual bool closestDistances(const TriangleBvh& meshes, std::span<const collision::P3> points, std::span<const int> roots,
+                                std::span<float> out) {
+    (void)meshes, (void)points, (void)roots, (void)out;
     return false;
   }
 };

@@ -151,6 +151,9 @@ private:
   // against the truth (reads only what load() left, so it may run beside the simulation).
   StructureResult surfaceOf(Index structure, const std::vector<Vec3>& positions) const;
   void score(Index structure, StructureResult& result, bool final) const;
+  // Every structure's final surface, scored exactly: the distances on the backend's device where it
+  // has one (the same values), else on the host.
+  std::vector<StructureResult> evaluateEnd(ExecutionBackend* backend);
 
   const Registry& registry_;
   SceneDesc scene_;

@@ -70,6 +70,12 @@ public:
   SurfaceDistanceStats compare(const TriangleMesh& other, const Executor& executor = Executor()) const;
   const TriangleMesh& surface() const { return surface_; }
   const SurfaceDistanceQuery& query() const { return query_; }
+  float spacing() const { return spacing_; }
+  const std::vector<SurfaceSample>& samples() const { return samples_; }  // this surface's, at spacing()
+  // compare()'s summary of distances computed elsewhere (a device), in compare()'s order: first
+  // from sampleSurface(other, spacing()) to this surface (toThis of them), then from samples() to
+  // the other.
+  static SurfaceDistanceStats summarise(std::vector<WeightedDistance> distances, std::size_t toThis);
 
 private:
   TriangleMesh surface_;

@@ -41,6 +41,10 @@ public:
   void levelChanged() override;
   // The sampled error on the device: only the distances come back (device_error.h).
   bool measureError(SampledError& error, std::vector<std::optional<SurfaceDistanceStats>>& out) override;
+  // The exact evaluation's distances on the device (the hierarchy and points uploaded, the
+  // distances downloaded; nothing kept).
+  bool closestDistances(const TriangleBvh& meshes, std::span<const collision::P3> points, std::span<const int> roots,
+                        std::span<float> out) override;
 
   // Drawing from the device store (the workstation's interop path). Structure `mesh`'s
   // tessellation points, vertices then cell centres, as packed xyz floats, written to device memory

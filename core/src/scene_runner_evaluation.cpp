@@ -1,0 +1,128 @@
+// SceneRunner's scoring against the ground truths: the exact evaluation (the start, the end, the
+// workstation's), the timeline's sampled error, the label map of a result.
+#include "scene_runner_loaded.h"
+#include "sinew/core/voxelize.h"
+
+namespace sinew {
+
+StructureResult SceneRunner::evaluate(Index i, bool final) {
+  MeshStore& store = loaded_->sim->store();
+  const auto x = store.mesh(store.positions(), i);
+  return evaluatePositions(i, std::vector<Vec3>(x.begin(), x.end()), final);
+}
+
+StructureResult SceneRunner::evaluatePositions(Index i, const std::vector<Vec3>& positions, bool final) {
+  StructureResult r = surfaceOf(i, positions);
+  score(i, r, final);
+  return r;
+}
+
+StructureResult SceneRunner::surfaceOf(Index i, const std::vector<Vec3>& positions) const {
+  const MeshStore& store = loaded_->sim->store();
+  StructureResult r;
+  r.name = scene_.structures[i].name;
+  r.label = scene_.structures[i].label;
+  r.vertices = store.range(i).vertexCount();
+  r.surface = tessellate(store.topologyOf(i), positions);
+  return r;
+}
+
+std::vector<StructureResult> SceneRunner::evaluateEnd(ExecutionBackend* backend) {
+  Loaded& L = *loaded_;
+  MeshStore& store = L.sim->store();
+  const Index n = store.meshCount();
+  std::vector<StructureResult> out;
+  for (Index i = 0; i < n; ++i) {
+    const auto x = store.mesh(store.positions(), i);
+    out.push_back(surfaceOf(i, std::vector<Vec3>(x.begin(), x.end())));
+  }
+  if (backend && L.sampled) {
+    // The host's samples and hierarchies, the device's searches: the truths' hierarchy is the
+    // sampled error's (the same trees as the exact evaluation's), the final surfaces' built here.
+    std::vector<std::vector<SurfaceSample>> meshSamples(n);
+    std::vector<TriangleBvh> surfaceTrees(n);
+    L.sim->executor().forEach(
+        n,
+        [&](Index i) {
+          if (!L.truth[i]) return;
+          meshSamples[i] = sampleSurface(out[i].surface, L.truth[i]->spacing());
+          surfaceTrees[i] = TriangleBvh::build(out[i].surface);
+        },
+        1);
+    TriangleBvh surfaces;
+    std::vector<collision::P3> toTruthPoints, fromTruthPoints;
+    std::vector<int> toTruthRoots, fromTruthRoots;
+    for (Index i = 0; i < n; ++i) {
+      if (!L.truth[i]) continue;
+      const int root = surfaces.append(surfaceTrees[i]);
+      for (const SurfaceSample& s : meshSamples[i]) toTruthPoints.push_back(asP3(s.point)), toTruthRoots.push_back(L.sampled->truthRoots()[i]);
+      for (const SurfaceSample& s : L.truth[i]->samples()) fromTruthPoints.push_back(asP3(s.point)), fromTruthRoots.push_back(root);
+    }
+    std::vector<float> toTruth(toTruthPoints.size()), fromTruth(fromTruthPoints.size());
+    bool onDevice = false;
+    try {
+      onDevice = backend->closestDistances(L.sampled->truth(), toTruthPoints, toTruthRoots, toTruth) &&
+                 backend->closestDistances(surfaces, fromTruthPoints, fromTruthRoots, fromTruth);
+    } catch (const std::runtime_error& e) {  // the device failed: the host computes them
+      if (options_.log) options_.log(std::string("the final evaluation on the device failed (") + e.what() + "); on the host");
+    }
+    if (onDevice) {
+      std::vector<std::size_t> toFirst(n + 1, 0), fromFirst(n + 1, 0);
+      for (Index i = 0; i < n; ++i) {
+        toFirst[i + 1] = toFirst[i] + meshSamples[i].size();
+        fromFirst[i + 1] = fromFirst[i] + (L.truth[i] ? L.truth[i]->samples().size() : 0);
+      }
+      L.sim->executor().forEach(
+          n,
+          [&](Index i) {
+            if (!L.truth[i]) return;
+            std::vector<WeightedDistance> all;
+            for (std::size_t k = toFirst[i]; k < toFirst[i + 1]; ++k) all.push_back({toTruth[k], meshSamples[i][k - toFirst[i]].area});
+            for (std::size_t k = fromFirst[i]; k < fromFirst[i + 1]; ++k)
+              all.push_back({fromTruth[k], L.truth[i]->samples()[k - fromFirst[i]].area});
+            const SurfaceDistanceStats st = ReferenceSurface::summarise(std::move(all), meshSamples[i].size());
+            out[i].assdFinalMm = st.assd;
+            out[i].hd95Mm = st.hd95;
+            out[i].dice = diceOfMesh(out[i].surface, *L.truthLabels[i].first, L.truthLabels[i].second, L.truthCount[i]);
+          },
+          1);
+      return out;
+    }
+  }
+  for (Index i = 0; i < n; ++i) score(i, out[i], true);
+  return out;
+}
+
+void SceneRunner::score(Index i, StructureResult& r, bool final) const {
+  const Loaded& L = *loaded_;
+  if (!L.truth[i]) return;
+  const SurfaceDistanceStats st = L.truth[i]->compare(r.surface, L.sim->executor());
+  r.assdFinalMm = st.assd;
+  r.hd95Mm = st.hd95;
+  if (final) r.dice = diceOfMesh(r.surface, *L.truthLabels[i].first, L.truthLabels[i].second, L.truthCount[i]);
+}
+
+std::vector<std::optional<SurfaceDistanceStats>> SceneRunner::sampledError(ExecutionBackend* backend) {
+  Loaded& L = *loaded_;
+  std::vector<std::optional<SurfaceDistanceStats>> error(L.sim->structureCount());
+  if (!L.sampled) return error;
+  try {
+    if (backend && backend->measureError(*L.sampled, error)) return error;
+  } catch (const std::runtime_error& e) {  // the device failed: the host has the same state
+    if (options_.log) options_.log(std::string("error sampling on the device failed (") + e.what() + "); sampling on the host");
+  }
+  return L.sampled->measure(L.sim->store());
+}
+
+bool SceneRunner::hasGroundTruth(Index structure) const { return loaded_->truth[structure] != nullptr; }
+
+LabelVolume SceneRunner::labelMap(const RunReport& report) const {
+  LabelVolume out(loaded_->target->geometry(), 0);
+  for (const StructureResult& s : report.structures)  // in order: a later structure's voxels win
+    forEachInsideRun(s.surface, out.geometry(), [&](std::size_t first, std::size_t count) {
+      std::fill_n(out.voxels().begin() + std::ptrdiff_t(first), count, s.label);
+    });
+  return out;
+}
+
+}  // namespace sinew
