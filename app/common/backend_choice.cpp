@@ -4,13 +4,29 @@
 #include "sinew/cuda/cuda_engine.h"
 #endif
 
+#include <future>
+
 namespace sinew {
+
+#ifdef SINEW_WITH_CUDA
+namespace {
+std::future<cuda::DeviceStatus> early;  // startDeviceEarly's, taken by the next makeBackend
+}
+#endif
+
+void startDeviceEarly(const std::string& choice) {
+#ifdef SINEW_WITH_CUDA
+  if (choice != "cpu" && !early.valid()) early = std::async(std::launch::async, cuda::startDevice);
+#else
+  (void)choice;
+#endif
+}
 
 std::unique_ptr<ExecutionBackend> makeBackend(const std::string& choice, Simulation& sim,
                                               const std::function<void(const std::string&)>& notice) {
   if (choice == "cpu") return nullptr;
 #ifdef SINEW_WITH_CUDA
-  const cuda::DeviceStatus st = cuda::probeDevice();
+  const cuda::DeviceStatus st = early.valid() ? early.get() : cuda::probeDevice();
   if (!st.usable) {
     notice("CUDA backend unavailable (" + st.reason + "); running on the CPU");
     return nullptr;

@@ -16,4 +16,9 @@ namespace sinew {
 std::unique_ptr<ExecutionBackend> makeBackend(const std::string& choice, Simulation& simulation,
                                               const std::function<void(const std::string&)>& notice);
 
+// Probes the device and creates its context in the background (a few tenths of a second) so that
+// this overlaps the scene's loading; the next makeBackend waits for it and uses its answer.
+// Nothing for "cpu" or in a build without CUDA.
+void startDeviceEarly(const std::string& choice);
+
 }  // namespace sinew

@@ -252,6 +252,8 @@ int main(int argc, char** argv) {
       if (!quiet || backendChoice == "cuda") std::fprintf(stderr, "%s\n", m.c_str());
     };
     options.backend = [&](Simulation& sim) { return makeBackend(backendChoice, sim, notice); };
+    // The device starts while the scene loads (with -j 1 nothing runs beside the stages).
+    if (threads != 1) startDeviceEarly(backendChoice);
     // The output directory is this run's from here on: a second run writing there is refused now,
     // not after the work, and what killed runs left in it is cleared.
     const OutputLock lock(outDir);

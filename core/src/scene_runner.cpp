@@ -55,7 +55,6 @@ void applyParams(const SceneDesc& scene, ParamTable& table, const std::vector<st
 }
 }  // namespace
 
-
 bool RunReport::hasGroundTruth() const {
   for (const auto& s : structures)
     if (!std::isnan(s.assdFinalMm)) return true;
@@ -166,19 +165,21 @@ void SceneRunner::load() {
                                             L.sim->executor());
   };
   const auto buildTruth = [&](size_t i) {
-      const StructureDesc& d = scene_.structures[i];
-      if (!d.groundTruth) return;
-      try {
-        truthSurfaces[i] = std::make_unique<ReferenceSurface>(
-            registry_.labelSurfaceBuilder().labelSurface(*labelMap.at(d.groundTruth->labelMap), d.groundTruth->label, {0, 0}),
-            static_cast<float>(scene_.surfaceSampleSpacingMm));
-      } catch (const InputError& e) {
-        throw InputError(d.groundTruth->labelMap.string() + ": ground truth of '" + d.name + "': " + e.what());
-      }
-      const LabelVolume& gt = *labelMap.at(d.groundTruth->labelMap);
-      truthCounts[i] = std::size_t(std::count(gt.voxels().begin(), gt.voxels().end(), d.groundTruth->label));
+    const StructureDesc& d = scene_.structures[i];
+    if (!d.groundTruth) return;
+    try {
+      truthSurfaces[i] = std::make_unique<ReferenceSurface>(
+          registry_.labelSurfaceBuilder().labelSurface(*labelMap.at(d.groundTruth->labelMap), d.groundTruth->label, {0, 0}),
+          static_cast<float>(scene_.surfaceSampleSpacingMm));
+    } catch (const InputError& e) {
+      throw InputError(d.groundTruth->labelMap.string() + ": ground truth of '" + d.name + "': " + e.what());
+    }
+    const LabelVolume& gt = *labelMap.at(d.groundTruth->labelMap);
+    truthCounts[i] = std::size_t(std::count(gt.voxels().begin(), gt.voxels().end(), d.groundTruth->label));
   };
-  log("building the reference shapes at " + std::to_string(levels) + " levels of detail and the ground-truth surfaces");
+  if (std::any_of(scene_.structures.begin(), scene_.structures.end(),
+                  [](const StructureDesc& d) { return (d.reference.label && !d.reference.mesh) || d.groundTruth; }))
+    log("building the reference shapes at " + std::to_string(levels) + " levels of detail and the ground-truth surfaces");
   {
     std::vector<std::exception_ptr> failed(2 * n);
     L.sim->executor().forEach(
@@ -424,8 +425,6 @@ void SceneRunner::initialise(std::vector<StructureSpec>& specs, const std::funct
 
 const InitialisationResult& SceneRunner::initialisation() const { return loaded_->init; }
 
-
-
 void SceneRunner::sample(RunReport& report, double seconds, ExecutionBackend* backend) {
   Loaded& L = *loaded_;
   MeshStore& store = L.sim->store();
@@ -469,14 +468,16 @@ RunReport SceneRunner::run() {
     const std::lock_guard lock(L.backgroundMutex);
     report.backgroundSeconds = L.backgroundSeconds;
   }
+  auto t0 = Clock::now();
   std::unique_ptr<ExecutionBackend> backend = options_.backend ? options_.backend(sim) : nullptr;
   if (backend) {
     report.backend = backend->name();
     report.device = backend->device();
   }
+  if (options_.backend) report.stageSeconds.emplace_back("start_backend", since(t0));
   // The start and the model, evaluated exactly. With a device running the steps, the host's threads
   // are free meanwhile, so the scoring runs beside the simulation (the surfaces are taken now).
-  auto t0 = Clock::now();
+  t0 = Clock::now();
   std::vector<StructureResult> initial, model;
   const bool initialised = scene_.initialise.method != InitialiseDesc::Method::None;
   for (Index i = 0; i < sim.structureCount(); ++i) {
@@ -625,8 +626,6 @@ bool SceneRunner::enterNextLevel() {
   sim.setCoarseForceWeight(float(scene_.schedule[next].coarseForces));
   return sim.advanceLevel();
 }
-
-
 
 std::string cpuDescription(int threads) {
   std::ifstream in("/proc/cpuinfo");

@@ -46,6 +46,16 @@ DeviceStatus probeDevice() {
   return st;
 }
 
+DeviceStatus startDevice() {
+  DeviceStatus st = probeDevice();
+  if (!st.usable) return st;
+  if (const cudaError_t e = cudaFree(nullptr); e != cudaSuccess) {
+    st.usable = false;
+    st.reason = st.description + ": cannot create a context (" + cudaGetErrorString(e) + ")";
+  }
+  return st;
+}
+
 namespace {
 VolumeView viewOf(const ImageGeometry& g) {
   VolumeView v{};

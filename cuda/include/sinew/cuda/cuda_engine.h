@@ -20,6 +20,9 @@ struct DeviceStatus {
 
 // Never throws: reports whether a CUDA device this build can use is present.
 DeviceStatus probeDevice();
+// probeDevice(), then the device's context created (the first CUDA call's cost, a few tenths of a
+// second), so that a later CudaEngine starts at once. Never throws.
+DeviceStatus startDevice();
 
 class CudaEngine final : public ExecutionBackend {
 public:
