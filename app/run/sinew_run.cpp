@@ -274,7 +274,8 @@ int main(int argc, char** argv) {
     // first failure, in this order, is the one reported.
     const bool atOnce = threads != 1 && std::thread::hardware_concurrency() > 1;
     std::vector<std::future<void>> writes;
-    auto write = [&](std::function<void()> task) { writes.push_back(std::async(atOnce ? std::launch::async : std::launch::deferred, std::move(task))); };
+    const std::launch policy = atOnce ? std::launch::async : std::launch::deferred;
+    auto write = [&](std::function<void()> task) { writes.push_back(std::async(policy, std::move(task))); };
     if (scene.writeMeshes)
       for (const auto& s : report.structures) {
         const fs::path target = out.file(s.name + scene.meshFormat);
@@ -284,8 +285,9 @@ int main(int argc, char** argv) {
     LabelVolume labelMap;
     write([&] {
       labelMap = runner.labelMap(report);
-      auto picture = std::async(atOnce ? std::launch::async : std::launch::deferred,
-                                [&] { writeSliceOverlay(slices, runner.simulation().scene().targetImage(), labelMap, scene); });
+      auto picture = std::async(policy, [&] {
+        writeSliceOverlay(slices, runner.simulation().scene().targetImage(), labelMap, scene);
+      });
       registry.imageIOFor(labels).writeLabels(labels, labelMap);
       picture.get();
     });

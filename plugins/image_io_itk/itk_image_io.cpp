@@ -74,35 +74,33 @@ void checkGzipStream(const fs::path& path) {
 template <class Pixel>
 Volume<Pixel> readNonSeries(const fs::path& path) {
   using ImageType = itk::Image<Pixel, 3>;
+  itk::ImageIOBase::Pointer io;
   {
-    itk::ImageIOBase::Pointer io;
-    {
-      // Images are read on several threads at once (scene_runner.cpp); ITK's factory list is not
-      // guarded for concurrent first use.
-      static std::mutex factoryMutex;
-      const std::lock_guard lock(factoryMutex);
-      io = itk::ImageIOFactory::CreateImageIO(path.c_str(), itk::CommonEnums::IOFileMode::ReadMode);
-    }
-    if (!io) fail(path, "is not an image in a format Sinew reads (NIfTI, NRRD, MetaImage, DICOM), or it is corrupt");
-    io->SetFileName(path.string());
-    try {
-      io->ReadImageInformation();
-    } catch (const itk::ExceptionObject& e) {
-      fail(path, "cannot read the image header: " + brief(e));
-    }
-    checkHeader(path, *io);
-    auto reader = itk::ImageFileReader<ImageType>::New();
-    reader->SetImageIO(io);
-    reader->SetFileName(path.string());
-    reader->UpdateOutputInformation();
-    ImageType* image = reader->GetOutput();
-    Volume<Pixel> volume(geometryOf(*image));
-    image->GetPixelContainer()->SetImportPointer(volume.voxels().data(), volume.voxels().size(), false);
-    reader->Update();
-    // ITK kept the buffer it was given unless its pipeline chose otherwise; then the voxels are copied.
-    if (image->GetBufferPointer() != volume.voxels().data()) return toVolume<Pixel>(*image);
-    return volume;
+    // Images are read on several threads at once (scene_runner.cpp); ITK's factory list is not
+    // guarded for concurrent first use.
+    static std::mutex factoryMutex;
+    const std::lock_guard lock(factoryMutex);
+    io = itk::ImageIOFactory::CreateImageIO(path.c_str(), itk::CommonEnums::IOFileMode::ReadMode);
   }
+  if (!io) fail(path, "is not an image in a format Sinew reads (NIfTI, NRRD, MetaImage, DICOM), or it is corrupt");
+  io->SetFileName(path.string());
+  try {
+    io->ReadImageInformation();
+  } catch (const itk::ExceptionObject& e) {
+    fail(path, "cannot read the image header: " + brief(e));
+  }
+  checkHeader(path, *io);
+  auto reader = itk::ImageFileReader<ImageType>::New();
+  reader->SetImageIO(io);
+  reader->SetFileName(path.string());
+  reader->UpdateOutputInformation();
+  ImageType* image = reader->GetOutput();
+  Volume<Pixel> volume(geometryOf(*image));
+  image->GetPixelContainer()->SetImportPointer(volume.voxels().data(), volume.voxels().size(), false);
+  reader->Update();
+  // ITK kept the buffer it was given unless its pipeline chose otherwise; then the voxels are copied.
+  if (image->GetBufferPointer() != volume.voxels().data()) return toVolume<Pixel>(*image);
+  return volume;
 }
 
 template <class Pixel>
