@@ -8,11 +8,7 @@ namespace sinew {
 StructureResult SceneRunner::evaluate(Index i, bool final) {
   MeshStore& store = loaded_->sim->store();
   const auto x = store.mesh(store.positions(), i);
-  return evaluatePositions(i, std::vector<Vec3>(x.begin(), x.end()), final);
-}
-
-StructureResult SceneRunner::evaluatePositions(Index i, const std::vector<Vec3>& positions, bool final) {
-  StructureResult r = surfaceOf(i, positions);
+  StructureResult r = surfaceOf(i, std::vector<Vec3>(x.begin(), x.end()));
   score(i, r, final);
   return r;
 }
@@ -80,10 +76,7 @@ std::vector<StructureResult> SceneRunner::evaluateEnd(ExecutionBackend* backend)
             for (std::size_t k = toFirst[i]; k < toFirst[i + 1]; ++k) all.push_back({toTruth[k], meshSamples[i][k - toFirst[i]].area});
             for (std::size_t k = fromFirst[i]; k < fromFirst[i + 1]; ++k)
               all.push_back({fromTruth[k], L.truth[i]->samples()[k - fromFirst[i]].area});
-            const SurfaceDistanceStats st = ReferenceSurface::summarise(std::move(all), meshSamples[i].size());
-            out[i].assdFinalMm = st.assd;
-            out[i].hd95Mm = st.hd95;
-            out[i].dice = diceOfMesh(out[i].surface, *L.truthLabels[i].first, L.truthLabels[i].second, L.truthCount[i]);
+            setScores(i, out[i], ReferenceSurface::summarise(std::move(all), meshSamples[i].size()), true);
           },
           1);
       return out;
@@ -95,10 +88,13 @@ std::vector<StructureResult> SceneRunner::evaluateEnd(ExecutionBackend* backend)
 
 void SceneRunner::score(Index i, StructureResult& r, bool final) const {
   const Loaded& L = *loaded_;
-  if (!L.truth[i]) return;
-  const SurfaceDistanceStats st = L.truth[i]->compare(r.surface, L.sim->executor());
-  r.assdFinalMm = st.assd;
-  r.hd95Mm = st.hd95;
+  if (L.truth[i]) setScores(i, r, L.truth[i]->compare(r.surface, L.sim->executor()), final);
+}
+
+void SceneRunner::setScores(Index i, StructureResult& r, const SurfaceDistanceStats& distances, bool final) const {
+  const Loaded& L = *loaded_;
+  r.assdFinalMm = distances.assd;
+  r.hd95Mm = distances.hd95;
   if (final) r.dice = diceOfMesh(r.surface, *L.truthLabels[i].first, L.truthLabels[i].second, L.truthCount[i]);
 }
 

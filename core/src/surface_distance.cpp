@@ -112,24 +112,6 @@ std::vector<SurfaceSample> sampleSurface(const TriangleMesh& mesh, float spacing
 }
 
 namespace {
-SurfaceDistanceStats combine(std::vector<WeightedDistance>& all, double sumAB, double areaA, double sumBA, double areaB) {
-  SurfaceDistanceStats st;
-  st.meanAtoB = areaA > 0 ? sumAB / areaA : 0.0;
-  st.meanBtoA = areaB > 0 ? sumBA / areaB : 0.0;
-  st.assd = (sumAB + sumBA) / std::max(areaA + areaB, 1e-30);
-  std::sort(all.begin(), all.end(), [](const WeightedDistance& x, const WeightedDistance& y) { return x.d < y.d; });
-  const double target = 0.95 * (areaA + areaB);
-  double acc = 0;
-  for (const WeightedDistance& w : all) {
-    acc += w.w;
-    if (acc >= target) {
-      st.hd95 = w.d;
-      break;
-    }
-  }
-  return st;
-}
-
 // Distances from samples of one surface to another, with their areas, appended to `all`; computed
 // in parallel, summed later in order, so the result does not depend on threads.
 void distances(const std::vector<SurfaceSample>& samples, const SurfaceDistanceQuery& to, std::vector<WeightedDistance>& all,
@@ -167,7 +149,21 @@ SurfaceDistanceStats ReferenceSurface::summarise(std::vector<WeightedDistance> a
     sum += static_cast<double>(all[i].d) * all[i].w;
     area += all[i].w;
   }
-  return combine(all, sumAB, areaA, sumBA, areaB);
+  SurfaceDistanceStats st;
+  st.meanAtoB = areaA > 0 ? sumAB / areaA : 0.0;
+  st.meanBtoA = areaB > 0 ? sumBA / areaB : 0.0;
+  st.assd = (sumAB + sumBA) / std::max(areaA + areaB, 1e-30);
+  std::sort(all.begin(), all.end(), [](const WeightedDistance& x, const WeightedDistance& y) { return x.d < y.d; });
+  const double target = 0.95 * (areaA + areaB);
+  double acc = 0;
+  for (const WeightedDistance& w : all) {
+    acc += w.w;
+    if (acc >= target) {
+      st.hd95 = w.d;
+      break;
+    }
+  }
+  return st;
 }
 
 }  // namespace sinew

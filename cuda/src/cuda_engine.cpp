@@ -592,23 +592,7 @@ bool CudaEngine::measureError(SampledError& error, std::vector<std::optional<Sur
 
 bool CudaEngine::closestDistances(const TriangleBvh& meshes, std::span<const collision::P3> points,
                                   std::span<const int> roots, std::span<float> out) {
-  Impl& I = *impl_;
-  if (points.size() != roots.size() || points.size() != out.size())
-    throw std::logic_error("closestDistances: points, roots and out differ in size");
-  if (points.empty()) return true;
-  DeviceArray<trianglebvh::Node> nodes;
-  DeviceArray<collision::P3> corners, devicePoints;
-  DeviceArray<int> deviceRoots;
-  DeviceArray<float> distances(points.size());
-  nodes.upload(meshes.nodes, I.stream);
-  corners.upload(meshes.corners, I.stream);
-  devicePoints.upload(points.data(), points.size(), I.stream);
-  deviceRoots.upload(roots.data(), roots.size(), I.stream);
-  launchClosestDistances(nodes.get(), corners.get(), devicePoints.get(), deviceRoots.get(), int(points.size()),
-                         distances.get(), I.stream);
-  distances.download(out.data(), out.size(), I.stream);
-  SINEW_CUDA(cudaStreamSynchronize(I.stream));
-  SINEW_CUDA(cudaGetLastError());
+  closestDistancesOnDevice(meshes, points, roots, out, impl_->stream);
   return true;
 }
 

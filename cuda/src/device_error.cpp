@@ -99,4 +99,24 @@ std::size_t DeviceSampledError::bytes() const {
          toTruth_.bytes() + fromTruth_.bytes();
 }
 
+void closestDistancesOnDevice(const TriangleBvh& meshes, std::span<const collision::P3> points, std::span<const int> roots,
+                              std::span<float> out, cudaStream_t stream) {
+  if (points.size() != roots.size() || points.size() != out.size())
+    throw std::logic_error("closestDistances: points, roots and out differ in size");
+  if (points.empty()) return;
+  DeviceArray<trianglebvh::Node> nodes;
+  DeviceArray<collision::P3> corners, devicePoints;
+  DeviceArray<int> deviceRoots;
+  DeviceArray<float> distances(points.size());
+  nodes.upload(meshes.nodes, stream);
+  corners.upload(meshes.corners, stream);
+  devicePoints.upload(points.data(), points.size(), stream);
+  deviceRoots.upload(roots.data(), roots.size(), stream);
+  launchClosestDistances(nodes.get(), corners.get(), devicePoints.get(), deviceRoots.get(), int(points.size()),
+                         distances.get(), stream);
+  distances.download(out.data(), out.size(), stream);
+  SINEW_CUDA(cudaStreamSynchronize(stream));
+  SINEW_CUDA(cudaGetLastError());
+}
+
 }  // namespace sinew::cuda

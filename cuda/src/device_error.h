@@ -7,6 +7,8 @@
 #include "kernels.h"
 #include "sinew/core/sampled_error.h"
 
+#include <span>
+
 namespace sinew::cuda {
 
 class DeviceSampledError {
@@ -30,5 +32,10 @@ private:
   DeviceArray<WeightedDistance> toTruth_, fromTruth_;
   std::vector<WeightedDistance> hostTo_, hostFrom_;
 };
+
+// The exact evaluation's searches (ExecutionBackend::closestDistances): the hierarchy and the points
+// uploaded, the distances downloaded; nothing kept.
+void closestDistancesOnDevice(const TriangleBvh& meshes, std::span<const collision::P3> points, std::span<const int> roots,
+                              std::span<float> out, cudaStream_t stream);
 
 }  // namespace sinew::cuda

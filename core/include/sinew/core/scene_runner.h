@@ -146,11 +146,12 @@ private:
   // backend: where the state is (may be null: the host); the host store must be current.
   void sample(RunReport& report, double seconds, ExecutionBackend* backend);
   void initialise(std::vector<StructureSpec>& specs, const std::function<void(const std::string&)>& log);
-  StructureResult evaluatePositions(Index structure, const std::vector<Vec3>& positions, bool final);
-  // evaluatePositions in two parts: the surface (reads the store's topology), then its scores
+  // The exact evaluation in two parts: the surface (reads the store's topology), then its scores
   // against the truth (reads only what load() left, so it may run beside the simulation).
   StructureResult surfaceOf(Index structure, const std::vector<Vec3>& positions) const;
   void score(Index structure, StructureResult& result, bool final) const;
+  // ASSD and HD95 from distances computed elsewhere; Dice when final.
+  void setScores(Index structure, StructureResult& result, const SurfaceDistanceStats& distances, bool final) const;
   // Every structure's final surface, scored exactly: the distances on the backend's device where it
   // has one (the same values), else on the host.
   std::vector<StructureResult> evaluateEnd(ExecutionBackend* backend);
