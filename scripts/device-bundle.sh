@@ -10,8 +10,10 @@ build="$(realpath "${1:-build/ci}")"
 stage=$(mktemp -d)
 trap 'rm -rf "$stage"' EXIT
 bins=("$build/app/sinew-run" "$build/app/sinew-make-scene" "$build/app/sinew-build-model" "$build/app/sinew-make-subject"
-      "$build/tests/tst_cuda_parity" "$build/tests/tst_backend_demo")
-[ -x "$build/tests/bench/bench_cuda" ] && bins+=("$build/tests/bench/bench_cuda")
+      "$build/tests/tst_cuda_parity" "$build/tests/tst_backend_demo" "$build/tests/tst_device_memory")
+for b in bench_cuda bench_soak bench_autosave; do
+  [ -x "$build/tests/bench/$b" ] && bins+=("$build/tests/bench/$b")
+done
 for f in "${bins[@]}" "$build"/core/libsinew_core.so* "$build"/tests/plugins/*/sinew-plugin-*.so; do
   mkdir -p "$stage/root$(dirname "$f")"
   cp -a "$f" "$stage/root$f"

@@ -45,6 +45,14 @@ for c in ${CHECKS:-parity demo accuracy}; do
       python3 -c 'import json; r=json.load(open("/tmp/shape/run/report.json")); print(r["status"], r["backend"], r["stability"]["rollbacks"])' >> "$out/shape.txt"
       cat "$out/shape.txt" ;;
     demo) "$build/tests/tst_backend_demo" 2>&1 | tee "$out/demo.txt" | grep -E "PASS|FAIL|QINFO|Totals|SKIP" ;;
+    memory) "$build/tests/tst_device_memory" 2>&1 | tee "$out/memory.txt" | grep -E "PASS|FAIL|QINFO|Totals|SKIP" ;;
+    soak) "$build/tests/bench/bench_soak" ${SOAK_ARGS:---steps 1000000} 2>&1 | tee "$out/soak.txt" ;;
+    autosave)
+      # The autosave against the frame loop at about a million vertices (docs/reliability.md).
+      t=/usr/share/mricron/templates
+      "$build/app/sinew-make-scene" --atlas $t/aal.nii.gz --labels $t/aal.nii.txt --training $t/ch2.nii.gz \
+        --target $t/ch2better.nii.gz --iterations 20,10,10,10,10,10 -o /tmp/big/scene.json >/dev/null
+      "$build/tests/bench/bench_autosave" /tmp/big/scene.json --backend cuda ${AUTOSAVE_ARGS:---level 5} 2>&1 | tee "$out/autosave.txt" ;;
     accuracy)
       for backend in ${ACC_BACKENDS:-cuda cpu}; do
         bash scripts/accuracy.sh "$build" /tmp/acc "$backend" ${SEEDS:-201 202 203 204 205} > "$out/accuracy-$backend.md" 2>"$out/accuracy-$backend.err"

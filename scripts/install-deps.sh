@@ -8,6 +8,7 @@ packages=(
   xvfb xauth libgl1-mesa-dri libglx-mesa0
   libinsighttoolkit5-dev libvtk9-dev
   libbenchmark-dev
+  clang libclang-rt-14-dev
   mricron-data
 )
 missing=()

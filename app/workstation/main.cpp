@@ -10,6 +10,7 @@
 #include <QApplication>
 #include <QElapsedTimer>
 #include <QMessageBox>
+#include <QStandardPaths>
 #include <QSurfaceFormat>
 #include <QTimer>
 
@@ -44,6 +45,14 @@ int main(int argc, char** argv) {
       ->expected(2)
       ->check(CLI::Range(200, 10000))
       ->capture_default_str();
+  bool noAutosave = false;
+  std::string recoveryDir;
+  auto* autosaveOption = cli.add_option("--autosave-seconds", options.autosaveSeconds,
+                                        "crash recovery: autosave after at most this many seconds of changes")
+                             ->check(CLI::Range(1.0, 3600.0))
+                             ->capture_default_str();
+  cli.add_flag("--no-autosave", noAutosave, "no autosave and no crash recovery");
+  cli.add_option("--recovery-dir", recoveryDir, "where autosaves are kept (default: the user's data directory)");
   cli.add_option("--screenshot", screenshot, "with --measure-fps: save the window as a PNG at the end");
   cli.set_version_flag("--version", std::string("sinew ") + SINEW_VERSION);
   try {
@@ -80,6 +89,11 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "sinew: plugin not loaded: %s\n", failure.message.c_str());
   options.requirePlugin = [&plugins](const std::string& name) { plugins.load(name); };
   if (measureSeconds > 0) options.persistSettings = false;
+  // Autosave: on, except in benchmarks unless asked for (its cost is then measured).
+  if (!noAutosave && (measureSeconds <= 0 || autosaveOption->count() > 0))
+    options.recoveryRoot = recoveryDir.empty()
+                               ? (QStandardPaths::writableLocation(QStandardPaths::AppDataLocation) + "/recovery").toStdString()
+                               : recoveryDir;
   sinew::MainWindow window(registry, tools, options);
   window.resize(windowSize[0], windowSize[1]);
   if (budgetMs > 0) window.setFrameBudgetMs(budgetMs);
@@ -93,8 +107,11 @@ int main(int argc, char** argv) {
     box->setAttribute(Qt::WA_DeleteOnClose);
     box->open();
   }
-  if (!image.empty() && !window.openImage(QString::fromStdString(image))) return 3;
-  if (!scene.empty() && !window.openScene(QString::fromStdString(scene))) return 3;
+  // A workstation that died left its session: offered before anything else opens.
+  if (measureSeconds <= 0) window.offerRecovery();
+  const bool restored = window.session().isOpen();
+  if (!restored && !image.empty() && !window.openImage(QString::fromStdString(image))) return 3;
+  if (!restored && !scene.empty() && !window.openScene(QString::fromStdString(scene))) return 3;
   if (measureSeconds <= 0) return app.exec();
 
   // Benchmark mode: the same frame loop as a user's Run, measured after a warm-up.
@@ -142,11 +159,13 @@ int main(int argc, char** argv) {
       const double paintMs = 1e3 * (paintSeconds() - paint0) / std::max(frames, 1.0);
       std::printf("{\"frames_per_second\": %.2f, \"iterations_per_second\": %.1f, \"vertices\": %ld, "
                   "\"level\": %d, \"drawing\": \"%s\", \"backend\": \"%s\", \"device\": \"%s\", \"seconds\": %.2f, "
-                  "\"ms_per_frame\": {\"simulate\": %.2f, \"update\": %.2f, \"paint\": %.2f, \"rest\": %.2f}}\n",
+                  "\"ms_per_frame\": {\"simulate\": %.2f, \"update\": %.2f, \"paint\": %.2f, \"rest\": %.2f}, "
+                  "\"autosaves\": %d, \"autosave_copy_ms_max\": %.2f}\n",
                   frames / t, its / t, long(window.session().simulation().store().vertexCount()),
                   window.session().level(), window.drawingPath().c_str(), window.session().backendName().c_str(),
                   window.session().deviceName().c_str(), t, simMs, updateMs, paintMs,
-                  frameMs - simMs - updateMs - paintMs);
+                  frameMs - simMs - updateMs - paintMs, window.recovery() ? window.recovery()->savesCompleted() : 0,
+                  window.recovery() ? 1e3 * window.recovery()->maxCopySeconds() : 0.0);
       std::fflush(stdout);
       window.setRunning(false);
       if (!screenshot.empty()) window.grab().save(QString::fromStdString(screenshot));

@@ -348,7 +348,7 @@ SceneDesc parseScene(const std::string& text, const fs::path& file) {
   if (root.has("stability")) {
     const Node g = root.at("stability");
     g.expectObject({"guard", "max_step_mm", "max_retries", "min_volume_ratio", "max_volume_ratio", "max_drift_mm",
-                    "max_outside_fraction"});
+                    "max_outside_fraction", "max_inverted_fraction", "max_collapsed_fraction"});
     if (g.has("guard")) s.stability.enabled = g.at("guard").boolean();
     if (g.has("max_step_mm")) s.stability.maxStepMm = g.at("max_step_mm").number();
     if (!(s.stability.maxStepMm > 0.0)) g.at("max_step_mm").fail("must be positive");
@@ -365,6 +365,12 @@ SceneDesc parseScene(const std::string& text, const fs::path& file) {
     if (g.has("max_outside_fraction")) shape.maxOutsideFraction = g.at("max_outside_fraction").number();
     if (!(shape.maxOutsideFraction >= 0.0 && shape.maxOutsideFraction <= 1.0))
       g.at("max_outside_fraction").fail("must be in [0, 1]");
+    if (g.has("max_inverted_fraction")) shape.maxInvertedFraction = g.at("max_inverted_fraction").number();
+    if (!(shape.maxInvertedFraction >= 0.0 && shape.maxInvertedFraction <= 1.0))
+      g.at("max_inverted_fraction").fail("must be in [0, 1]");
+    if (g.has("max_collapsed_fraction")) shape.maxCollapsedFraction = g.at("max_collapsed_fraction").number();
+    if (!(shape.maxCollapsedFraction >= 0.0 && shape.maxCollapsedFraction <= 1.0))
+      g.at("max_collapsed_fraction").fail("must be in [0, 1]");
   }
   if (root.has("report")) {
     const Node r = root.at("report");
@@ -467,7 +473,9 @@ std::string sceneToJson(const SceneDesc& s) {
                     {"min_volume_ratio", s.stability.shape.minVolumeRatio},
                     {"max_volume_ratio", s.stability.shape.maxVolumeRatio},
                     {"max_drift_mm", s.stability.shape.maxDriftMm},
-                    {"max_outside_fraction", s.stability.shape.maxOutsideFraction}};
+                    {"max_outside_fraction", s.stability.shape.maxOutsideFraction},
+                    {"max_inverted_fraction", s.stability.shape.maxInvertedFraction},
+                    {"max_collapsed_fraction", s.stability.shape.maxCollapsedFraction}};
   j["report"] = {{"sample_interval", s.sampleInterval}, {"surface_sample_spacing_mm", s.surfaceSampleSpacingMm}};
   j["outputs"] = {{"mesh_format", s.meshFormat}, {"meshes", s.writeMeshes}, {"label_map", s.labelMapName}};
   return j.dump(2) + "\n";

@@ -12,6 +12,7 @@ void SceneRunner::runShapeGuarded(const std::function<void()>& runChunk, int chu
   Simulation& sim = simulation();
   MeshStore& store = sim.store();
   if (!shapeGuard_.captured()) shapeGuard_.capture(store);
+  shapeGuard_.followLevel(store);
   std::vector<std::string> names;
   for (const auto& s : scene_.structures) names.push_back(s.name);
   const std::vector<Vec3> goodX(store.positions().begin(), store.positions().end());
@@ -69,6 +70,25 @@ void SceneRunner::runGuarded(ExecutionBackend& backend, int chunk, RunReport& re
     }
     backend.reload();
   }
+}
+
+std::string SceneRunner::runGuardedChunk(ExecutionBackend* backend, int chunk, bool checkShape) {
+  Simulation& sim = simulation();
+  RunReport report;
+  const auto runChunk = [&] {
+    if (backend) return runGuarded(*backend, chunk, report);
+    try {
+      sim.run(chunk);
+    } catch (const NumericalError& e) {
+      report.numericalFailure = e.what();  // the last good state stays in the store
+    }
+  };
+  if (checkShape && sim.stabilityGuard().enabled)
+    runShapeGuarded(runChunk, chunk, report, [&] {
+      if (backend) backend->reload();
+    });
+  else runChunk();
+  return report.numericalFailure;
 }
 
 }  // namespace sinew

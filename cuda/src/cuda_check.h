@@ -9,8 +9,20 @@
 
 namespace sinew::cuda {
 
+// Out of device memory (a scene too large for the GPU, or a GPU others fill) is not sticky: the
+// message says how much is free, and the caller falls back to the CPU (backend_choice.h,
+// SceneRunner::run, the workstation's session).
 inline void check(cudaError_t e, const char* what) {
-  if (e != cudaSuccess) throw std::runtime_error(std::string("CUDA: ") + what + ": " + cudaGetErrorString(e));
+  if (e == cudaSuccess) return;
+  std::string message = std::string("CUDA: ") + what + ": " + cudaGetErrorString(e);
+  if (e == cudaErrorMemoryAllocation) {
+    cudaGetLastError();  // clears it
+    std::size_t freeBytes = 0, totalBytes = 0;
+    if (cudaMemGetInfo(&freeBytes, &totalBytes) == cudaSuccess)
+      message += " (" + std::to_string(freeBytes >> 20) + " MiB free of " + std::to_string(totalBytes >> 20) +
+                 " MiB: the scene does not fit in this GPU's free memory)";
+  }
+  throw std::runtime_error(message);
 }
 #define SINEW_CUDA(call) ::sinew::cuda::check((call), #call)
 

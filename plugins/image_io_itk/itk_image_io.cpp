@@ -16,6 +16,9 @@
 #include <zlib.h>
 
 #include <cmath>
+#include <cstring>
+#include <limits>
+#include <fstream>
 #include <future>
 #include <mutex>
 #include <sstream>
@@ -51,7 +54,128 @@ void checkHeader(const fs::path& path, itk::ImageIOBase& io) {
     if (voxels > kMaxImageVoxels) fail(path, "claims more than 2^31 voxels; refusing to allocate it");
     const double s = io.GetSpacing(d);
     if (!(s > 0.0) || !std::isfinite(s)) fail(path, "has a non-positive or non-finite voxel spacing");
+    if (!std::isfinite(io.GetOrigin(d))) fail(path, "has a non-finite origin");
+    for (unsigned e = 0; e < 3; ++e)
+      if (!std::isfinite(io.GetDirection(d)[e])) fail(path, "has a non-finite orientation (direction cosines)");
   }
+}
+
+// Two things in MetaImage headers that ITK's reader mishandles (found by fuzz_image) are refused
+// before it sees the file: a huge NDims (minutes of work), and a data file name with a '%' (MetaIO
+// passes it to printf as a numbered-file pattern; it crashes).
+void checkMetaImageHeader(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::string line;
+  for (int lines = 0; lines < 200 && std::getline(in, line); ++lines) {
+    const auto eq = line.find('=');
+    if (eq == std::string::npos) continue;
+    std::string key = line.substr(0, eq);
+    while (!key.empty() && key.back() == ' ') key.pop_back();
+    if (key == "ElementDataFile" && line.find('%', eq) != std::string::npos)
+      fail(path, "MetaImage header: the data file is a numbered file pattern ('%'), which Sinew does not read");
+    if (key != "NDims") continue;
+    std::istringstream value(line.substr(eq + 1));
+    long n = 0;
+    if (!(value >> n) || n < 1 || n > 10) fail(path, "MetaImage header: NDims is not a dimension count between 1 and 10");
+  }
+}
+
+// ITK's NIfTI reader aborts the process (vnl's assert_finite, in the orientation's SVD) on a header
+// whose voxel size, quaternion or affine rows hold a NaN or an infinity (found by fuzz_image): they
+// are checked here first, for NIfTI-1 and NIfTI-2, either byte order, compressed or not.
+void checkNiftiHeader(const fs::path& path) {
+  gzFile f = gzopen(path.c_str(), "rb");  // reads uncompressed files as they are
+  if (!f) fail(path, "cannot be opened");
+  unsigned char h[540] = {};
+  const int n = gzread(f, h, sizeof h);
+  gzclose(f);
+  if (n < 348) return;  // ITK says what is wrong with it
+  auto int32At = [&](int at, bool swap) {
+    std::uint32_t v;
+    std::memcpy(&v, h + at, 4);
+    return swap ? __builtin_bswap32(v) : v;
+  };
+  const bool swapped = int32At(0, false) != 348 && int32At(0, false) != 540;
+  const std::uint32_t size = int32At(0, swapped);
+  auto finiteAt = [&](int at, int count, bool doubles) {
+    for (int k = 0; k < count; ++k) {
+      const int o = at + k * (doubles ? 8 : 4);
+      if (o + (doubles ? 8 : 4) > n) return;
+      double v;
+      if (doubles) {
+        std::uint64_t bits;
+        std::memcpy(&bits, h + o, 8);
+        if (swapped) bits = __builtin_bswap64(bits);
+        std::memcpy(&v, &bits, 8);
+      } else {
+        std::uint32_t bits = int32At(o, swapped);
+        float x;
+        std::memcpy(&x, &bits, 4);
+        v = x;
+      }
+      if (!std::isfinite(v)) fail(path, "has a NaN or infinite voxel size or orientation in its NIfTI header");
+    }
+  };
+  if (size == 348) {
+    finiteAt(76, 8, false);   // pixdim
+    finiteAt(256, 18, false);  // quatern_b..qoffset_z, srow_x, srow_y, srow_z
+  } else if (size == 540) {
+    finiteAt(104, 8, true);
+    finiteAt(352, 18, true);
+  }
+}
+
+// The file that holds the voxels (the image file itself, or the data file a detached header names,
+// beside it; empty when it cannot tell) and whether they may be compressed there.
+struct DataFile {
+  fs::path path;
+  bool compressed = false;
+};
+
+DataFile dataFileOf(const fs::path& path, const std::string& extension) {
+  if (extension == ".nii") return {path, false};
+  if (extension == ".nii.gz") return {path, true};
+  const bool meta = extension == ".mha" || extension == ".mhd";
+  DataFile found{extension == ".nrrd" || extension == ".mha" ? path : fs::path{}, !meta};  // NRRD: raw unless it says
+  std::ifstream in(path, std::ios::binary);
+  std::string line;
+  for (int lines = 0; lines < 200 && std::getline(in, line); ++lines) {
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    const auto at = meta ? line.find('=') : line.find(':');
+    if (at == std::string::npos) {
+      if (!meta && line.empty()) break;  // the end of an NRRD header
+      continue;
+    }
+    std::string key = line.substr(0, at), value = line.substr(at + 1);
+    if (!value.empty() && value.front() == '=') value.erase(0, 1);  // NRRD's key:=value
+    while (!key.empty() && key.back() == ' ') key.pop_back();
+    while (!value.empty() && value.front() == ' ') value.erase(0, 1);
+    while (!value.empty() && value.back() == ' ') value.pop_back();
+    if (!meta && key == "encoding") found.compressed = value != "raw";
+    if (meta && key == "CompressedData") found.compressed = value == "True" || value == "true";
+    if ((meta && key == "ElementDataFile") || (!meta && (key == "data file" || key == "datafile"))) {
+      if (value == "LOCAL") found.path = path;
+      else if (value.find_first_of(" %") != std::string::npos || value == "LIST") found.path.clear();  // several files
+      else found.path = path.parent_path() / value;
+      if (meta) break;  // the header ends here
+    }
+  }
+  return found;
+}
+
+// A header may claim gigabytes in a file of a few hundred bytes; the volume is allocated before ITK
+// finds out (found by fuzz_image). The voxels must fit the file that holds them: its size, or
+// deflate's largest ratio (1032:1) times it when they may be compressed.
+void checkDataFits(const fs::path& path, const std::string& extension, itk::ImageIOBase& io) {
+  const DataFile data = dataFileOf(path, extension);
+  std::error_code ec;
+  const auto size = data.path.empty() ? std::uintmax_t(0) : fs::file_size(data.path, ec);
+  if (data.path.empty() || ec) return;  // ITK reports a missing data file
+  const double need = double(io.GetImageSizeInBytes());
+  const double room = (data.compressed ? 1032.0 : 1.0) * double(size);
+  if (need > room)
+    fail(path, "its header claims " + std::to_string(std::uintmax_t(need)) + " bytes of voxels, more than " +
+                   data.path.filename().string() + " (" + std::to_string(size) + " bytes) can hold (truncated or corrupt?)");
 }
 
 // ITK's NIfTI reader does not notice a gzip stream that ends early (it reads zeros), so compressed
@@ -69,11 +193,45 @@ void checkGzipStream(const fs::path& path) {
   if (n < 0 || code != Z_OK) fail(path, "the compressed data ends early or is corrupt (truncated file?)");
 }
 
+template <class Pixel>
+Volume<Pixel> readNonSeries(const fs::path& path);
+
+Volume<std::int32_t> labelsFrom(const fs::path& path, const Volume<double>& values) {
+  Volume<std::int32_t> labels(values.geometry());
+  auto out = labels.voxels().begin();
+  for (const double v : values.voxels()) {
+    if (!(v >= -2147483648.0 && v <= 2147483647.0) || v != std::floor(v)) {
+      std::ostringstream text;
+      text << "is not a label map: voxel value " << v << " is not a whole number in the label range";
+      fail(path, text.str());
+    }
+    *out++ = static_cast<std::int32_t>(v);
+  }
+  return labels;
+}
+
+Volume<float> floatsFrom(const fs::path& path, const Volume<double>& values) {
+  Volume<float> image(values.geometry());
+  auto out = image.voxels().begin();
+  for (const double v : values.voxels()) {
+    if (std::isfinite(v) && std::abs(v) > double(std::numeric_limits<float>::max())) {
+      std::ostringstream text;
+      text << "voxel value " << v << " is beyond the range Sinew computes in (float)";
+      fail(path, text.str());
+    }
+    *out++ = static_cast<float>(v);
+  }
+  return image;
+}
+
 // A single-file image (not a DICOM series), its header checked, read straight into the volume's
 // buffer: no second full-size copy (the training image is 230 MB as floats).
 template <class Pixel>
 Volume<Pixel> readNonSeries(const fs::path& path) {
   using ImageType = itk::Image<Pixel, 3>;
+  const std::string extension = ioExtension(path);
+  if (extension == ".mha" || extension == ".mhd") checkMetaImageHeader(path);
+  if (extension == ".nii" || extension == ".nii.gz") checkNiftiHeader(path);
   itk::ImageIOBase::Pointer io;
   {
     // Images are read on several threads at once (scene_runner.cpp); ITK's factory list is not
@@ -90,6 +248,20 @@ Volume<Pixel> readNonSeries(const fs::path& path) {
     fail(path, "cannot read the image header: " + brief(e));
   }
   checkHeader(path, *io);
+  checkDataFits(path, extension, *io);
+  if constexpr (std::is_same_v<Pixel, std::int32_t>) {
+    // ITK converts other voxel types to int32 by a cast: a float beyond int32's range is undefined
+    // behaviour (found by fuzz_image), a fraction or a large unsigned value a wrong label. Those
+    // types are read as double and every voxel checked.
+    using IO = itk::IOComponentEnum;
+    const IO type = io->GetComponentType();
+    if (type != IO::CHAR && type != IO::UCHAR && type != IO::SHORT && type != IO::USHORT && type != IO::INT)
+      return labelsFrom(path, readNonSeries<double>(path));
+  }
+  if constexpr (std::is_same_v<Pixel, float>) {
+    // Likewise a double beyond float's range.
+    if (io->GetComponentType() == itk::IOComponentEnum::DOUBLE) return floatsFrom(path, readNonSeries<double>(path));
+  }
   auto reader = itk::ImageFileReader<ImageType>::New();
   reader->SetImageIO(io);
   reader->SetFileName(path.string());
@@ -141,6 +313,12 @@ Volume<Pixel> readItk(const fs::path& path) {
     }
   } catch (const itk::ExceptionObject& e) {
     fail(path, "cannot read the voxel data (truncated or corrupt file?): " + brief(e));
+  } catch (const InputError&) {
+    throw;
+  } catch (const std::exception& e) {
+    // ITK's readers let standard exceptions through on some corrupt headers (a std::length_error
+    // from MetaIO, found by fuzz_image).
+    fail(path, std::string("cannot be read (corrupt header?): ") + e.what());
   }
 }
 

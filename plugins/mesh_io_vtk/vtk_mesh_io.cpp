@@ -1,5 +1,7 @@
 // Mesh IO (.vtk, .vtp, .stl, .obj, .ply) and label surfaces (flying edges on a label's mask,
 // optional windowed-sinc smoothing and quadric decimation) through VTK.
+#include "isolated_read.h"
+#include "mesh_header_checks.h"
 #include "sinew/core/registry.h"
 
 #include <vtkCallbackCommand.h>
@@ -11,7 +13,6 @@
 #include <vtkNew.h>
 #include <vtkOBJReader.h>
 #include <vtkOBJWriter.h>
-#include <vtkPLYReader.h>
 #include <vtkPLYWriter.h>
 #include <vtkPointData.h>
 #include <vtkPoints.h>
@@ -126,7 +127,7 @@ vtkSmartPointer<vtkPolyData> readWith(const fs::path& path) {
   return reader->GetOutput();
 }
 
-TriangleMesh readMesh(const fs::path& path) {
+TriangleMesh readMeshHere(const fs::path& path) {
   std::error_code ec;
   if (!fs::is_regular_file(path, ec)) fail(path, "no such file");
   if (fs::file_size(path, ec) == 0) fail(path, "is empty");
@@ -134,9 +135,12 @@ TriangleMesh readMesh(const fs::path& path) {
   vtkSmartPointer<vtkPolyData> pd;
   if (ext == ".vtk") pd = readWith<vtkPolyDataReader>(path);
   else if (ext == ".vtp") pd = readWith<vtkXMLPolyDataReader>(path);
-  else if (ext == ".stl") pd = readWith<vtkSTLReader>(path);
+  else if (ext == ".stl") {
+    checkStlSize(path);
+    pd = readWith<vtkSTLReader>(path);
+  }
   else if (ext == ".obj") pd = readWith<vtkOBJReader>(path);
-  else if (ext == ".ply") pd = readWith<vtkPLYReader>(path);
+  else if (ext == ".ply") pd = toPolyData(readPly(path));  // VTK's reader crashes on malformed files
   else fail(path, "unsupported mesh format '" + ext + "'");
   TriangleMesh m = fromPolyData(pd);
   if (m.triangles.empty()) fail(path, "holds no triangles (corrupt or truncated?)");
@@ -147,7 +151,7 @@ TriangleMesh readMesh(const fs::path& path) {
 
 // Points and triangles exactly as the file stores them (no triangulation, no point merging): model
 // files rely on the order of their points.
-TriangleMesh readMeshExact(const fs::path& path) {
+TriangleMesh readMeshExactHere(const fs::path& path) {
   std::error_code ec;
   if (!fs::is_regular_file(path, ec)) fail(path, "no such file");
   if (ioExtension(path) != ".vtp") fail(path, "model meshes are VTK XML polydata (.vtp)");
@@ -169,6 +173,20 @@ TriangleMesh readMeshExact(const fs::path& path) {
   return m;
 }
 
+// Read in a child process: VTK's readers crash on some corrupt files (isolated_read.h). A PLY file
+// is read by Sinew's own reader, here.
+TriangleMesh readMesh(const fs::path& path) {
+  if (ioExtension(path) == ".ply") {
+    const std::shared_lock vtkInUse(vtkWorkMutex());
+    return readMeshHere(path);
+  }
+  return readIsolated(path, [&] { return readMeshHere(path); });
+}
+
+TriangleMesh readMeshExact(const fs::path& path) {
+  return readIsolated(path, [&] { return readMeshExactHere(path); });
+}
+
 template <class Writer>
 void writeWith(const fs::path& target, const fs::path& temp, vtkPolyData* pd) {
   vtkNew<Writer> writer;
@@ -181,6 +199,7 @@ void writeWith(const fs::path& target, const fs::path& temp, vtkPolyData* pd) {
 }
 
 void writeMesh(const fs::path& path, const TriangleMesh& m) {
+  const std::shared_lock vtkInUse(vtkWorkMutex());
   for (const Vec3& p : m.points)
     if (!p.allFinite()) fail(path, "refusing to write a mesh with a non-finite coordinate");
   AtomicOutput out(path);
@@ -198,6 +217,7 @@ void writeMesh(const fs::path& path, const TriangleMesh& m) {
 // Surface of one label: mask (padded by one voxel so it closes), flying edges at 0.5 in index
 // space, then mapped to world millimetres through the image's index-to-world transform.
 TriangleMesh labelSurface(const LabelVolume& labels, std::int32_t label, const LabelSurfaceOptions& opt) {
+  const std::shared_lock vtkInUse(vtkWorkMutex());
   const ImageGeometry& g = labels.geometry();
   // The mask covers the label's bounding box and one voxel of background around it, not the whole
   // volume: a structure is a small part of a brain, and the iso-surface costs what the mask holds.

@@ -194,6 +194,22 @@ private Q_SLOTS:
     onlyInside.maxDriftMm = 1e9;
     const QString escaped = moveBall([&](const Vec3& p) -> Vec3 { return p + Vec3(45, 0, 0); }, onlyInside);
     QVERIFY2(escaped.contains("vertices outside the image"), qPrintable(escaped));
+    // A cap folded in: the top quarter of the sphere (z above half the radius) mirrored through
+    // its base plane. 0.69 of the volume and a drift under 1 mm pass; its cells are turned over.
+    const float base = c.z() + 5.0f;
+    const QString inverted = moveBall([&](const Vec3& p) -> Vec3 { return p.z() > base ? Vec3(p.x(), p.y(), 2 * base - p.z()) : p; });
+    QVERIFY2(inverted.contains("structure 'ball' has") && inverted.contains("of its cells turned over"), qPrintable(inverted));
+    // Collapsed: a rotation by 30 degrees about the centre passes; squashed along y and z to a
+    // thousandth (a needle; the volume check out of the way), every cell keeps under a hundredth of
+    // its area, none turned over.
+    const Eigen::Matrix3f turn = Eigen::AngleAxisf(0.5236f, Vec3(0, 0, 1)).toRotationMatrix();
+    QCOMPARE(moveBall([&](const Vec3& p) -> Vec3 { return c + turn * (p - c); }), QString());
+    ShapeLimits onlyCollapse;
+    onlyCollapse.minVolumeRatio = 0.0;
+    onlyCollapse.maxInvertedFraction = 1.0;
+    const QString needle = moveBall([&](const Vec3& p) -> Vec3 { return c + Vec3(p.x() - c.x(), 1e-3f * (p.y() - c.y()), 1e-3f * (p.z() - c.z())); },
+                                    onlyCollapse);
+    QVERIFY2(needle.contains("structure 'ball' has 100 % of its cells collapsed"), qPrintable(needle));
   }
 };
 

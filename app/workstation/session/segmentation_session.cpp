@@ -4,6 +4,7 @@
 #include "sinew/core/collision_tree.h"
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 
@@ -13,6 +14,11 @@ namespace {
 namespace fs = std::filesystem;
 using Clock = std::chrono::steady_clock;
 constexpr const char* kAttraction = "attraction_points";
+
+std::uint64_t nextSnapshotId() {
+  static std::atomic<std::uint64_t> next{1};
+  return next++;
+}
 }  // namespace
 
 SegmentationSession::SegmentationSession(const Registry& registry) : registry_(registry) {}
@@ -76,22 +82,28 @@ int SegmentationSession::levelIterationsPlanned() const {
 int SegmentationSession::step(int iterations) {
   if (iterations <= 0) return 0;
   const auto t0 = Clock::now();
+  // Both guards, on either backend, as in sinew-run: a violation is undone and the step halved; when
+  // the guard gives up, the last good state stays and the reason is thrown.
+  std::string stopped;
   bool done = false;
+  // The shape is checked at every call: a rollback undoes this call's steps only, so a check that
+  // skipped calls could find a shape gone wrong before them and never recover.
   if (backend_) {
     try {
-      backend_->run(iterations);
-      hostCurrent_ = false;
+      stopped = runner_->runGuardedChunk(backend_.get(), iterations);
+      hostCurrent_ = true;  // the guard downloaded the chunk to check it
       done = true;
     } catch (const NumericalError&) {
       throw;  // the scene's problem (e.g. a structure inside another), not the backend's: keep it
     } catch (const std::runtime_error& e) {
-      // Continue on the CPU from the last state the host has (the interrupted batch is lost).
-      if (log_) log_(backend_->name() + " backend failed (" + e.what() + "); continuing on the CPU");
-      backend_.reset();
-      hostCurrent_ = true;
+      fallBackToCpu(e);  // the interrupted batch is lost
     }
   }
-  if (!done) simulation().run(iterations);
+  if (!done) stopped = runner_->runGuardedChunk(nullptr, iterations);
+  if (!stopped.empty()) {
+    changed();
+    throw NumericalError(stopped);
+  }
   const double seconds = std::chrono::duration<double>(Clock::now() - t0).count();
   simSeconds_ += seconds;
   const double perStep = seconds / iterations;
@@ -119,13 +131,29 @@ int SegmentationSession::stepFor(double budgetSeconds, bool followSchedule) {
 bool SegmentationSession::nextLevel() {
   syncHost();
   if (!runner_->enterNextLevel()) return false;
-  if (backend_) backend_->levelChanged();
+  if (backend_) {
+    try {
+      backend_->levelChanged();
+    } catch (const std::runtime_error& e) {
+      // The finer level may not fit on the device: the CPU goes on from the host's state.
+      fallBackToCpu(e);
+    }
+  }
   levelDone_ = 0;
   undo_.clear();
   redo_.clear();
   lastEdit_.clear();
   changed();
   return true;
+}
+
+// Continues on the CPU from the last state the host has (device memory ran out, or the device was
+// lost).
+void SegmentationSession::fallBackToCpu(const std::runtime_error& e) {
+  if (log_) log_(backend_->name() + " backend failed (" + e.what() + "); continuing on the CPU");
+  backend_.reset();
+  hostCurrent_ = true;
+  changed();
 }
 
 void SegmentationSession::syncHost() {
@@ -149,7 +177,16 @@ const SessionSample& SegmentationSession::sample() {
   s.displacementMm = disp / std::max<Index>(store.vertexCount(), 1);
   double assd = 0.0;
   int withTruth = 0;
-  for (const auto& e : runner_->sampledError(backend_.get()))  // on the device with the CUDA backend
+  auto errors = [&] {  // on the device with the CUDA backend
+    try {
+      return runner_->sampledError(backend_.get());
+    } catch (const std::runtime_error& e) {
+      if (!backend_) throw;
+      fallBackToCpu(e);
+      return runner_->sampledError(nullptr);
+    }
+  };
+  for (const auto& e : errors())
     if (e) {
       assd += e->assd;
       ++withTruth;
@@ -167,8 +204,8 @@ bool SegmentationSession::hasGroundTruth() {
 
 // --- edits and history ---------------------------------------------------------------------------
 
-std::size_t SegmentationSession::Snapshot::bytes() const {
-  std::size_t b = sizeof(Snapshot) + label.size() + (positions.size() + previous.size()) * sizeof(Vec3);
+std::size_t SessionSnapshot::bytes() const {
+  std::size_t b = sizeof(SessionSnapshot) + label.size() + (positions.size() + previous.size()) * sizeof(Vec3);
   for (const auto& p : points) b += p.size() * sizeof(Vec3);
   for (const auto& p : constraints) b += p.size() * sizeof(ConstraintPoint);
   b += landmarks.size() * sizeof(PlacedLandmark);
@@ -180,6 +217,7 @@ SegmentationSession::Snapshot SegmentationSession::capture(std::string label) {
   syncHost();
   Simulation& sim = simulation();
   Snapshot s;
+  s.id = nextSnapshotId();
   s.label = std::move(label);
   s.level = sim.level();
   const auto x = sim.store().positions();
@@ -208,6 +246,7 @@ void SegmentationSession::restore(const Snapshot& s) {
   for (size_t f = 0; f < names.size(); ++f) sim.forceParams(names[f]) = s.forceParams[f];
   sim.integratorParams() = s.forceParams.back();
   if (backend_) backend_->reload();
+  runner_->restartShapeGuard();
   lastEdit_.clear();
   changed();
 }
@@ -215,8 +254,9 @@ void SegmentationSession::restore(const Snapshot& s) {
 void SegmentationSession::endEdit() { lastEdit_.clear(); }
 
 void SegmentationSession::beginEdit(const std::string& label, bool continuing) {
+  runner_->restartShapeGuard();  // what the user does is not a wrong shape
   if (continuing && !undo_.empty() && lastEdit_ == label) return;  // the drag goes on: one undo step
-  undo_.push_back(capture(label));
+  undo_.push_back(std::make_shared<const Snapshot>(capture(label)));
   redo_.clear();
   lastEdit_ = label;
   trimHistory();
@@ -233,8 +273,8 @@ void SegmentationSession::setHistoryLimit(std::size_t bytes) {
 
 std::size_t SegmentationSession::historyBytes() const {
   std::size_t b = 0;
-  for (const auto& s : undo_) b += s.bytes();
-  for (const auto& s : redo_) b += s.bytes();
+  for (const auto& s : undo_) b += s->bytes();
+  for (const auto& s : redo_) b += s->bytes();
   return b;
 }
 
@@ -242,13 +282,72 @@ bool SegmentationSession::undo() { return travel(undo_, redo_); }
 bool SegmentationSession::redo() { return travel(redo_, undo_); }
 
 // Restores the newest snapshot of `from`, keeping the current state on `to` under the same label.
-bool SegmentationSession::travel(std::deque<Snapshot>& from, std::deque<Snapshot>& to) {
+bool SegmentationSession::travel(std::deque<SnapshotPtr>& from, std::deque<SnapshotPtr>& to) {
   if (from.empty()) return false;
-  Snapshot target = std::move(from.back());
+  const SnapshotPtr target = std::move(from.back());
   from.pop_back();
-  to.push_back(capture(target.label));
-  restore(target);
+  to.push_back(std::make_shared<const Snapshot>(capture(target->label)));
+  restore(*target);
   return true;
+}
+
+SessionState SegmentationSession::state() {
+  SessionState s;
+  s.scene = currentScene();
+  s.levelIterationsDone = levelDone_;
+  s.iteration = simulation().iteration();
+  s.simulationSeconds = simSeconds_;
+  s.timeline = timeline_;
+  s.current = std::make_shared<const Snapshot>(capture("current"));
+  s.undo.assign(undo_.begin(), undo_.end());
+  s.redo.assign(redo_.begin(), redo_.end());
+  return s;
+}
+
+void SegmentationSession::restoreState(const SessionState& state, const SessionOpenOptions& options) {
+  if (!state.current) throw InputError("the saved session holds no state");
+  open(state.scene, options);
+  while (level() < state.current->level && nextLevel()) {
+  }
+  // Each snapshot is checked against the opened scene and takes its parameter values into the
+  // scene's own declarations (a saved file holds only the names), with a fresh id.
+  Simulation& sim = simulation();
+  const auto names = sim.forceNames();
+  auto adopt = [&](const Snapshot& saved) {
+    if (saved.level != level() || saved.positions.size() != std::size_t(sim.store().vertexCount()) ||
+        saved.previous.size() != saved.positions.size() || saved.points.size() != std::size_t(structureCount()) ||
+        saved.constraints.size() != saved.points.size() || saved.forceParams.size() != names.size() + 1)
+      throw InputError("the saved state does not fit its scene (another model, or another level?)");
+    for (const auto* list : {&saved.positions, &saved.previous})
+      for (const Vec3& v : *list)
+        if (!v.allFinite()) throw InputError("the saved state has a non-finite vertex position");
+    Snapshot s = saved;
+    s.id = nextSnapshotId();
+    for (std::size_t f = 0; f <= names.size(); ++f) {
+      const ParamTable& from = saved.forceParams[f];
+      ParamTable to = f < names.size() ? sim.forceParams(names[f]) : sim.integratorParams();
+      if (from.rows() != to.rows()) throw InputError("the saved parameters do not fit the scene's structures");
+      for (int p = 0; p < int(from.decls().size()); ++p) {
+        const int q = to.indexOf(from.decls()[p].name);
+        for (Index r = 0; r < to.rows(); ++r)
+          if (to.decls()[q].perStructure || r == 0) to.set(r, q, from.get(r, p));
+      }
+      s.forceParams[f] = std::move(to);
+    }
+    return std::make_shared<const Snapshot>(std::move(s));
+  };
+  const SnapshotPtr now = adopt(*state.current);
+  std::deque<SnapshotPtr> undo, redo;
+  for (const auto& s : state.undo) undo.push_back(adopt(*s));
+  for (const auto& s : state.redo) redo.push_back(adopt(*s));
+  sim.setIteration(state.iteration);
+  restore(*now);
+  undo_ = std::move(undo);
+  redo_ = std::move(redo);
+  levelDone_ = state.levelIterationsDone;
+  simSeconds_ = state.simulationSeconds;
+  timeline_ = state.timeline;
+  changed();
 }
 
 const std::vector<Vec3>& SegmentationSession::attractionPoints(Index structure) {

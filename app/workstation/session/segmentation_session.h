@@ -29,6 +29,32 @@ struct PlacedLandmark {
   Vec3 from = Vec3::Zero(), to = Vec3::Zero();
 };
 
+// Everything an edit can change, as it was at one moment: an undo step, or the state autosaved for
+// crash recovery. Never changed once taken, so the history and an autosave in progress share them.
+struct SessionSnapshot {
+  std::string label;
+  int level = 0;
+  std::vector<Vec3> positions, previous;
+  std::vector<std::vector<Vec3>> points;
+  std::vector<std::vector<ConstraintPoint>> constraints;
+  std::vector<PlacedLandmark> landmarks;
+  std::vector<ParamTable> forceParams;  // the forces', then the integrator's
+  std::uint64_t id = 0;                 // unique in the process: names it in a recovery folder
+  std::size_t bytes() const;
+};
+
+// A whole session for crash recovery (session_recovery.h): the scene, where the schedule stands,
+// the timeline, the current state and the undo and redo steps.
+struct SessionState {
+  SceneDesc scene;
+  int levelIterationsDone = 0;
+  long iteration = 0;
+  double simulationSeconds = 0.0;
+  std::vector<SessionSample> timeline;
+  std::shared_ptr<const SessionSnapshot> current;
+  std::vector<std::shared_ptr<const SessionSnapshot>> undo, redo;  // oldest first
+};
+
 struct SessionOpenOptions {
   int threads = 0;              // 0: all hardware threads
   std::string backend = "auto";  // auto | cuda | cpu
@@ -65,6 +91,9 @@ public:
   int levelIterationsPlanned() const;
   bool levelScheduleDone() const { return levelDone_ >= levelIterationsPlanned(); }
 
+  // step() and stepFor() run under the stability guard of sinew-run on either backend (each call
+  // one chunk; each structure against itself after the last edit, undo or redo): a violation is undone and the step halved; when the guard gives up, NumericalError says
+  // why and the last good state stays.
   // Steps until budgetSeconds of simulation time are spent (at least one step). Following the
   // schedule, it stops at the end of the level's iterations (returns 0 once there).
   int stepFor(double budgetSeconds, bool followSchedule = true);
@@ -124,13 +153,20 @@ public:
   void endEdit();
   bool canUndo() const { return !undo_.empty(); }
   bool canRedo() const { return !redo_.empty(); }
-  std::string undoLabel() const { return undo_.empty() ? "" : undo_.back().label; }
-  std::string redoLabel() const { return redo_.empty() ? "" : redo_.back().label; }
+  std::string undoLabel() const { return undo_.empty() ? "" : undo_.back()->label; }
+  std::string redoLabel() const { return redo_.empty() ? "" : redo_.back()->label; }
   bool undo();
   bool redo();
   // Oldest undo steps are dropped beyond this many bytes of snapshots (default 256 MiB).
   void setHistoryLimit(std::size_t bytes);
   std::size_t historyBytes() const;
+
+  // Crash recovery. state(): the session as it stands (syncs the host; copies the mesh state, shares
+  // the undo steps). restoreState(): opens the state's scene and puts everything back, undo and
+  // redo included; throws InputError when the state does not fit its scene (the scene is then open
+  // as loaded, without the state).
+  SessionState state();
+  void restoreState(const SessionState& state, const SessionOpenOptions& options = {});
 
   // The scene as it stands: current parameter values and placed points.
   SceneDesc currentScene();
@@ -144,25 +180,18 @@ private:
   std::uint64_t contactRevision_ = 0;
   std::chrono::steady_clock::time_point contactTime_{};
 
-  struct Snapshot {
-    std::string label;
-    int level = 0;
-    std::vector<Vec3> positions, previous;
-    std::vector<std::vector<Vec3>> points;
-    std::vector<std::vector<ConstraintPoint>> constraints;
-    std::vector<PlacedLandmark> landmarks;
-    std::vector<ParamTable> forceParams;  // the forces', then the integrator's
-    std::size_t bytes() const;
-  };
+  using Snapshot = SessionSnapshot;
+  using SnapshotPtr = std::shared_ptr<const SessionSnapshot>;
   ParamTable& params(const std::string& owner);
   Snapshot capture(std::string label);
   // Every structure's tessellated surface from the host store; throws NumericalError on NaN.
   std::vector<StructureResult> finalSurfaces();
   void restore(const Snapshot& s);
-  bool travel(std::deque<Snapshot>& from, std::deque<Snapshot>& to);
+  bool travel(std::deque<SnapshotPtr>& from, std::deque<SnapshotPtr>& to);
   void beginEdit(const std::string& label, bool continuing);
   void trimHistory();
   void changed() { ++revision_; }
+  void fallBackToCpu(const std::runtime_error& e);
 
   const Registry& registry_;
   std::unique_ptr<SceneRunner> runner_;
@@ -173,7 +202,7 @@ private:
   int levelDone_ = 0;
   double simSeconds_ = 0.0, secondsPerStep_ = 0.0;
   std::vector<SessionSample> timeline_;
-  std::deque<Snapshot> undo_, redo_;
+  std::deque<SnapshotPtr> undo_, redo_;
   std::size_t historyLimit_ = std::size_t(256) << 20;
   std::string lastEdit_;  // label of the edit a continuing edit may extend
   std::uint64_t revision_ = 1;

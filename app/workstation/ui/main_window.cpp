@@ -20,6 +20,7 @@
 #include <QLabel>
 #include <QMenuBar>
 #include <QMessageBox>
+#include <QPointer>
 #include <QProgressDialog>
 #include <QSettings>
 #include <QStatusBar>
@@ -60,6 +61,7 @@ MainWindow::MainWindow(const Registry& registry, const ToolRegistry& tools, Work
     restoreState(s.value("window/state").toByteArray());
   }
   selectTool("navigate");
+  startAutosave();
   updateActions();
   updateStatus();
 }
@@ -312,6 +314,7 @@ bool MainWindow::openImage(const QString& file) {
   }
   drawing_ = makeHostDrawing();
   session_.close();
+  if (recovery_) recovery_->clear();
   sceneFile_.clear();
   display_.resetImage(*imageOnly_);
   for (auto* v : slices_) v->resetScene();
@@ -432,9 +435,12 @@ SessionOpenOptions MainWindow::sessionOptions(QProgressDialog& progress) {
   o.threads = options_.threads;
   o.backend = options_.backend;
   o.requirePlugin = options_.requirePlugin;
-  o.log = [this, &progress](const std::string& m) {
-    progress.setLabelText(QString::fromStdString(m));
-    statusBar()->showMessage(QString::fromStdString(m));
+  // The session keeps this log for later messages (a backend that fails, the stability guard): by
+  // then the dialog is gone.
+  o.log = [this, dialog = QPointer<QProgressDialog>(&progress)](const std::string& m) {
+    statusBar()->showMessage(QString::fromStdString(m), 10000);
+    if (!dialog) return;
+    dialog->setLabelText(QString::fromStdString(m));
     QCoreApplication::processEvents(QEventLoop::ExcludeUserInputEvents);
   };
   return o;

@@ -7,6 +7,7 @@
 #include "display_scene.h"
 #include "interaction_tool.h"
 #include "segmentation_session.h"
+#include "session_recovery.h"
 
 #include <QElapsedTimer>
 #include <QMainWindow>
@@ -37,6 +38,10 @@ struct WorkstationOptions {
   std::string drawing = "auto";  // auto | interop | host: how the 3D view gets the surfaces
   int threads = 0;
   bool persistSettings = true;   // tests run with false
+  // Crash recovery: where every workstation keeps its autosave slot (empty: no autosave), and the
+  // most seconds of changes an autosave may lose (docs/workstation.md).
+  std::string recoveryRoot;
+  double autosaveSeconds = 30.0;
   // Loads a plugin a scene names (PluginLoader::load); see SessionOpenOptions.
   std::function<void(const std::string& plugin)> requirePlugin;
 };
@@ -78,6 +83,14 @@ public:
   // Maximises one view (0..2 slices by axis, 3 the 3D view), or restores the 2x2 layout (-1).
   void maximiseView(int view);
 
+  // Crash recovery (main_window_recovery.cpp): this window's autosave (null when off), and the
+  // restore of a slot a dead workstation left (SessionRecovery::orphans). On success the slot is
+  // removed; on failure the error is shown and the slot kept.
+  SessionRecovery* recovery() const { return recovery_.get(); }
+  bool restoreRecovered(const QString& folder);
+  // Asks whether to restore what a workstation that died left behind (the newest), if anything.
+  void offerRecovery();
+
 protected:
   void closeEvent(QCloseEvent* e) override;
 
@@ -99,6 +112,8 @@ private:
   void nextLevel();
   void initialiseFromLandmarks();
   void sessionReplaced();  // the views, panels and plot rebuilt for a newly loaded session
+  void startAutosave();
+  void autosave();
   std::vector<std::pair<Vec3, Vec3>> landmarkPairs();
   // What the views draw in colours of their own: include (green) and exclude (red) points, and with
   // View > Show Contacts the vertices in contact regions (orange).
@@ -125,6 +140,9 @@ private:
   QLabel* statusRate_ = nullptr;
   QLabel* statusBackend_ = nullptr;
   QTimer timer_;
+  QTimer autosaveTimer_;
+  std::unique_ptr<SessionRecovery> recovery_;
+  bool autosaveFailed_ = false;
   QElapsedTimer fpsClock_, sampleClock_;
   long fpsFrames_ = 0, framesDrawn_ = 0;
   double fps_ = 0.0, itPerSecond_ = 0.0, sampleCost_ = 0.0, budgetCredit_ = 0.0;

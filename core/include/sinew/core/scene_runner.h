@@ -136,6 +136,15 @@ public:
   // must then be current.
   std::vector<std::optional<SurfaceDistanceStats>> sampledError(ExecutionBackend* backend = nullptr);
   const InitialisationResult& initialisation() const;
+  // One chunk of steps under both guards (numerical and shape), as run() steps; the workstation
+  // steps through this on either backend. Returns why the guard gave up ("" when the chunk ran or
+  // was recovered); the host store is then current and holds the last good state. A backend's own
+  // failure (device memory, a lost device) is thrown as it comes. checkShape false: the numerical
+  // guard only (the shape check costs a pass over every cell: an interactive caller spaces it out).
+  std::string runGuardedChunk(ExecutionBackend* backend, int chunk, bool checkShape = true);
+  // The shape guard measures from the state at the next chunk instead of the simulation's start
+  // (the workstation: after the user's edits, a structure is where the user wants it).
+  void restartShapeGuard() { shapeGuard_ = ShapeGuard{}; }
 
 private:
   void runGuarded(ExecutionBackend& backend, int chunk, RunReport& report);

@@ -2,8 +2,9 @@
 // and over-long steps, not a stable but wrong result (a structure collapsed to a twentieth of its
 // volume, or carried off by 12 mm, with exit 0). This one compares each structure with itself at
 // the start of the simulation, at every report sample, on the host, for every backend: its volume
-// (Fig. 1b tessellation), how far its centroid drifted, and how many of its vertices left the
-// image. The scene runner rolls a violating chunk back and halves the step like a numerical failure.
+// (Fig. 1b tessellation), how far its centroid drifted, how many of its vertices left the image,
+// and how many of its cells turned over or collapsed (each cell's vector area against the start's).
+// The scene runner rolls a violating chunk back and halves the step like a numerical failure.
 #pragma once
 
 #include "sinew/core/image.h"
@@ -20,18 +21,28 @@ public:
   // Each structure's volume and centroid now become the reference.
   void capture(MeshStore& store);
   bool captured() const { return !volume_.empty(); }
+  // At a new level of detail (other cells): its cells' orientation and area now become the
+  // reference; volumes and centroids stay those of the start. Call before each chunk.
+  void followLevel(MeshStore& store);
   // What is wrong, naming the structure and the check, or "" when every structure is within the
   // limits. names: the structures' names in store order.
   std::string check(MeshStore& store, const ImageGeometry& image, const ShapeLimits& limits,
                     const std::vector<std::string>& names) const;
 
 private:
+  std::string checkOne(MeshStore& store, Index mesh, const ImageGeometry& image, const ShapeLimits& limits,
+                       const std::vector<std::string>& names) const;
+
   std::vector<double> volume_;
   std::vector<Vec3> centroid_;
+  std::vector<Vec3> cellArea_;  // per cell of the store, its vector area at the start
 };
 
 // A structure's enclosed volume (mm^3) and its vertices' centroid.
 double structureVolume(MeshStore& store, Index mesh);
 Vec3 structureCentroid(MeshStore& store, Index mesh);
+// A cell's vector area (half the sum of its polygon's edge cross products): its normal, outward for
+// a cell listed counter-clockwise from outside, times its area.
+Vec3 cellVectorArea(const MeshStore& store, std::span<const Vec3> positions, Index cell);
 
 }  // namespace sinew

@@ -45,6 +45,8 @@ public:
   int level() const { return level_; }
   int levelCount() const;
   long iteration() const { return iteration_; }
+  // Where a restored session's count continues (the workstation's crash recovery).
+  void setIteration(long iteration) { iteration_ = iteration; }
   // For backends that run this simulation's steps elsewhere (ExecutionBackend).
   void countExternalSteps(long steps) { iteration_ += steps; }
   MeshStore& store() { return store_; }

@@ -16,6 +16,12 @@ struct ShapeLimits {
   double maxVolumeRatio = 2.0;
   double maxDriftMm = 10.0;          // centroid distance from the start
   double maxOutsideFraction = 0.01;  // of the structure's vertices outside the target image
+  // Cells (faces of the simplex mesh) turned over against their orientation at the start, and
+  // cells collapsed below a hundredth of their area at the start, as shares of the structure's
+  // cells. Fine levels of thin structures fold a few per cent of their cells locally (the
+  // hippocampus at level 4: 2 %) without being wrong as a whole.
+  double maxInvertedFraction = 0.05;
+  double maxCollapsedFraction = 0.05;
 };
 
 struct StabilityGuard {

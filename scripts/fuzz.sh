@@ -1,0 +1,55 @@
+#!/usr/bin/env bash
+# Builds the libFuzzer harnesses (clang, AddressSanitizer, UBSan) and fuzzes each one.
+#   scripts/fuzz.sh [SECONDS] [HARNESS...]
+# SECONDS per harness (default 30: the bounded run CI does); HARNESS: scene image mesh model (all by
+# default). Each harness starts from its seed corpus (tests/fuzz/corpus/NAME, copied, never
+# modified) and stops at the first crash, leaving the input as build/fuzz/crash-NAME-*; add it to
+# tests/fuzz/regressions/NAME once fixed (docs/reliability.md). JOBS=N runs N workers per harness.
+# The long run: FUZZ_RUNS=10000000 scripts/fuzz.sh 0 (each harness until 10^7 inputs).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+seconds=${1:-30}
+shift || true
+harnesses=("$@")
+((${#harnesses[@]})) || harnesses=(scene image mesh model)
+jobs=${JOBS:-1}
+runs=${FUZZ_RUNS:--1}
+seed=${FUZZ_SEED:-1}  # fixed for the bounded run: it repeats; FUZZ_SEED=0 picks one
+build=${FUZZ_BUILD:-build/fuzz}
+
+if ! command -v clang++ >/dev/null || [ ! -e "$(clang++ -print-resource-dir)/lib/linux/libclang_rt.fuzzer-x86_64.a" ]; then
+  echo "fuzz.sh: clang++ with libFuzzer is needed (apt-get install clang libclang-rt-14-dev)" >&2
+  exit 2
+fi
+launcher=()
+command -v ccache >/dev/null && launcher=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache -DCMAKE_C_COMPILER_LAUNCHER=ccache)
+[ -f "$build/build.ninja" ] || cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+  -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ "${launcher[@]}" -DSINEW_FUZZ=ON \
+  -DSINEW_ENABLE_CUDA=OFF -DSINEW_BUILD_TESTS=OFF -DSINEW_BUILD_BENCHMARKS=OFF >/dev/null
+ninja -C "$build" "${harnesses[@]/#/fuzz_}"
+
+# ITK and VTK are not instrumented; their leaks at exit are not ours to fix.
+export ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=0:allocator_may_return_null=1}
+export UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}
+status=0
+root=$(pwd)
+for h in "${harnesses[@]}"; do
+  work="$root/$build/work-$h"  # libFuzzer's worker logs (fuzz-N.log) land here
+  corpus="$work/corpus"
+  mkdir -p "$corpus"
+  cp -n tests/fuzz/corpus/"$h"/* "$corpus"/
+  inputs=("$corpus")
+  [ -d tests/fuzz/regressions/"$h" ] && inputs+=("$root/tests/fuzz/regressions/$h")
+  echo "== fuzz_$h: ${seconds} s, $jobs worker(s), at most $runs inputs"
+  log="$work/fuzz.log"
+  if ! (cd "$work" && "$root/$build/tests/fuzz/fuzz_$h" "${inputs[@]}" -max_total_time="$seconds" -runs="$runs" -seed="$seed" \
+      -rss_limit_mb=4096 -malloc_limit_mb=65536 -timeout=20 -max_len=65536 -jobs="$jobs" -workers="$jobs" \
+      -artifact_prefix="$root/$build/crash-$h-" -print_final_stats=1 > "$log" 2>&1); then
+    echo "fuzz_$h FAILED; the input: $build/crash-$h-*; the log: $log" >&2
+    tail -60 "$log" "$work"/fuzz-*.log 2>/dev/null >&2 || true
+    status=1
+  fi
+  # Inputs run (per worker with JOBS > 1).
+  grep -h "stat::number_of_executed_units" "$log" "$work"/fuzz-*.log 2>/dev/null || true
+done
+exit $status

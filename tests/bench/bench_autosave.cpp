@@ -1,0 +1,91 @@
+// The stability guard's and the autosave's cost to the frame loop (docs/reliability.md): the
+// workstation's session stepped in frames of a fixed simulation budget, as its Run does, without
+// the guard, with it, and with it and an autosave every second (what a user sees with changes at
+// every frame: the worst case), side by side in one run. Reports the frame time's median, 99th percentile and maximum, and the autosave's
+// copy on the frame's thread (its writing runs on a thread of its own).
+//   bench_autosave SCENE [--level 5] [--backend auto] [--seconds 10] [--budget-ms 16]
+#include "builtin_plugins.h"
+#include "segmentation_session.h"
+#include "session_recovery.h"
+
+#include <CLI/CLI.hpp>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+
+using namespace sinew;
+using Clock = std::chrono::steady_clock;
+
+namespace {
+double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+
+void report(const char* what, std::vector<double> frames, const std::string& extra) {
+  std::sort(frames.begin(), frames.end());
+  const auto at = [&](double q) { return 1e3 * frames[std::min(frames.size() - 1, std::size_t(q * frames.size()))]; };
+  std::printf("| %s | %zu | %.2f | %.2f | %.2f | %s |\n", what, frames.size(), at(0.5), at(0.99), 1e3 * frames.back(),
+              extra.c_str());
+}
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App cli{"bench_autosave: the autosave's cost to the frame loop"};
+  std::string scene, backend = "auto";
+  int level = 5;
+  double seconds = 10.0, budgetMs = 16.0;
+  cli.add_option("scene", scene)->required()->check(CLI::ExistingFile);
+  cli.add_option("--level", level)->capture_default_str();
+  cli.add_option("--backend", backend)->check(CLI::IsMember({"auto", "cuda", "cpu"}))->capture_default_str();
+  cli.add_option("--seconds", seconds, "per phase")->capture_default_str();
+  cli.add_option("--budget-ms", budgetMs, "simulation per frame")->capture_default_str();
+  CLI11_PARSE(cli, argc, argv);
+
+  Registry registry;
+  registerBuiltinPlugins(registry);
+  SegmentationSession session(registry);
+  SessionOpenOptions options;
+  options.backend = backend;
+  session.open(scene, options);
+  while (session.level() < level && session.nextLevel()) {
+  }
+  session.setParameter("smoothing", -1, "weight", session.parameter("smoothing", 0, "weight"));  // one undo step
+  std::printf("%ld vertices at level %d, backend %s (%s)\n\n", long(session.simulation().store().vertexCount()),
+              session.level(), session.backendName().c_str(), session.deviceName().c_str());
+  const std::filesystem::path root = std::filesystem::temp_directory_path() / "sinew-bench-autosave";
+  std::printf("| phase | frames | median ms | p99 ms | max ms | autosave |\n| --- | --- | --- | --- | --- | --- |\n");
+  const StabilityGuard guard = session.simulation().stabilityGuard();
+  for (const int phase : {0, 1, 2}) {  // guard off; the guard; the guard and the autosave
+    const bool autosave = phase == 2;
+    StabilityGuard g = guard;
+    g.enabled = phase > 0;
+    session.simulation().setStabilityGuard(g);
+    std::unique_ptr<SessionRecovery> recovery;
+    if (autosave) recovery = std::make_unique<SessionRecovery>(root);
+    std::vector<double> frames;
+    const auto t0 = Clock::now();
+    std::string stopped;
+    while (since(t0) < seconds && stopped.empty()) {
+      const auto f0 = Clock::now();
+      try {
+        session.stepFor(budgetMs * 1e-3, false);
+      } catch (const NumericalError& e) {
+        stopped = e.what();  // the stability guard gave up: the frame loop stops, as Run does
+      }
+      if (recovery) recovery->maybeSave(session, 1.0);
+      frames.push_back(since(f0));
+    }
+    if (!stopped.empty()) std::printf("(the stability guard stopped the run: %s)\n", stopped.c_str());
+    std::string extra = "off";
+    if (recovery) {
+      recovery->wait();
+      char s[160];
+      std::snprintf(s, sizeof s, "%d saves, copy on the frame's thread max %.2f ms", recovery->savesCompleted(),
+                    1e3 * recovery->maxCopySeconds());
+      extra = s;
+    }
+    report(phase == 0 ? "no stability guard, no autosave" : phase == 1 ? "stability guard" : "stability guard and autosave (every 1 s)",
+           std::move(frames), extra);
+  }
+  return 0;
+}

@@ -1,0 +1,42 @@
+// The image readers behind every format the ITK plugin accepts: the header checks, the gzip
+// check, the read itself. The first byte picks the file name (so the format), the rest is the
+// file. Any input gives a volume whose size matches its header, or an InputError.
+#include "fuzz_support.h"
+
+#include "sinew/core/io.h"
+
+#include <array>
+#include <cstdint>
+#include <string>
+
+namespace {
+// .nhdr and .mhd name a second file for their data: that file is the input's tail after a NUL.
+constexpr std::array<const char*, 6> kNames = {"image.nii", "image.nii.gz", "image.nrrd", "image.mha", "image.nhdr", "image.mhd"};
+}
+
+extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+  if (size < 1) return 0;
+  const std::string name = kNames[data[0] % kNames.size()];
+  ++data, --size;
+  if (name.ends_with(".nhdr") || name.ends_with(".mhd")) {
+    std::size_t split = 0;
+    while (split < size && data[split] != 0) ++split;
+    const std::size_t tail = split < size ? split + 1 : size;
+    sinew::fuzz::writeFile("image.raw", data + tail, size - tail);
+    size = split;
+  }
+  const auto file = sinew::fuzz::writeFile(name, data, size);
+  const sinew::ImageIODescriptor& io = sinew::fuzz::registry().imageIOFor(file);
+  try {
+    const sinew::Image3D image = io.readImage(file);
+    const auto& g = image.geometry();
+    if (image.voxels().size() != std::size_t(g.size[0]) * g.size[1] * g.size[2]) __builtin_trap();
+  } catch (const sinew::InputError&) {
+  }
+  try {
+    const sinew::LabelVolume labels = io.readLabels(file);
+    (void)labels;
+  } catch (const sinew::InputError&) {
+  }
+  return 0;
+}
