@@ -89,52 +89,50 @@ std::string ShapeGuard::checkOne(MeshStore& store, Index m, const ImageGeometry&
     return true;
   };
   char text[256];
-  {
-    const std::string name = "structure '" + (m < Index(names.size()) ? names[m] : std::to_string(m)) + "'";
-    const double ratio = volume_[m] > 0.0 ? structureVolume(store, m) / volume_[m] : 1.0;
-    if (!(ratio >= limits.minVolumeRatio && ratio <= limits.maxVolumeRatio)) {
-      const bool shrunk = !(ratio >= limits.minVolumeRatio);
-      std::snprintf(text, sizeof text, "shape check: %s has %.4g times its volume at the start, %s the %s %.3g",
-                    name.c_str(), ratio, shrunk ? "below" : "above", shrunk ? "minimum" : "maximum",
-                    shrunk ? limits.minVolumeRatio : limits.maxVolumeRatio);
-      return text;
-    }
-    const double drift = (structureCentroid(store, m) - centroid_[m]).norm();
-    if (!(drift <= limits.maxDriftMm)) {
-      std::snprintf(text, sizeof text, "shape check: %s drifted %.3g mm from where it started (limit %.3g mm)",
-                    name.c_str(), drift, limits.maxDriftMm);
-      return text;
-    }
-    const MeshRange& r = store.range(m);
-    Index outside = 0;
-    for (Index v = r.vertexBegin; v < r.vertexEnd; ++v) outside += !inside(store.positions()[v]);
-    const double fraction = double(outside) / double(std::max<Index>(1, r.vertexCount()));
-    if (fraction > limits.maxOutsideFraction) {
-      std::snprintf(text, sizeof text, "shape check: %s has %.3g %% of its vertices outside the image (limit %.3g %%)",
-                    name.c_str(), 100.0 * fraction, 100.0 * limits.maxOutsideFraction);
-      return text;
-    }
-    // A cell turned over points its vector area against the start's; a collapsed one keeps under a
-    // hundredth of the start's area. Both are shares of the structure's cells.
-    Index inverted = 0, collapsed = 0;
-    for (Index c = r.cellBegin; c < r.cellEnd && c < Index(cellArea_.size()); ++c) {
-      const Vec3 now = cellVectorArea(store, store.positions(), c);
-      const float before = cellArea_[c].norm();
-      inverted += now.dot(cellArea_[c]) < 0.0f;
-      collapsed += now.norm() < 0.01f * before;
-    }
-    const double cells = double(std::max<Index>(1, r.cellEnd - r.cellBegin));
-    if (inverted / cells > limits.maxInvertedFraction) {
-      std::snprintf(text, sizeof text, "shape check: %s has %.3g %% of its cells turned over against the start (limit %.3g %%)",
-                    name.c_str(), 100.0 * inverted / cells, 100.0 * limits.maxInvertedFraction);
-      return text;
-    }
-    if (collapsed / cells > limits.maxCollapsedFraction) {
-      std::snprintf(text, sizeof text,
-                    "shape check: %s has %.3g %% of its cells collapsed below 1 %% of their area at the start (limit %.3g %%)",
-                    name.c_str(), 100.0 * collapsed / cells, 100.0 * limits.maxCollapsedFraction);
-      return text;
-    }
+  const std::string name = "structure '" + (m < Index(names.size()) ? names[m] : std::to_string(m)) + "'";
+  const double ratio = volume_[m] > 0.0 ? structureVolume(store, m) / volume_[m] : 1.0;
+  if (!(ratio >= limits.minVolumeRatio && ratio <= limits.maxVolumeRatio)) {
+    const bool shrunk = !(ratio >= limits.minVolumeRatio);
+    std::snprintf(text, sizeof text, "shape check: %s has %.4g times its volume at the start, %s the %s %.3g",
+                  name.c_str(), ratio, shrunk ? "below" : "above", shrunk ? "minimum" : "maximum",
+                  shrunk ? limits.minVolumeRatio : limits.maxVolumeRatio);
+    return text;
+  }
+  const double drift = (structureCentroid(store, m) - centroid_[m]).norm();
+  if (!(drift <= limits.maxDriftMm)) {
+    std::snprintf(text, sizeof text, "shape check: %s drifted %.3g mm from where it started (limit %.3g mm)",
+                  name.c_str(), drift, limits.maxDriftMm);
+    return text;
+  }
+  const MeshRange& r = store.range(m);
+  Index outside = 0;
+  for (Index v = r.vertexBegin; v < r.vertexEnd; ++v) outside += !inside(store.positions()[v]);
+  const double fraction = double(outside) / double(std::max<Index>(1, r.vertexCount()));
+  if (fraction > limits.maxOutsideFraction) {
+    std::snprintf(text, sizeof text, "shape check: %s has %.3g %% of its vertices outside the image (limit %.3g %%)",
+                  name.c_str(), 100.0 * fraction, 100.0 * limits.maxOutsideFraction);
+    return text;
+  }
+  // A cell turned over points its vector area against the start's; a collapsed one keeps under a
+  // hundredth of the start's area. Both are shares of the structure's cells.
+  Index inverted = 0, collapsed = 0;
+  for (Index c = r.cellBegin; c < r.cellEnd && c < Index(cellArea_.size()); ++c) {
+    const Vec3 now = cellVectorArea(store, store.positions(), c);
+    const float before = cellArea_[c].norm();
+    inverted += now.dot(cellArea_[c]) < 0.0f;
+    collapsed += now.norm() < 0.01f * before;
+  }
+  const double cells = double(std::max<Index>(1, r.cellEnd - r.cellBegin));
+  if (inverted / cells > limits.maxInvertedFraction) {
+    std::snprintf(text, sizeof text, "shape check: %s has %.3g %% of its cells turned over against the start (limit %.3g %%)",
+                  name.c_str(), 100.0 * inverted / cells, 100.0 * limits.maxInvertedFraction);
+    return text;
+  }
+  if (collapsed / cells > limits.maxCollapsedFraction) {
+    std::snprintf(text, sizeof text,
+                  "shape check: %s has %.3g %% of its cells collapsed below 1 %% of their area at the start (limit %.3g %%)",
+                  name.c_str(), 100.0 * collapsed / cells, 100.0 * limits.maxCollapsedFraction);
+    return text;
   }
   return {};
 }

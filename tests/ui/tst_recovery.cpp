@@ -5,6 +5,7 @@
 #include "builtin_plugins.h"
 #include "interaction_tool.h"
 #include "main_window.h"
+#include "ui_test_setup.h"
 #include "session_recovery.h"
 
 #include <QApplication>
@@ -34,6 +35,15 @@ SessionOpenOptions cpuOptions() {
   return o;
 }
 
+// A test window: the CPU, no saved settings, autosave into root.
+WorkstationOptions recoveringOptions(const QString& root) {
+  WorkstationOptions o;
+  o.backend = "cpu";
+  o.persistSettings = false;
+  o.recoveryRoot = root.toStdString();
+  return o;
+}
+
 std::vector<Vec3> positionsOf(SegmentationSession& session) {
   session.syncHost();
   const auto x = session.simulation().store().positions();
@@ -47,10 +57,7 @@ int runChild(const QString& scene, const QString& root) {
   registerBuiltinPlugins(registry);
   ToolRegistry tools;
   registerBuiltinTools(tools);
-  WorkstationOptions o;
-  o.backend = "cpu";
-  o.persistSettings = false;
-  o.recoveryRoot = root.toStdString();
+  WorkstationOptions o = recoveringOptions(root);
   o.autosaveSeconds = 1.0;
   MainWindow window(registry, tools, o);
   window.resize(900, 700);
@@ -95,12 +102,7 @@ class TestRecovery : public QObject {
 private Q_SLOTS:
   void initTestCase() {
     if (!QFile::exists(kTemplates + "aal.nii.gz")) QSKIP("Debian package mricron-data is not installed");
-    QCOMPARE(QProcess::execute(SINEW_MAKE_SCENE,
-                               {"--atlas", kTemplates + "aal.nii.gz", "--labels", kTemplates + "aal.nii.txt",
-                                "--training", kTemplates + "ch2.nii.gz", "--target", kTemplates + "ch2better.nii.gz",
-                                "--structures", "Caudate_R,Putamen_L", "--iterations", "40,20", "-o",
-                                dir_.filePath("scene.json")}),
-             0);
+    QCOMPARE(testing::makeColin27Scene(SINEW_MAKE_SCENE, dir_.filePath("scene.json"), "Caudate_R,Putamen_L", "40,20"), 0);
     registerBuiltinPlugins(registry_);
   }
 
@@ -208,11 +210,7 @@ private Q_SLOTS:
     QCOMPARE(orphans.size(), std::size_t(1));
     ToolRegistry tools;
     registerBuiltinTools(tools);
-    WorkstationOptions o;
-    o.backend = "cpu";
-    o.persistSettings = false;
-    o.recoveryRoot = root.toStdString();
-    MainWindow window(registry_, tools, o);
+    MainWindow window(registry_, tools, recoveringOptions(root));
     window.show();
     QVERIFY(QTest::qWaitForWindowExposed(&window));
     QVERIFY(window.restoreRecovered(QString::fromStdString(orphans.front().string())));
@@ -240,14 +238,7 @@ private:
 };
 
 int main(int argc, char** argv) {
-  qputenv("QT_XCB_GL_INTEGRATION", "xcb_glx");
-  QApplication::setAttribute(Qt::AA_ShareOpenGLContexts);
-  QSurfaceFormat format;
-  format.setVersion(3, 2);
-  format.setProfile(QSurfaceFormat::CoreProfile);
-  format.setDepthBufferSize(24);
-  format.setStencilBufferSize(8);
-  QSurfaceFormat::setDefaultFormat(format);
+  sinew::testing::prepareOpenGlForTests();
   QApplication app(argc, argv);
   if (argc == 4 && std::string(argv[1]) == "--child") return runChild(argv[2], argv[3]);
   TestRecovery test;
