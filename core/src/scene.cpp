@@ -239,6 +239,9 @@ SceneDesc parseScene(const std::string& text, const fs::path& file) {
     std::string what = e.what();
     const auto colon = what.find("parse error");
     throw InputError(file.string() + ": not valid JSON: " + (colon == std::string::npos ? what : what.substr(colon)));
+  } catch (const Json::exception& e) {
+    // Other parser errors (a number too large for a double: found by fuzz_scene).
+    throw InputError(file.string() + ": not valid JSON: " + e.what());
   }
   const Node root(json, "", file);
   root.expectObject({"version", "description", "images", "structures", "forces", "integrator", "schedule",

@@ -23,6 +23,10 @@
 #define SINEW_ASAN 1
 #endif
 
+#ifdef SINEW_ASAN
+extern "C" void __sanitizer_set_death_callback(void (*callback)(void));
+#endif
+
 namespace sinew {
 
 namespace fs = std::filesystem;
@@ -48,7 +52,11 @@ void writeAll(int fd, const std::string& bytes) {
 // The child's side: read, then send 'M' + counts + points + triangles, or 'E' + the message.
 [[noreturn]] void child(int fd, const fs::path& path, const std::function<TriangleMesh()>& read) {
   for (int sig : {SIGSEGV, SIGBUS, SIGFPE, SIGILL, SIGABRT}) std::signal(sig, SIG_DFL);  // die quietly
-#ifndef SINEW_ASAN  // ASan reserves terabytes of address space: no limit under it
+#ifdef SINEW_ASAN
+  // Under the fuzzer: an ASan report in the child ends the child only (libFuzzer's death callback
+  // would record the input as the parent's crash).
+  __sanitizer_set_death_callback(nullptr);
+#else  // ASan reserves terabytes of address space: no limit under it
   const long pages = ::sysconf(_SC_PHYS_PAGES), pageSize = ::sysconf(_SC_PAGESIZE);
   rlimit limit{};
   if (::getrlimit(RLIMIT_AS, &limit) == 0 && pages > 0) {
