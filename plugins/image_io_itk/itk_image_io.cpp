@@ -60,29 +60,51 @@ void checkHeader(const fs::path& path, itk::ImageIOBase& io) {
   }
 }
 
-// Two things in MetaImage headers that ITK's reader mishandles (found by fuzz_image) are refused
-// before it sees the file: a huge NDims (minutes of work), and a data file name with a '%' (MetaIO
-// passes it to printf as a numbered-file pattern; it crashes).
+// ITK's MetaImage reader (MetaIO) mishandles many malformed headers (found by fuzz_image): a huge
+// NDims (minutes of work), long names (a buffer overflow), data split over several files (a '%'
+// name goes to printf; a LIST crashes it). The header is checked here, strictly, before ITK sees
+// the file. Sinew reads a volume from one data file.
 void checkMetaImageHeader(const fs::path& path) {
   std::ifstream in(path, std::ios::binary);
   std::string line;
-  for (int lines = 0; lines < 200 && std::getline(in, line); ++lines) {
+  for (int lines = 1; std::getline(in, line); ++lines) {
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    const auto bad = [&](const std::string& problem) {
+      fail(path, "MetaImage header line " + std::to_string(lines) + ": " + problem);
+    };
+    // MetaIO copies names and values into fixed buffers of 255 characters (a long name overflows
+    // one: found by fuzz_image), so the header must be plain "Key = Value" lines of text.
+    if (lines > 200) bad("no ElementDataFile within 200 lines");
     const auto eq = line.find('=');
-    if (eq == std::string::npos) continue;
-    std::string key = line.substr(0, eq);
+    if (eq == std::string::npos) bad("not a \"Key = Value\" line");
+    std::string key = line.substr(0, eq), value = line.substr(eq + 1);
     while (!key.empty() && key.back() == ' ') key.pop_back();
-    if (key == "ElementDataFile" && line.find('%', eq) != std::string::npos)
-      fail(path, "MetaImage header: the data file is a numbered file pattern ('%'), which Sinew does not read");
-    if (key != "NDims") continue;
-    std::istringstream value(line.substr(eq + 1));
-    long n = 0;
-    if (!(value >> n) || n < 1 || n > 10) fail(path, "MetaImage header: NDims is not a dimension count between 1 and 10");
+    while (!value.empty() && value.front() == ' ') value.erase(0, 1);
+    if (key.empty() || key.size() > 64 || key.find_first_not_of(
+                                               "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789_") != std::string::npos)
+      bad("the key is not a name of letters, digits and _ (at most 64)");
+    if (value.size() > 200) bad("the value is longer than 200 characters");
+    for (const char c : value)
+      if (static_cast<unsigned char>(c) < 32 || static_cast<unsigned char>(c) > 126) bad("the value is not plain text");
+    if (key == "NDims") {
+      std::istringstream n(value);
+      long dims = 0;
+      if (!(n >> dims) || dims < 1 || dims > 10) bad("NDims is not a dimension count between 1 and 10");
+    }
+    if (key == "ElementDataFile") {
+      if (value.find('%') != std::string::npos || value.rfind("LIST", 0) == 0)
+        bad("the data are split over several files (a '%' pattern or a LIST), which Sinew does not read");
+      return;  // the header ends here
+    }
   }
+  fail(path, "MetaImage header: no ElementDataFile line");
 }
 
 // ITK's NIfTI reader aborts the process (vnl's assert_finite, in the orientation's SVD) on a header
-// whose voxel size, quaternion or affine rows hold a NaN or an infinity (found by fuzz_image): they
-// are checked here first, for NIfTI-1 and NIfTI-2, either byte order, compressed or not.
+// whose voxel size, quaternion or affine rows hold a NaN, an infinity, or values so large that the
+// orientation overflows (found by fuzz_image): they are checked here first, for NIfTI-1 (and
+// Analyze) and NIfTI-2, either byte order, compressed or not. The version is told by the magic,
+// the byte order by dim[0] (1-7), as the NIfTI library does; sizeof_hdr is not trusted.
 void checkNiftiHeader(const fs::path& path) {
   gzFile f = gzopen(path.c_str(), "rb");  // reads uncompressed files as they are
   if (!f) fail(path, "cannot be opened");
@@ -90,38 +112,45 @@ void checkNiftiHeader(const fs::path& path) {
   const int n = gzread(f, h, sizeof h);
   gzclose(f);
   if (n < 348) return;  // ITK says what is wrong with it
-  auto int32At = [&](int at, bool swap) {
-    std::uint32_t v;
-    std::memcpy(&v, h + at, 4);
-    return swap ? __builtin_bswap32(v) : v;
-  };
-  const bool swapped = int32At(0, false) != 348 && int32At(0, false) != 540;
-  const std::uint32_t size = int32At(0, swapped);
-  auto finiteAt = [&](int at, int count, bool doubles) {
-    for (int k = 0; k < count; ++k) {
-      const int o = at + k * (doubles ? 8 : 4);
-      if (o + (doubles ? 8 : 4) > n) return;
-      double v;
-      if (doubles) {
-        std::uint64_t bits;
-        std::memcpy(&bits, h + o, 8);
-        if (swapped) bits = __builtin_bswap64(bits);
-        std::memcpy(&v, &bits, 8);
-      } else {
-        std::uint32_t bits = int32At(o, swapped);
-        float x;
-        std::memcpy(&x, &bits, 4);
-        v = x;
-      }
-      if (!std::isfinite(v)) fail(path, "has a NaN or infinite voxel size or orientation in its NIfTI header");
+  const bool nifti2 = n >= 540 && std::memcmp(h + 4, "n+2", 3) == 0;
+  bool swapped = false;
+  if (nifti2) {
+    std::int64_t dim0;
+    std::memcpy(&dim0, h + 16, 8);
+    swapped = !(dim0 >= 1 && dim0 <= 7);
+  } else {
+    std::int16_t dim0;
+    std::memcpy(&dim0, h + 40, 2);
+    swapped = !(dim0 >= 1 && dim0 <= 7);
+  }
+  auto valueAt = [&](int at, bool isDouble) {
+    double v;
+    if (isDouble) {
+      std::uint64_t bits;
+      std::memcpy(&bits, h + at, 8);
+      if (swapped) bits = __builtin_bswap64(bits);
+      std::memcpy(&v, &bits, 8);
+    } else {
+      std::uint32_t bits;
+      std::memcpy(&bits, h + at, 4);
+      if (swapped) bits = __builtin_bswap32(bits);
+      float x;
+      std::memcpy(&x, &bits, 4);
+      v = x;
     }
+    return v;
   };
-  if (size == 348) {
-    finiteAt(76, 8, false);   // pixdim
-    finiteAt(256, 18, false);  // quatern_b..qoffset_z, srow_x, srow_y, srow_z
-  } else if (size == 540) {
-    finiteAt(104, 8, true);
-    finiteAt(352, 18, true);
+  auto check = [&](int at, int count, bool isDouble) {
+    for (int k = 0; k < count; ++k)
+      if (!(std::abs(valueAt(at + k * (isDouble ? 8 : 4), isDouble)) <= 1e9))
+        fail(path, "has a NaN, infinite or absurd (beyond 1e9) voxel size or orientation in its NIfTI header");
+  };
+  if (nifti2) {
+    check(104, 8, true);   // pixdim
+    check(352, 18, true);  // quatern_b..qoffset_z, srow_x, srow_y, srow_z
+  } else {
+    check(76, 8, false);
+    check(256, 18, false);
   }
 }
 
