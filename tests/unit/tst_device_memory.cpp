@@ -94,7 +94,6 @@ private Q_SLOTS:
     cuda::CudaEngine engine(*sim);
     engine.run(10);
     engine.download();
-    const auto before = std::vector<Vec3>(sim->store().positions().begin(), sim->store().positions().end());
     DeviceFiller filler;
     QVERIFY(sim->advanceLevel());
     QVERIFY(sim->advanceLevel());  // 16x the vertices of level 0
@@ -109,7 +108,6 @@ private Q_SLOTS:
     QVERIFY(finite(*sim));
     sim->run(10);
     QVERIFY(finite(*sim));
-    QVERIFY(!before.empty());
   }
 };
 
