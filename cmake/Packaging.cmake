@@ -1,7 +1,7 @@
 # Installation and packages: `cpack` in the build directory writes sinew_VERSION_ARCH.deb (the
 # programs), sinew-dev_VERSION_ARCH.deb (the plugin SDK) and a .tar.gz of both.
 # Programs find libsinew_core in its private directory through their RUNPATH.
-install(TARGETS sinew-run sinew-make-scene sinew-build-model sinew-make-subject RUNTIME DESTINATION "${CMAKE_INSTALL_BINDIR}" COMPONENT runtime)
+install(TARGETS sinew-run sinew-cohort sinew-make-scene sinew-build-model sinew-make-subject RUNTIME DESTINATION "${CMAKE_INSTALL_BINDIR}" COMPONENT runtime)
 if(TARGET sinew)
   install(TARGETS sinew RUNTIME DESTINATION "${CMAKE_INSTALL_BINDIR}" COMPONENT runtime)
 endif()
@@ -40,6 +40,7 @@ set(CPACK_DEBIAN_PACKAGE_SHLIBDEPS_PRIVATE_DIRS "${CMAKE_BINARY_DIR}/core")
 # Read at run time, not linked: the report's fonts; the Colin27 data the demo and examples use.
 set(CPACK_DEBIAN_RUNTIME_PACKAGE_DEPENDS "fonts-dejavu-core")
 set(CPACK_DEBIAN_RUNTIME_PACKAGE_RECOMMENDS "mricron-data")
+set(CPACK_DEBIAN_RUNTIME_PACKAGE_SUGGESTS "slurm-client")  # sinew-cohort slurm
 set(CPACK_DEBIAN_DEV_PACKAGE_NAME sinew-dev)
 set(CPACK_DEBIAN_DEV_PACKAGE_SECTION devel)
 set(CPACK_DEBIAN_DEV_PACKAGE_DEPENDS

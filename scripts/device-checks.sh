@@ -44,6 +44,9 @@ for c in ${CHECKS:-parity demo accuracy}; do
       "$build/app/sinew-run" /tmp/shape/scene.json -o /tmp/shape/run -q --backend cuda > "$out/shape.txt" 2>&1; echo "exit $?" >> "$out/shape.txt"
       python3 -c 'import json; r=json.load(open("/tmp/shape/run/report.json")); print(r["status"], r["backend"], r["stability"]["rollbacks"])' >> "$out/shape.txt"
       cat "$out/shape.txt" ;;
+    cohort)
+      # Subjects per minute over a cohort of new subjects (docs/benchmarks.md, "Cohorts").
+      bash scripts/cohort-bench.sh "$build" /tmp/cohort ${COHORT_SUBJECTS:-24} 2>&1 | tee "$out/cohort.md" ;;
     demo) "$build/tests/tst_backend_demo" 2>&1 | tee "$out/demo.txt" | grep -E "PASS|FAIL|QINFO|Totals|SKIP" ;;
     memory) "$build/tests/tst_device_memory" 2>&1 | tee "$out/memory.txt" | grep -E "PASS|FAIL|QINFO|Totals|SKIP" ;;
     soak) "$build/tests/bench/bench_soak" ${SOAK_ARGS:---steps 1000000} 2>&1 | tee "$out/soak.txt" ;;

@@ -9,6 +9,7 @@ packages=(
   libinsighttoolkit5-dev libvtk9-dev
   libbenchmark-dev
   clang libclang-rt-14-dev
+  slurm-wlm munge
   mricron-data
 )
 missing=()

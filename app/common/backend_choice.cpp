@@ -44,4 +44,12 @@ std::unique_ptr<ExecutionBackend> makeBackend(const std::string& choice, Simulat
 #endif
 }
 
+int usableGpuCount() {
+#ifdef SINEW_WITH_CUDA
+  return cuda::usableDeviceCount();
+#else
+  return 0;
+#endif
+}
+
 }  // namespace sinew

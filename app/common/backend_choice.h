@@ -21,4 +21,7 @@ std::unique_ptr<ExecutionBackend> makeBackend(const std::string& choice, Simulat
 // Nothing for "cpu" or in a build without CUDA.
 void startDeviceEarly(const std::string& choice);
 
+// How many GPUs the CUDA backend can use on this host (0 in a build without CUDA).
+int usableGpuCount();
+
 }  // namespace sinew

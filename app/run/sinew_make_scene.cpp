@@ -40,7 +40,9 @@ int main(int argc, char** argv) {
   cli.add_option("--initialise", initialise, "subject mode: registration of the atlas image to the target")
       ->check(CLI::IsMember({"affine", "rigid", "none"}))->capture_default_str();
   cli.add_option("--transform", transform, "subject mode: an ITK transform file (target to model) instead of registering");
-  cli.add_option("--structures", structures, "comma-separated label names or values")->capture_default_str();
+  auto* structuresOption = cli.add_option("--structures", structures,
+                                          "comma-separated label names or values (default with --model: all of its structures)")
+                               ->capture_default_str();
   cli.add_option("--training", training, "image the intensity profiles are trained on (default with --model: its atlas)");
   cli.add_option("--target", target, "image to segment")->required();
   cli.add_option("--ground-truth", groundTruth, "label map to score against (demo mode default: the atlas)");
@@ -89,6 +91,10 @@ int main(int argc, char** argv) {
       if (m.is_discarded() || !m.contains("structures"))
         throw sinew::InputError((fs::path(model) / "model.json").string() + ": not a valid model manifest");
       for (const auto& s : m["structures"]) list.push_back({s.value("label", 0), s.value("name", std::string())});
+      if (structuresOption->count() == 0) {
+        structures.clear();
+        for (const LabelEntry& e : list) structures += (structures.empty() ? "" : ",") + e.name;
+      }
     } else {
       list = readLabelList(labelList);
     }

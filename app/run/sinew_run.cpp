@@ -7,7 +7,7 @@
 #include "sinew/core/scene_runner.h"
 
 #include <CLI/CLI.hpp>
-#include <QGuiApplication>
+#include "offscreen_qt.h"
 
 #include <chrono>
 #include <cmath>
@@ -209,17 +209,7 @@ int main(int argc, char** argv) {
     return code == 0 ? kOk : kUsage;
   }
 
-  // The plot needs fonts, hence a QGuiApplication; the offscreen platform needs no display.
-  qputenv("QT_QPA_PLATFORM", "offscreen");
-  if (qgetenv("XDG_RUNTIME_DIR").isEmpty()) {  // keeps Qt from warning about it
-    const fs::path runtime = fs::temp_directory_path() / ("sinew-runtime-" + std::to_string(::getuid()));
-    std::error_code ec;
-    fs::create_directories(runtime, ec);
-    fs::permissions(runtime, fs::perms::owner_all, ec);
-    qputenv("XDG_RUNTIME_DIR", QByteArray::fromStdString(runtime.string()));
-  }
-  int qtArgc = 1;
-  QGuiApplication qt(qtArgc, argv);
+  const auto qt = startOffscreenQt(argv[0]);  // the plot needs fonts
 
   Registry registry;
   PluginLoader plugins(registry);

@@ -46,6 +46,16 @@ DeviceStatus probeDevice() {
   return st;
 }
 
+int usableDeviceCount() {
+  int count = 0, usable = 0;
+  if (cudaGetDeviceCount(&count) != cudaSuccess) return 0;
+  for (int d = 0; d < count; ++d) {
+    cudaDeviceProp p{};
+    if (cudaGetDeviceProperties(&p, d) == cudaSuccess && p.major >= 9) ++usable;
+  }
+  return usable;
+}
+
 DeviceStatus startDevice() {
   DeviceStatus st = probeDevice();
   if (!st.usable) return st;

@@ -1,0 +1,212 @@
+#include "cohort_report.h"
+
+#include "sinew/core/types.h"
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <iomanip>
+#include <numeric>
+#include <sstream>
+
+namespace sinew::cohort {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+const double kNaN = std::nan("");
+
+double number(const Json& j, const char* key) {
+  return j.contains(key) && j[key].is_number() ? j[key].get<double>() : kNaN;
+}
+
+std::string csvField(const std::string& s) {
+  if (s.find_first_of(",\"\n") == std::string::npos) return s;
+  std::string out = "\"";
+  for (char c : s) out += c == '"' ? std::string("\"\"") : std::string(1, c == '\n' ? ' ' : c);
+  return out + "\"";
+}
+
+std::string num(double v) {
+  if (std::isnan(v)) return "";
+  std::ostringstream s;
+  s << std::setprecision(6) << v;
+  return s.str();
+}
+
+double mean(const std::vector<double>& v) {
+  double sum = 0;
+  int n = 0;
+  for (double x : v)
+    if (!std::isnan(x)) sum += x, ++n;
+  return n ? sum / n : kNaN;
+}
+
+struct Metric {
+  const char* name;
+  double StructureResult::*field;
+};
+constexpr Metric kMetrics[] = {{"assd_final_mm", &StructureResult::assdFinal},
+                               {"assd_initial_mm", &StructureResult::assdInitial},
+                               {"hd95_mm", &StructureResult::hd95},
+                               {"dice", &StructureResult::dice}};
+
+Json statsJson(const Statistics& s) {
+  return {{"n", s.n}, {"mean", s.mean}, {"sd", s.sd}, {"min", s.min}, {"q1", s.q1}, {"median", s.median}, {"q3", s.q3}, {"max", s.max}};
+}
+
+}  // namespace
+
+Statistics statistics(std::vector<double> values) {
+  values.erase(std::remove_if(values.begin(), values.end(), [](double v) { return std::isnan(v); }), values.end());
+  Statistics s;
+  s.n = int(values.size());
+  if (values.empty()) {
+    s.mean = s.sd = s.min = s.q1 = s.median = s.q3 = s.max = kNaN;
+    return s;
+  }
+  std::sort(values.begin(), values.end());
+  s.mean = std::accumulate(values.begin(), values.end(), 0.0) / s.n;
+  double ss = 0;
+  for (double v : values) ss += (v - s.mean) * (v - s.mean);
+  s.sd = s.n > 1 ? std::sqrt(ss / (s.n - 1)) : 0.0;
+  auto quantile = [&](double q) {
+    const double pos = q * (s.n - 1);
+    const size_t lo = size_t(std::floor(pos)), hi = std::min(lo + 1, values.size() - 1);
+    return values[lo] + (pos - double(lo)) * (values[hi] - values[lo]);
+  };
+  s.min = values.front();
+  s.max = values.back();
+  s.q1 = quantile(0.25);
+  s.median = quantile(0.5);
+  s.q3 = quantile(0.75);
+  return s;
+}
+
+std::vector<double> CohortReport::metric(const std::string& structure, double StructureResult::*field) const {
+  std::vector<double> v;
+  for (const StructureResult& r : results)
+    if (r.structure == structure) v.push_back(r.*field);
+  return v;
+}
+
+CohortReport gatherReport(const Cohort& cohort) {
+  CohortReport rep;
+  for (size_t i = 0; i < cohort.subjects.size(); ++i) {
+    SubjectRow row;
+    row.id = cohort.subjects[i].id;
+    row.status = readStatus(cohort, i);
+    row.totalSeconds = row.simulationSeconds = row.meanAssd = row.meanDice = row.overlapMm3 = kNaN;
+    const std::string& st = row.status.status;
+    const bool hasOutputs = (st == "completed" || st == "degraded") && isDone(cohort, i);
+    if (hasOutputs) {
+      std::ifstream in(cohort.outputDir(i) / "report.json");
+      const Json j = Json::parse(in, nullptr, false);
+      if (j.is_discarded() || !j.is_object()) {
+        row.status.status = "failed";
+        row.status.message = (cohort.outputDir(i) / "report.json").string() + ": unreadable";
+      } else {
+        row.totalSeconds = number(j, "total_seconds");
+        row.simulationSeconds = number(j, "simulation_seconds");
+        if (j.contains("overlaps")) row.overlapMm3 = number(j["overlaps"], "total_after_mm3");
+        std::vector<double> assd, dice;
+        for (const Json& s : j.value("structures", Json::array())) {
+          StructureResult r;
+          r.subject = row.id;
+          r.structure = s.value("name", std::string());
+          r.label = s.value("label", 0);
+          r.vertices = s.value("vertices", 0);
+          const Json a = s.value("assd_mm", Json::object());
+          r.assdInitial = number(a, "initial");
+          r.assdFinal = number(a, "final");
+          r.hd95 = number(s, "hd95_mm");
+          r.dice = number(s, "dice");
+          r.diceInitial = number(s, "dice_initial");
+          assd.push_back(r.assdFinal);
+          dice.push_back(r.dice);
+          if (std::find(rep.structures.begin(), rep.structures.end(), r.structure) == rep.structures.end())
+            rep.structures.push_back(r.structure);
+          rep.results.push_back(r);
+        }
+        row.meanAssd = mean(assd);
+        row.meanDice = mean(dice);
+      }
+    } else if (st == "completed" || st == "degraded") {
+      row.status.status = "pending";  // its outputs are gone: it runs again
+    }
+    const std::string& now = row.status.status;
+    (now == "completed" ? rep.completed : now == "degraded" ? rep.degraded : now == "failed" ? rep.failed : rep.pending)++;
+    rep.subjects.push_back(std::move(row));
+  }
+  return rep;
+}
+
+void writeReport(const Cohort& cohort, const CohortReport& rep) {
+  const fs::path dir = cohort.reportDir();
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (ec) throw InputError(dir.string() + ": cannot create: " + ec.message());
+
+  std::ostringstream subjects;
+  subjects << "subject,status,exit_code,attempts,wall_seconds,total_seconds,simulation_seconds,backend,host,gpu,"
+              "mean_assd_mm,mean_dice,overlap_mm3,message\n";
+  for (const SubjectRow& r : rep.subjects)
+    subjects << csvField(r.id) << ',' << r.status.status << ',' << (r.status.attempts ? std::to_string(r.status.exitCode) : "")
+             << ',' << r.status.attempts << ',' << num(r.status.seconds) << ',' << num(r.totalSeconds) << ','
+             << num(r.simulationSeconds) << ',' << csvField(r.status.backend) << ',' << csvField(r.status.host) << ','
+             << csvField(r.status.gpu) << ',' << num(r.meanAssd) << ',' << num(r.meanDice) << ',' << num(r.overlapMm3)
+             << ',' << csvField(r.status.message) << '\n';
+  writeFileAtomically(dir / "subjects.csv", subjects.str());
+
+  std::ostringstream structures;
+  structures << "subject,structure,label,vertices,assd_initial_mm,assd_final_mm,hd95_mm,dice_initial,dice\n";
+  for (const StructureResult& r : rep.results)
+    structures << csvField(r.subject) << ',' << csvField(r.structure) << ',' << r.label << ',' << r.vertices << ','
+               << num(r.assdInitial) << ',' << num(r.assdFinal) << ',' << num(r.hd95) << ',' << num(r.diceInitial) << ','
+               << num(r.dice) << '\n';
+  writeFileAtomically(dir / "structures.csv", structures.str());
+
+  std::ostringstream summary;
+  summary << "structure,metric,n,mean,sd,min,q1,median,q3,max\n";
+  Json perStructure = Json::object();
+  for (const std::string& name : rep.structures) {
+    Json metrics = Json::object();
+    for (const Metric& m : kMetrics) {
+      const Statistics s = statistics(rep.metric(name, m.field));
+      summary << csvField(name) << ',' << m.name << ',' << s.n << ',' << num(s.mean) << ',' << num(s.sd) << ',' << num(s.min)
+              << ',' << num(s.q1) << ',' << num(s.median) << ',' << num(s.q3) << ',' << num(s.max) << '\n';
+      if (s.n) metrics[m.name] = statsJson(s);
+    }
+    perStructure[name] = metrics;
+  }
+  writeFileAtomically(dir / "summary.csv", summary.str());
+
+  Json failures = Json::array();
+  std::vector<double> wall;
+  for (const SubjectRow& r : rep.subjects) {
+    if (r.status.status != "completed" && r.status.status != "pending")
+      failures.push_back({{"subject", r.id}, {"status", r.status.status}, {"exit_code", r.status.exitCode},
+                          {"attempts", r.status.attempts}, {"message", r.status.message}});
+    if (r.status.attempts) wall.push_back(r.status.seconds);
+  }
+  Json pending = Json::array();
+  for (const SubjectRow& r : rep.subjects)
+    if (r.status.status == "pending") pending.push_back(r.id);
+  const Json j = {{"cohort", cohort.dir.string()},
+                  {"subjects", rep.subjects.size()},
+                  {"completed", rep.completed},
+                  {"degraded", rep.degraded},
+                  {"failed", rep.failed},
+                  {"pending", pending},
+                  {"failures", failures},
+                  {"subject_wall_seconds", statsJson(statistics(wall))},
+                  {"structures", perStructure}};
+  writeFileAtomically(dir / "cohort_report.json", j.dump(2) + "\n");
+
+  writeBoxPlot(dir / "assd_boxplot.png", rep, &StructureResult::assdFinal, "Final ASSD per structure", "ASSD (mm)");
+  writeBoxPlot(dir / "dice_boxplot.png", rep, &StructureResult::dice, "Dice per structure", "Dice");
+  writeRunTimePlot(dir / "run_time.png", rep);
+}
+
+}  // namespace sinew::cohort

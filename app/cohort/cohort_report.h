@@ -1,0 +1,52 @@
+// The cohort report: every subject's report.json and status gathered into CSV files, statistics per
+// structure, a JSON summary and plots (docs/cohorts.md).
+#pragma once
+
+#include "cohort.h"
+
+#include <map>
+#include <string>
+#include <vector>
+
+namespace sinew::cohort {
+
+struct StructureResult {
+  std::string subject, structure;
+  int label = 0, vertices = 0;
+  double assdInitial = 0, assdFinal = 0, hd95 = 0, dice = 0, diceInitial = 0;  // NaN without ground truth
+};
+
+struct SubjectRow {
+  std::string id;
+  SubjectStatus status;
+  double totalSeconds = 0, simulationSeconds = 0;  // sinew-run's own (NaN when it wrote no report)
+  double meanAssd = 0, meanDice = 0, overlapMm3 = 0;
+};
+
+// Order statistics of one metric over subjects (quartiles by linear interpolation).
+struct Statistics {
+  int n = 0;
+  double mean = 0, sd = 0, min = 0, q1 = 0, median = 0, q3 = 0, max = 0;
+};
+Statistics statistics(std::vector<double> values);  // NaNs are left out
+
+struct CohortReport {
+  std::vector<SubjectRow> subjects;
+  std::vector<StructureResult> results;        // the subjects with outputs (completed or degraded)
+  std::vector<std::string> structures;         // in the order first met
+  int completed = 0, degraded = 0, failed = 0, pending = 0;
+  std::vector<double> metric(const std::string& structure, double StructureResult::*field) const;
+};
+
+CohortReport gatherReport(const Cohort& cohort);
+
+// Writes report/subjects.csv, structures.csv, summary.csv, cohort_report.json and the plots
+// (assd_boxplot.png, dice_boxplot.png, run_time.png).
+void writeReport(const Cohort& cohort, const CohortReport& report);
+
+// The plots (cohort_plots.cpp; QtGui, offscreen).
+void writeBoxPlot(const std::filesystem::path& path, const CohortReport& report, double StructureResult::*field,
+                  const std::string& title, const std::string& axis);
+void writeRunTimePlot(const std::filesystem::path& path, const CohortReport& report);
+
+}  // namespace sinew::cohort

@@ -1,0 +1,232 @@
+#include "cohort_run.h"
+
+#include "backend_choice.h"
+#include "cohort_process.h"
+#include "sinew/core/types.h"
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <csignal>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <ctime>
+#include <fstream>
+#include <iostream>
+#include <mutex>
+#include <sstream>
+#include <thread>
+
+namespace sinew::cohort {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+// Set by SIGINT/SIGTERM: the runs in flight end (they share the signal), nothing is retried and no
+// failure is recorded for them, so the next run of the cohort picks them up.
+std::atomic<bool> stopRequested{false};
+extern "C" void onStopSignal(int) { stopRequested = true; }
+
+}  // namespace
+
+void stopOnSignals() {
+  struct sigaction sa {};
+  sa.sa_handler = onStopSignal;
+  sigemptyset(&sa.sa_mask);
+  sigaction(SIGINT, &sa, nullptr);
+  sigaction(SIGTERM, &sa, nullptr);
+  // The programs run in their own threads' waits; this one passes the stop on to them.
+  static std::once_flag watcher;
+  std::call_once(watcher, [] {
+    std::thread([] {
+      while (!stopRequested) std::this_thread::sleep_for(std::chrono::milliseconds(100));
+      terminatePrograms();
+    }).detach();
+  });
+}
+
+namespace {
+
+std::string now() {
+  const std::time_t t = std::time(nullptr);
+  char s[32];
+  std::strftime(s, sizeof s, "%Y-%m-%d %H:%M:%S", std::localtime(&t));
+  return s;
+}
+
+// report.json's backend and the mean final ASSD (NaN without ground truth).
+std::pair<std::string, double> reportSummary(const fs::path& report) {
+  std::ifstream in(report);
+  const Json j = Json::parse(in, nullptr, false);
+  if (j.is_discarded() || !j.is_object()) return {"", std::nan("")};
+  double sum = 0.0;
+  int n = 0;
+  if (j.contains("structures"))
+    for (const Json& s : j["structures"])
+      if (s.contains("assd_mm") && s["assd_mm"].contains("final") && s["assd_mm"]["final"].is_number()) {
+        sum += s["assd_mm"]["final"].get<double>();
+        ++n;
+      }
+  return {j.value("backend", std::string()), n ? sum / n : std::nan("")};
+}
+
+std::string describe(const ProgramResult& r) {
+  if (r.signal) return std::string("killed by signal ") + std::to_string(r.signal) + " (" + strsignal(r.signal) + ")";
+  return "exit " + std::to_string(r.exitCode);
+}
+
+}  // namespace
+
+int usableGpus() { return usableGpuCount(); }
+
+TaskResult runSubject(const Cohort& cohort, size_t i, const TaskOptions& options) {
+  TaskResult result;
+  if (isDone(cohort, i)) {
+    result.status = readStatus(cohort, i);
+    return result;
+  }
+  if (!fs::exists(cohort.sceneFile(i))) {  // its scene could not be made: prepareCohort said why
+    result.status = readStatus(cohort, i);
+    if (result.status.status == "pending") {
+      result.status.status = "failed";
+      result.status.exitCode = 3;
+      result.status.message = cohort.sceneFile(i).string() + ": no scene; prepare the cohort again";
+    }
+    return result;
+  }
+  SubjectStatus& st = result.status;
+  st.host = hostName();
+  st.gpu = options.gpu.value_or("");
+  std::vector<std::string> argv = {options.sinewRun, cohort.sceneFile(i).string(), "-o", cohort.outputDir(i).string(),
+                                   "--backend", options.backend, "-j", std::to_string(options.threads)};
+  std::vector<std::pair<std::string, std::string>> env;
+  if (options.gpu) env.emplace_back("CUDA_VISIBLE_DEVICES", *options.gpu);
+  const auto start = std::chrono::steady_clock::now();
+  for (int attempt = 1; attempt <= 1 + std::max(0, options.retries); ++attempt) {
+    {
+      std::ofstream log(cohort.logFile(i), std::ios::app);
+      log << "== attempt " << attempt << " at " << now() << " on " << st.host << (options.gpu ? ", GPU " + *options.gpu : "")
+          << ":";
+      for (const std::string& a : argv) log << ' ' << a;
+      log << "\n";
+    }
+    ProgramResult r;
+    try {
+      r = runProgram(argv, cohort.logFile(i), env);
+    } catch (const InputError& e) {
+      st.status = "failed";
+      st.message = e.what();
+      break;
+    }
+    result.ran = true;
+    st.attempts = attempt;
+    st.exitCode = r.signal ? -1 : r.exitCode;
+    if (stopRequested) return result;  // interrupted: no verdict, the subject stays pending
+    if (r.exitCode == 0 && !r.signal) {
+      st.status = "completed";
+      st.message.clear();
+      break;
+    }
+    const std::string line = lastErrorLine(cohort.logFile(i));
+    st.message = describe(r) + (line.empty() ? "" : ": " + line);
+    if (r.exitCode == 4) {  // its last good meshes are written; running it again gives the same
+      st.status = "degraded";
+      break;
+    }
+    st.status = "failed";
+  }
+  st.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  if (st.status != "failed") st.backend = reportSummary(cohort.outputDir(i) / "report.json").first;
+  writeStatus(cohort, i, st);
+  return result;
+}
+
+CohortSummary runLocal(const Cohort& cohort, const LocalOptions& options) {
+  stopOnSignals();
+  const auto start = std::chrono::steady_clock::now();
+  CohortSummary sum;
+  sum.total = int(cohort.subjects.size());
+  std::vector<size_t> todo;
+  for (size_t i = 0; i < cohort.subjects.size(); ++i) {
+    if (isDone(cohort, i)) {
+      ++sum.skipped;
+      (readStatus(cohort, i).status == "degraded" ? sum.degraded : sum.completed)++;
+    } else {
+      todo.push_back(i);
+    }
+  }
+
+  // The slots: jobsPerGpu per GPU, or CPU workers.
+  const unsigned cores = std::max(1u, std::thread::hardware_concurrency());
+  const int usable = options.task.backend == "cpu" || options.gpus == 0 ? 0 : usableGpus();
+  if (options.gpus > usable)
+    throw InputError("--gpus " + std::to_string(options.gpus) + ": this host has " + std::to_string(usable) +
+                     " GPU(s) the CUDA backend can use" + (options.task.backend == "cpu" ? " with --backend cpu" : ""));
+  const int gpus = options.gpus < 0 ? usable : options.gpus;
+  std::vector<std::optional<std::string>> slots;
+  if (gpus > 0) {
+    // The k-th GPU of those this process may see: CUDA_VISIBLE_DEVICES (Slurm sets it) or 0..n-1.
+    std::vector<std::string> visible;
+    if (const char* v = std::getenv("CUDA_VISIBLE_DEVICES"); v && *v) {
+      std::stringstream s(v);
+      for (std::string id; std::getline(s, id, ',');) visible.push_back(id);
+    }
+    const int perGpu = options.jobsPerGpu > 0 ? options.jobsPerGpu : std::max(1, int(cores) / (2 * gpus));
+    for (int g = 0; g < gpus; ++g)
+      for (int j = 0; j < perGpu; ++j)
+        slots.push_back(size_t(g) < visible.size() ? visible[size_t(g)] : std::to_string(g));
+  } else {
+    const int workers = options.cpuWorkers > 0 ? options.cpuWorkers : std::max(1, int(cores) / 2);
+    slots.assign(size_t(workers), std::nullopt);
+  }
+  TaskOptions task = options.task;
+  if (gpus > 0 && task.backend == "auto") task.backend = "cuda";
+  if (gpus == 0 && task.backend == "auto") task.backend = "cpu";
+  if (task.threads == 0) task.threads = std::max(1, int(cores) / int(slots.size()));
+  if (!options.quiet) {
+    std::cerr << "sinew-cohort: " << todo.size() << " of " << sum.total << " subjects to run";
+    if (sum.skipped) std::cerr << " (" << sum.skipped << " already done)";
+    if (gpus > 0) std::cerr << " on " << gpus << " GPU(s), " << slots.size() / size_t(gpus) << " run(s) per GPU";
+    else std::cerr << " on the CPU, " << slots.size() << " run(s) at a time";
+    std::cerr << ", " << task.threads << " thread(s) each\n";
+  }
+
+  std::mutex m;
+  std::atomic<size_t> next{0};
+  int finished = 0;
+  auto work = [&](const std::optional<std::string>& gpu) {
+    TaskOptions t = task;
+    t.gpu = gpu;
+    for (size_t k; !stopRequested && (k = next++) < todo.size();) {
+      const size_t i = todo[k];
+      const TaskResult r = runSubject(cohort, i, t);
+      const std::lock_guard lock(m);
+      if (stopRequested) break;
+      ++finished;
+      const SubjectStatus& st = r.status;
+      (st.status == "completed" ? sum.completed : st.status == "degraded" ? sum.degraded : sum.failed)++;
+      if (options.quiet) continue;
+      char line[512];
+      std::snprintf(line, sizeof line, "[%d/%zu] %s %s in %.1f s", finished, todo.size(), cohort.subjects[i].id.c_str(),
+                    st.status.c_str(), st.seconds);
+      std::cerr << line << (gpu ? " on GPU " + *gpu : std::string(" on the CPU"));
+      if (st.status != "failed") {
+        const double assd = reportSummary(cohort.outputDir(i) / "report.json").second;
+        if (!std::isnan(assd)) std::fprintf(stderr, " (mean ASSD %.2f mm)", assd);
+      }
+      if (st.attempts > 1) std::cerr << " after " << st.attempts << " attempts";
+      if (!st.message.empty()) std::cerr << ": " << st.message;
+      std::cerr << std::endl;
+    }
+  };
+  std::vector<std::thread> threads;
+  for (const auto& slot : slots) threads.emplace_back(work, slot);
+  for (std::thread& t : threads) t.join();
+  sum.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  if (stopRequested) throw Interrupted("interrupted; run the cohort again to finish it (done subjects are kept)");
+  return sum;
+}
+
+}  // namespace sinew::cohort

@@ -1,0 +1,117 @@
+#include "cohort_slurm.h"
+
+#include "sinew/core/types.h"
+
+#include <array>
+#include <cstdio>
+#include <sstream>
+#include <sys/stat.h>
+#include <sys/wait.h>
+
+namespace sinew::cohort {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+std::string quoted(const std::string& s) {
+  std::string out = "'";
+  for (char c : s) out += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return out + "'";
+}
+
+void writeScript(const fs::path& path, const std::string& text) {
+  writeFileAtomically(path, text);
+  ::chmod(path.c_str(), 0755);
+}
+
+// sbatch --parsable: prints "JOBID" or "JOBID;CLUSTER".
+std::string submit(const SlurmOptions& o, const std::vector<std::string>& args, const fs::path& script) {
+  std::vector<std::string> words = {o.sbatch, "--parsable"};
+  words.insert(words.end(), args.begin(), args.end());
+  words.push_back(script.string());
+  std::string command;
+  for (const std::string& w : words) command.append(quoted(w)).append(" ");
+  command.append("2>&1");
+  FILE* p = ::popen(command.c_str(), "r");
+  if (!p) throw InputError(o.sbatch + ": cannot start");
+  std::string out;
+  std::array<char, 512> buffer{};
+  while (std::fgets(buffer.data(), int(buffer.size()), p)) out += buffer.data();
+  const int status = ::pclose(p);
+  while (!out.empty() && (out.back() == '\n' || out.back() == '\r')) out.pop_back();
+  const std::string id = out.substr(0, out.find(';'));
+  const bool numeric = !id.empty() && id.find_first_not_of("0123456789") == std::string::npos;
+  if (status != 0 || !numeric)
+    throw InputError(script.string() + ": sbatch refused it: " + (out.empty() ? "exit " + std::to_string(WEXITSTATUS(status)) : out));
+  return id;
+}
+
+std::string header(const SlurmOptions& o, const std::string& name, const std::string& log, int cpus, int gpus,
+                   const std::string& memory) {
+  std::ostringstream s;
+  s << "#!/bin/bash\n"
+    << "# Written by sinew-cohort slurm (docs/cohorts.md).\n"
+    << "#SBATCH --job-name=" << name << "\n"
+    << "#SBATCH --output=" << log << "\n"
+    << "#SBATCH --cpus-per-task=" << cpus << "\n"
+    << "#SBATCH --mem=" << memory << "\n"
+    << "#SBATCH --time=" << o.time << "\n";
+  if (gpus > 0) s << "#SBATCH --gres=gpu:" << gpus << "\n";
+  if (!o.partition.empty()) s << "#SBATCH --partition=" << o.partition << "\n";
+  if (!o.account.empty()) s << "#SBATCH --account=" << o.account << "\n";
+  for (const std::string& e : o.extra) s << "#SBATCH " << e << "\n";
+  return s.str();
+}
+
+}  // namespace
+
+std::string arraySpec(const std::vector<size_t>& indices) {
+  std::ostringstream s;
+  for (size_t a = 0; a < indices.size();) {
+    size_t b = a;
+    while (b + 1 < indices.size() && indices[b + 1] == indices[b] + 1) ++b;
+    if (a) s << ',';
+    s << indices[a];
+    if (b > a) s << '-' << indices[b];
+    a = b + 1;
+  }
+  return s.str();
+}
+
+SlurmJobs writeSlurmJobs(const Cohort& cohort, const SlurmOptions& o) {
+  for (const std::string& e : o.extra)
+    if (e.rfind("--", 0) != 0 || e.find('\n') != std::string::npos)
+      throw InputError("--sbatch-option '" + e + "': give one sbatch option starting with --");
+  SlurmJobs jobs;
+  const fs::path dir = cohort.dir / "slurm";
+  std::error_code ec;
+  fs::create_directories(dir / "logs", ec);
+  if (ec) throw InputError(dir.string() + ": cannot create: " + ec.message());
+  for (size_t i = 0; i < cohort.subjects.size(); ++i)
+    if (!isDone(cohort, i)) jobs.indices.push_back(i);
+  if (cohort.subjects.size() > 1000)
+    throw InputError(cohort.dir.string() + ": over 1000 subjects; Slurm's default MaxArraySize is 1001: split the manifest");
+
+  jobs.arrayScript = dir / "array.sbatch";
+  jobs.reportScript = dir / "report.sbatch";
+  const std::string logs = (dir / "logs").string();
+  if (!jobs.indices.empty()) {
+    std::string s = header(o, "sinew-cohort", logs + "/task-%A_%a.log", o.cpusPerTask, o.gpusPerTask, o.memory);
+    s.insert(s.find("#SBATCH --output"), "#SBATCH --array=" + arraySpec(jobs.indices) + "%" + std::to_string(std::max(1, o.throttle)) + "\n");
+    s += "# One subject per task; its exit code is the subject's (sinew-run's), so failures show in sacct.\n";
+    s += "exec " + quoted(o.sinewCohort) + " task " + quoted(cohort.dir.string()) +
+         " --index \"$SLURM_ARRAY_TASK_ID\" --threads \"${SLURM_CPUS_PER_TASK:-0}\" --backend " + quoted(o.backend) + "\n";
+    writeScript(jobs.arrayScript, s);
+  }
+  std::string r = header(o, "sinew-cohort-report", logs + "/report-%j.log", 1, 0, "2G");
+  r += "exec " + quoted(o.sinewCohort) + " report " + quoted(cohort.dir.string()) + "\n";
+  writeScript(jobs.reportScript, r);
+  if (!o.submit) return jobs;
+  if (!jobs.indices.empty()) jobs.arrayJob = submit(o, {}, jobs.arrayScript);
+  jobs.reportJob = submit(o, jobs.arrayJob.empty() ? std::vector<std::string>{} : std::vector<std::string>{"--dependency=afterany:" + jobs.arrayJob},
+                          jobs.reportScript);
+  return jobs;
+}
+
+}  // namespace sinew::cohort

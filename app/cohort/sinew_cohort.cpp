@@ -1,0 +1,205 @@
+// sinew-cohort: one model over many subjects, on this host's GPUs or CPU cores, or on Slurm as a
+// job array, and one report for the cohort (docs/cohorts.md).
+#include "cohort.h"
+#include "cohort_process.h"
+#include "cohort_report.h"
+#include "cohort_run.h"
+#include "cohort_slurm.h"
+#include "offscreen_qt.h"
+#include "sinew/core/types.h"
+
+#include <CLI/CLI.hpp>
+
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <iostream>
+
+namespace fs = std::filesystem;
+using namespace sinew;
+using namespace sinew::cohort;
+
+namespace {
+
+struct CohortInputs {
+  std::string manifest, templateFile, model, out;
+};
+
+void addInputs(CLI::App* c, CohortInputs& in, bool manifestRequired) {
+  auto* m = c->add_option("manifest", in.manifest, "subjects: CSV (subject,target[,ground_truth][,transform][,landmarks]) or JSON");
+  if (manifestRequired) m->required();
+  c->add_option("--template", in.templateFile,
+                "scene template (sinew-make-scene --model ... on any subject); default: sinew-make-scene's subject scene of --model");
+  c->add_option("--model", in.model, "model folder (sinew-build-model); replaces the template's");
+  c->add_option("-o,--out", in.out, "cohort folder (created; an existing one is resumed)")->required();
+}
+
+// The cohort folder, prepared from the manifest when one is given, else the existing one.
+Cohort cohortFrom(const CohortInputs& in) {
+  if (in.manifest.empty()) {
+    if (!in.templateFile.empty() || !in.model.empty()) throw InputError("--template and --model go with a manifest");
+    return loadCohort(in.out);
+  }
+  if (!fs::exists(in.manifest)) throw InputError(in.manifest + ": no such file");
+  std::optional<fs::path> model;
+  if (!in.model.empty()) model = fs::path(in.model);
+  fs::path templateFile = in.templateFile;
+  if (templateFile.empty()) {
+    if (!model) throw InputError("give --template, or --model to use sinew-make-scene's subject scene");
+    // sinew-make-scene only reads the model's manifest; the target is replaced for every subject.
+    std::ifstream manifest(*model / "model.json");
+    const Json m = Json::parse(manifest, nullptr, false);
+    if (m.is_discarded() || !m.contains("atlas_image")) throw InputError(in.model + ": not a Sinew model (no valid model.json)");
+    fs::create_directories(in.out);
+    templateFile = fs::path(in.out) / "template.json";
+    const fs::path log = fs::path(in.out) / "template.log";
+    const ProgramResult r = runProgram({siblingProgram("sinew-make-scene"), "--model", in.model, "--target",
+                                        (*model / m["atlas_image"].get<std::string>()).string(), "-o", templateFile.string()},
+                                       log);
+    if (r.exitCode != 0) throw InputError("sinew-make-scene could not make the template: " + lastErrorLine(log));
+  }
+  return prepareCohort(in.manifest, templateFile, model, in.out);
+}
+
+void printReport(const CohortReport& rep, const Cohort& cohort) {
+  std::printf("%-20s %4s  %-26s %-26s\n", "structure", "n", "ASSD mm: median [q1, q3]", "Dice: median [q1, q3]");
+  for (const std::string& s : rep.structures) {
+    const Statistics a = statistics(rep.metric(s, &StructureResult::assdFinal));
+    const Statistics d = statistics(rep.metric(s, &StructureResult::dice));
+    char assd[64] = "-", dice[64] = "-";
+    if (a.n) std::snprintf(assd, sizeof assd, "%.2f [%.2f, %.2f]", a.median, a.q1, a.q3);
+    if (d.n) std::snprintf(dice, sizeof dice, "%.3f [%.3f, %.3f]", d.median, d.q1, d.q3);
+    std::printf("%-20s %4d  %-26s %-26s\n", s.c_str(), std::max(a.n, d.n), assd, dice);
+  }
+  std::printf("subjects: %zu; completed %d, degraded %d, failed %d, not run %d\n", rep.subjects.size(), rep.completed,
+              rep.degraded, rep.failed, rep.pending);
+  for (const SubjectRow& r : rep.subjects)
+    if (r.status.status == "failed" || r.status.status == "degraded")
+      std::printf("  %s %s: %s\n", r.id.c_str(), r.status.status.c_str(), r.status.message.c_str());
+  std::printf("report: %s\n", cohort.reportDir().string().c_str());
+}
+
+int report(const Cohort& cohort, bool print) {
+  const CohortReport rep = gatherReport(cohort);
+  writeReport(cohort, rep);
+  if (print) printReport(rep, cohort);
+  return rep.completed == int(rep.subjects.size()) ? 0 : kExitSomeFailed;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App cli{"sinew-cohort: run one model over a cohort of subjects, locally or on Slurm, and report on it.\n"
+               "Exit codes: 0 every subject completed, 5 some failed (the report lists them), 2 bad command line,\n"
+               "3 bad input (manifest, template, cohort folder), 130 interrupted, 1 internal error."};
+  cli.require_subcommand(1);
+  cli.set_version_flag("--version", std::string("sinew-cohort ") + SINEW_VERSION);
+
+  CohortInputs runIn;
+  LocalOptions local;
+  bool noReport = false;
+  auto* run = cli.add_subcommand("run", "run every subject not done yet on this host (GPUs, else CPU workers), then report");
+  addInputs(run, runIn, false);
+  run->add_option("--backend", local.task.backend, "sinew-run's backend")->check(CLI::IsMember({"auto", "cuda", "cpu"}))->capture_default_str();
+  run->add_option("--gpus", local.gpus, "GPUs to use (-1: every usable one; 0: none)")->capture_default_str();
+  run->add_option("--jobs-per-gpu", local.jobsPerGpu, "sinew-run processes per GPU (0: half the cores over the GPUs)")->check(CLI::Range(0, 64))->capture_default_str();
+  run->add_option("--cpu-workers", local.cpuWorkers, "without GPUs: runs at a time (0: half the cores)")->check(CLI::NonNegativeNumber);
+  run->add_option("-j,--threads", local.task.threads, "CPU threads per run (0: the cores shared among the runs)")->check(CLI::NonNegativeNumber);
+  run->add_option("--retries", local.task.retries, "times a failed subject is tried again")->check(CLI::Range(0, 5))->capture_default_str();
+  run->add_flag("-q,--quiet", local.quiet, "no progress output");
+  run->add_flag("--no-report", noReport, "do not write the cohort report at the end");
+
+  CohortInputs slurmIn;
+  SlurmOptions slurm;
+  auto* sl = cli.add_subcommand("slurm", "write and submit a Slurm job array (one subject per task) and the report job after it");
+  addInputs(sl, slurmIn, false);
+  sl->add_option("--throttle", slurm.throttle, "array tasks running at once (the array's %)")->check(CLI::Range(1, 100000))->capture_default_str();
+  sl->add_option("--partition", slurm.partition, "Slurm partition");
+  sl->add_option("--account", slurm.account, "Slurm account");
+  sl->add_option("--time", slurm.time, "time limit per subject")->capture_default_str();
+  sl->add_option("--mem", slurm.memory, "memory per subject")->capture_default_str();
+  sl->add_option("--cpus-per-task", slurm.cpusPerTask, "CPU cores per subject")->check(CLI::Range(1, 1024))->capture_default_str();
+  sl->add_option("--gpus-per-task", slurm.gpusPerTask, "GPUs per subject (--gres=gpu:N; 0: CPU only)")->check(CLI::Range(0, 16))->capture_default_str();
+  sl->add_option("--backend", slurm.backend, "sinew-run's backend")->check(CLI::IsMember({"auto", "cuda", "cpu"}))->capture_default_str();
+  sl->add_option("--sbatch-option", slurm.extra, "another #SBATCH option, e.g. --qos=short (repeatable)");
+  sl->add_option("--sbatch", slurm.sbatch, "the sbatch program")->capture_default_str();
+  bool noSubmit = false;
+  sl->add_flag("--no-submit", noSubmit, "write the scripts only");
+
+  std::string taskDir;
+  size_t taskIndex = 0;
+  TaskOptions task;
+  auto* tk = cli.add_subcommand("task", "run one subject of a prepared cohort (what each Slurm array task does)");
+  tk->add_option("cohort", taskDir, "cohort folder")->required();
+  tk->add_option("--index", taskIndex, "the subject's index (SLURM_ARRAY_TASK_ID)")->required();
+  tk->add_option("--backend", task.backend, "sinew-run's backend")->check(CLI::IsMember({"auto", "cuda", "cpu"}))->capture_default_str();
+  tk->add_option("-j,--threads", task.threads, "CPU threads (0: all)")->check(CLI::NonNegativeNumber);
+  tk->add_option("--retries", task.retries, "times a failed run is tried again")->check(CLI::Range(0, 5))->capture_default_str();
+
+  std::string reportDir;
+  auto* rp = cli.add_subcommand("report", "gather every subject's results into report/ (CSV, statistics, plots)");
+  rp->add_option("cohort", reportDir, "cohort folder")->required();
+
+  try {
+    cli.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return cli.exit(e) == 0 ? 0 : 2;
+  }
+  const auto qt = startOffscreenQt(argv[0]);  // the report's plots need fonts
+  try {
+    if (*run) {
+      const Cohort cohort = cohortFrom(runIn);
+      local.task.sinewRun = siblingProgram("sinew-run");
+      const CohortSummary s = runLocal(cohort, local);
+      if (!local.quiet)
+        std::fprintf(stderr, "sinew-cohort: %d subjects in %.1f s: %d completed, %d degraded, %d failed (%d were done before)\n",
+                     s.total, s.seconds, s.completed, s.degraded, s.failed, s.skipped);
+      if (noReport) return s.completed == s.total ? 0 : kExitSomeFailed;
+      return report(cohort, !local.quiet);
+    }
+    if (*sl) {
+      const Cohort cohort = cohortFrom(slurmIn);
+      std::error_code ec;
+      const fs::path self = fs::read_symlink("/proc/self/exe", ec);
+      slurm.sinewCohort = ec ? "sinew-cohort" : self.string();
+      slurm.submit = !noSubmit;
+      const SlurmJobs jobs = writeSlurmJobs(cohort, slurm);
+      std::printf("%zu of %zu subjects to run: %s\n", jobs.indices.size(), cohort.subjects.size(),
+                  jobs.indices.empty() ? "-" : jobs.arrayScript.string().c_str());
+      std::printf("report job: %s\n", jobs.reportScript.string().c_str());
+      if (!jobs.arrayJob.empty()) std::printf("submitted array job %s\n", jobs.arrayJob.c_str());
+      if (!jobs.reportJob.empty()) std::printf("submitted report job %s\n", jobs.reportJob.c_str());
+      return 0;
+    }
+    if (*tk) {
+      const Cohort cohort = loadCohort(taskDir);
+      if (taskIndex >= cohort.subjects.size())
+        throw InputError(taskDir + ": --index " + std::to_string(taskIndex) + ": the cohort has " +
+                         std::to_string(cohort.subjects.size()) + " subjects");
+      task.sinewRun = siblingProgram("sinew-run");
+      stopOnSignals();
+      const TaskResult r = runSubject(cohort, taskIndex, task);
+      const SubjectStatus& st = r.status;
+      const std::string& id = cohort.subjects[taskIndex].id;
+      if (!r.ran && (st.status == "completed" || st.status == "degraded")) {
+        std::fprintf(stderr, "sinew-cohort: subject %s: already %s\n", id.c_str(), st.status.c_str());
+        return st.status == "completed" ? 0 : 4;
+      }
+      std::fprintf(stderr, "sinew-cohort: subject %s: %s in %.1f s%s%s\n", id.c_str(), st.status.c_str(), st.seconds,
+                   st.message.empty() ? "" : ": ", st.message.c_str());
+      if (st.status == "completed") return 0;
+      return st.exitCode > 0 ? st.exitCode : 1;
+    }
+    if (*rp) return report(loadCohort(reportDir), true);
+  } catch (const Interrupted& e) {
+    std::cerr << "sinew-cohort: " << e.what() << "\n";
+    return 130;
+  } catch (const InputError& e) {
+    std::cerr << "sinew-cohort: error: " << e.what() << "\n";
+    return 3;
+  } catch (const std::exception& e) {
+    std::cerr << "sinew-cohort: internal error: " << e.what() << "\n";
+    return 1;
+  }
+  return 0;
+}

@@ -1,0 +1,197 @@
+// sinew-cohort end to end on Colin27 (mricron-data): a model, two generated subjects and two broken
+// ones (an image that does not exist, a truncated one), run locally, resumed, reported; the same
+// cohort on a real Slurm (munged, slurmctld and slurmd started on this host by
+// tests/cohort/slurm_local.sh) as a job array with its report job; manifests refused.
+#include "run_tool.h"
+
+#include <QDir>
+#include <QFile>
+#include <QJsonArray>
+#include <QJsonDocument>
+#include <QJsonObject>
+#include <QTemporaryDir>
+#include <QThread>
+#include <QtTest>
+
+using namespace sinew::testing;
+
+namespace {
+
+const QString kTemplates = "/usr/share/mricron/templates/";
+
+QJsonObject readJson(const QString& path) {
+  QFile f(path);
+  if (!f.open(QIODevice::ReadOnly)) return {};
+  return QJsonDocument::fromJson(f.readAll()).object();
+}
+
+QString readText(const QString& path) {
+  QFile f(path);
+  return f.open(QIODevice::ReadOnly) ? QString::fromUtf8(f.readAll()) : QString();
+}
+
+void writeText(const QString& path, const QString& text) {
+  QFile f(path);
+  QVERIFY(f.open(QIODevice::WriteOnly | QIODevice::Truncate));
+  f.write(text.toUtf8());
+}
+
+}  // namespace
+
+class TestCohort : public QObject {
+  Q_OBJECT
+  QTemporaryDir dir_;
+  QString slurmDir_;
+  bool slurmStarted_ = false;
+
+  QString path(const QString& name) const { return dir_.filePath(name); }
+
+  // Checks a cohort's report after one run over the manifest: s1 and s2 completed with results
+  // for both structures, the two broken subjects failed with exit 3 after two attempts, each
+  // message naming its file.
+  void checkReport(const QString& cohort) {
+    const QJsonObject r = readJson(cohort + "/report/cohort_report.json");
+    QCOMPARE(r["subjects"].toInt(), 4);
+    QCOMPARE(r["completed"].toInt(), 2);
+    QCOMPARE(r["failed"].toInt(), 2);
+    const QJsonArray failures = r["failures"].toArray();
+    QCOMPARE(failures.size(), 2);
+    for (const auto& f : failures) {
+      const QJsonObject o = f.toObject();
+      QCOMPARE(o["exit_code"].toInt(), 3);
+      QCOMPARE(o["attempts"].toInt(), 2);
+      const QString expected = o["subject"].toString() == "missing" ? "nowhere.nii.gz" : "truncated.nii.gz";
+      QVERIFY2(o["message"].toString().contains(expected), qPrintable(o["message"].toString()));
+    }
+    // Statistics over the two completed subjects, per structure.
+    for (const QString s : {"Putamen_R", "Thalamus_R"}) {
+      const QJsonObject assd = r["structures"].toObject()[s].toObject()["assd_final_mm"].toObject();
+      QCOMPARE(assd["n"].toInt(), 2);
+      QVERIFY2(assd["median"].toDouble() > 0.0 && assd["median"].toDouble() < 1.5, qPrintable(s));
+      QVERIFY(assd["min"].toDouble() <= assd["median"].toDouble() && assd["median"].toDouble() <= assd["max"].toDouble());
+    }
+    const QStringList rows = readText(cohort + "/report/structures.csv").split('\n', Qt::SkipEmptyParts);
+    QCOMPARE(rows.size(), 1 + 2 * 2);
+    QVERIFY(readText(cohort + "/report/subjects.csv").contains("missing,failed,3,2,"));
+    for (const QString png : {"assd_boxplot.png", "dice_boxplot.png", "run_time.png"})
+      QVERIFY2(QFileInfo(cohort + "/report/" + png).size() > 1000, qPrintable(png));
+  }
+
+private slots:
+  void initTestCase() {
+    if (!QFile::exists(kTemplates + "ch2.nii.gz")) QSKIP("mricron-data is not installed");
+    ToolResult r = runTool(SINEW_BUILD_MODEL, {"--atlas", kTemplates + "aal.nii.gz", "--labels", kTemplates + "aal.nii.txt",
+                                               "--training", kTemplates + "ch2better.nii.gz", "--structures",
+                                               "Putamen_R,Thalamus_R", "-o", path("model"), "-q"});
+    QVERIFY2(r.code == 0, qPrintable(r.err));
+    for (const QString seed : {"1", "2"}) {
+      r = runTool(SINEW_MAKE_SUBJECT, {"--image", kTemplates + "ch2.nii.gz", "--labels", kTemplates + "aal.nii.gz",
+                                       "--seed", seed, "-o", path("subject" + seed)});
+      QVERIFY2(r.code == 0, qPrintable(r.err));
+    }
+    // A truncated image: the gzip stream ends early.
+    QFile image(path("subject2/image.nii.gz"));
+    QVERIFY(image.open(QIODevice::ReadOnly));
+    writeText(path("truncated.nii.gz"), QString());
+    QFile truncated(path("truncated.nii.gz"));
+    QVERIFY(truncated.open(QIODevice::WriteOnly));
+    truncated.write(image.read(image.size() / 3));
+    truncated.close();
+    writeText(path("cohort.csv"), "subject,target,ground_truth\n"
+                                  "s1,subject1/image.nii.gz,subject1/labels.nii.gz\n"
+                                  "missing,nowhere.nii.gz,subject1/labels.nii.gz\n"
+                                  "s2,\"subject2/image.nii.gz\",subject2/labels.nii.gz\n"
+                                  "truncated,truncated.nii.gz,subject2/labels.nii.gz\n");
+  }
+
+  void localRunReportsFailuresAndResumes() {
+    const QString cohort = path("local");
+    ToolResult r = runTool(SINEW_COHORT, {"run", path("cohort.csv"), "--model", path("model"), "-o", cohort, "--cpu-workers", "2"});
+    QVERIFY2(r.code == 5, qPrintable(r.err + r.out));  // 5: some subjects failed
+    checkReport(cohort);
+    QVERIFY(QFile::exists(cohort + "/subjects/s1/out/Putamen_R.vtp"));
+    QVERIFY(readText(cohort + "/subjects/missing/run.log").contains("== attempt 2"));
+
+    // Again: the completed subjects are not run again, the failed ones are.
+    const QString s1Log = readText(cohort + "/subjects/s1/run.log");
+    r = runTool(SINEW_COHORT, {"run", "-o", cohort});
+    QCOMPARE(r.code, 5);
+    QVERIFY2(r.err.contains("2 of 4 subjects to run (2 already done)"), qPrintable(r.err));
+    QCOMPARE(readText(cohort + "/subjects/s1/run.log"), s1Log);
+    checkReport(cohort);
+
+    // The missing image appears: the next run completes it, and only it.
+    QVERIFY(QFile::copy(path("subject1/image.nii.gz"), path("nowhere.nii.gz")));
+    r = runTool(SINEW_COHORT, {"run", "-o", cohort, "--retries", "0"});
+    QCOMPARE(r.code, 5);
+    const QJsonObject report = readJson(cohort + "/report/cohort_report.json");
+    QCOMPARE(report["completed"].toInt(), 3);
+    QCOMPARE(report["failed"].toInt(), 1);
+    QCOMPARE(report["failures"].toArray()[0].toObject()["subject"].toString(), QString("truncated"));
+    QVERIFY(QFile::remove(path("nowhere.nii.gz")));
+  }
+
+  void badManifestsAreRefused() {
+    const QList<QPair<QString, QString>> cases = {
+        {"subject,target\na,x.nii.gz\na,y.nii.gz\n", "subject id 'a' appears twice"},
+        {"subject,target\n../a,x.nii.gz\n", "subject id '../a'"},
+        {"subject,image\na,x.nii.gz\n", "unknown column 'image'"},
+        {"subject,target\na,x.nii.gz,extra\n", "line 2: 3 fields"},
+        {"subject,target\n", "no subjects"},
+    };
+    for (const auto& [text, expected] : cases) {
+      writeText(path("bad.csv"), text);
+      const ToolResult r = runTool(SINEW_COHORT, {"run", path("bad.csv"), "--model", path("model"), "-o", path("bad")});
+      QCOMPARE(r.code, 3);
+      QVERIFY2(r.err.contains(path("bad.csv")) && r.err.contains(expected), qPrintable(r.err));
+    }
+    const ToolResult r = runTool(SINEW_COHORT, {"report", path("nothing")});
+    QCOMPARE(r.code, 3);
+    QVERIFY2(r.err.contains("not a cohort folder"), qPrintable(r.err));
+  }
+
+  void slurmScriptsHoldOnlyWhatIsMissing() {
+    // The local cohort has s1, s2 and 'missing' done; only 'truncated' (index 3) is left.
+    const ToolResult r = runTool(SINEW_COHORT, {"slurm", "-o", path("local"), "--no-submit", "--throttle", "3",
+                                                "--gpus-per-task", "1", "--sbatch-option", "--qos=short"});
+    QVERIFY2(r.code == 0, qPrintable(r.err));
+    const QString script = readText(path("local/slurm/array.sbatch"));
+    QVERIFY2(script.contains("#SBATCH --array=3%3\n") && script.contains("#SBATCH --gres=gpu:1\n") &&
+                 script.contains("#SBATCH --qos=short\n") && script.contains(" task '" + path("local") + "' --index"),
+             qPrintable(script));
+  }
+
+  void slurmJobArray() {
+    const ToolResult start = runTool("bash", {SLURM_LOCAL, "start", path("slurm-daemons")});
+    if (start.code == 77) QSKIP(qPrintable("no local Slurm: " + start.err.trimmed()));
+    QVERIFY2(start.code == 0, qPrintable(start.err));
+    slurmStarted_ = true;
+    slurmDir_ = path("slurm-daemons");
+    qputenv("SLURM_CONF", QFile::encodeName(slurmDir_ + "/slurm.conf"));
+
+    const QString cohort = path("on-slurm");
+    ToolResult r = runTool(SINEW_COHORT, {"slurm", path("cohort.csv"), "--model", path("model"), "-o", cohort,
+                                          "--throttle", "2", "--cpus-per-task", "1", "--mem", "500M", "--time", "00:20:00",
+                                          "--backend", "cpu"});
+    QVERIFY2(r.code == 0, qPrintable(r.err + r.out));
+    QVERIFY2(r.out.contains("submitted array job") && r.out.contains("submitted report job"), qPrintable(r.out));
+    // The report job runs after every task, however they ended.
+    const QString done = cohort + "/report/cohort_report.json";
+    for (int i = 0; i < 600 && !QFile::exists(done); ++i) QThread::msleep(500);
+    QVERIFY2(QFile::exists(done), qPrintable("no report after 300 s; logs in " + cohort + "/slurm/logs"));
+    checkReport(cohort);
+    // One log per array task, and the task of a broken subject said why it failed.
+    const QStringList logs = QDir(cohort + "/slurm/logs").entryList({"task-*.log"});
+    QCOMPARE(logs.size(), 4);
+    bool named = false;
+    for (const QString& l : logs) named = named || readText(cohort + "/slurm/logs/" + l).contains("subject missing: failed");
+    QVERIFY(named);
+  }
+
+  void cleanupTestCase() {
+    if (slurmStarted_) runTool("bash", {SLURM_LOCAL, "stop", slurmDir_});
+  }
+};
+
+QTEST_GUILESS_MAIN(TestCohort)
+#include "tst_cohort.moc"
