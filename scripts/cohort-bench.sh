@@ -3,7 +3,7 @@
 # configuration, for one cohort of new subjects (docs/benchmarks.md, "Cohorts").
 #   scripts/cohort-bench.sh BUILD_DIR WORK_DIR [SUBJECTS]
 # CONFIGS (default "gpu1x1 gpu1x2 gpu1x4 cpu"): gpuGxJ = G GPUs with J runs each; cpu = CPU workers
-# (CPU_WORKERS, default a quarter of the cores). The model has the 12 AAL structures; subjects are
+# (CPU_WORKERS; 0, the default, lets sinew-cohort choose); J = 0 lets it choose the runs per GPU. The model has the 12 AAL structures; subjects are
 # made by sinew-make-subject with seeds 301, 302, ... and scored against their own labels.
 set -euo pipefail
 build=$(realpath "$1"); work=$(realpath -m "$2"); n=${3:-24}
@@ -21,7 +21,7 @@ echo "| --- | --- | --- | --- | --- | --- | --- |"
 for c in ${CONFIGS:-gpu1x1 gpu1x2 gpu1x4 cpu}; do
   case $c in
     gpu*) g=${c#gpu}; args=(--gpus "${g%x*}" --jobs-per-gpu "${g#*x}") ;;
-    cpu) args=(--gpus 0 --backend cpu --cpu-workers "${CPU_WORKERS:-$(( $(nproc) / 4 ))}") ;;
+    cpu) args=(--gpus 0 --backend cpu --cpu-workers "${CPU_WORKERS:-0}") ;;
   esac
   rm -rf "c-$c"
   start=$(date +%s.%N)

@@ -95,6 +95,7 @@ Cohort prepareCohort(const fs::path& manifest, const fs::path& sceneTemplate, co
     // A changed scene (another template or manifest entry) makes earlier outputs stale.
     if (fs::exists(c.sceneFile(i)) && readText(c.sceneFile(i)) == scene) continue;
     fs::remove(c.statusFile(i), ec);
+    fs::remove(c.outputDir(i) / "report.json", ec);
     writeFileAtomically(c.sceneFile(i), scene);
   }
   writeFileAtomically(c.dir / "cohort.json", j.dump(2) + "\n");

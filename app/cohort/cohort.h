@@ -56,7 +56,7 @@ Cohort loadCohort(const std::filesystem::path& dir);
 
 // The status a subject's task leaves, or what its outputs say when there is none.
 struct SubjectStatus {
-  std::string status = "pending";  // pending, completed, degraded, failed
+  std::string status = "pending";  // pending, completed, degraded, failed, interrupted
   int exitCode = -1;               // sinew-run's last exit code; -1: not run, or killed by a signal
   int attempts = 0;
   double seconds = 0.0;            // wall time of every attempt together

@@ -31,6 +31,8 @@ std::vector<std::string> csvFields(const std::string& line, const fs::path& file
       if (c == '"' && i + 1 < line.size() && line[i + 1] == '"') field += '"', ++i;
       else if (c == '"') quoted = false;
       else field += c;
+    } else if (wasQuoted && c != ',' && c != ' ' && c != '\t') {
+      fail(file, "line " + std::to_string(lineNo) + ": text after a quoted field");
     } else if (c == '"' && trim(field).empty()) {
       quoted = wasQuoted = true;
       field.clear();
@@ -66,6 +68,8 @@ std::vector<Subject> readCsv(std::istream& in, const fs::path& file) {
   int idCol = -1, targetCol = -1, truthCol = -1, transformCol = -1, landmarksCol = -1;
   std::string line;
   for (int lineNo = 1; std::getline(in, line); ++lineNo) {
+    if (!line.empty() && line.back() == '\r') line.pop_back();  // written on Windows
+    if (lineNo == 1 && line.rfind("\xEF\xBB\xBF", 0) == 0) line.erase(0, 3);  // a UTF-8 byte-order mark
     if (trim(line).empty() || trim(line)[0] == '#') continue;
     const auto fields = csvFields(line, file, lineNo);
     if (header.empty()) {
@@ -119,7 +123,7 @@ std::vector<Subject> readJson(std::istream& in, const fs::path& file) {
     for (const auto& [key, value] : e.items()) {
       if (key != "id" && key != "subject" && key != "target" && key != "ground_truth" && key != "transform" && key != "landmarks")
         fail(file, where + "." + key + ": unknown key (keys: id, target, ground_truth, transform, landmarks)");
-      if (!value.is_string()) fail(file, where + "." + key + ": expected a string");
+      if (!value.is_string() || value.get<std::string>().empty()) fail(file, where + "." + key + ": expected a non-empty string");
     }
     Subject s;
     s.id = e.contains("id") ? e["id"].get<std::string>() : e.value("subject", std::string());

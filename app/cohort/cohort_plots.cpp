@@ -130,17 +130,18 @@ void writeRunTimePlot(const std::filesystem::path& path, const CohortReport& rep
   for (const SubjectRow& r : report.subjects) hi = std::max(hi, r.status.seconds);
   range(c, 0, hi);
   c.yMin = 0;
-  c.axes(QString("Run time per subject (%1 failed in red, %2 degraded in orange)").arg(report.failed).arg(report.degraded),
+  c.axes(QString("Run time per subject (%1 failed in red or grey, %2 degraded in orange)").arg(report.failed).arg(report.degraded),
          "wall time, every attempt (s)");
   const double step = c.plot.width() / double(std::max<size_t>(n, 1));
   for (size_t k = 0; k < n; ++k) {
     const SubjectRow& r = report.subjects[k];
     const double x = c.plot.left() + step * (double(k) + 0.5), w = step * 0.7;
     c.category(x - 4, QString::fromStdString(r.id));
-    if (!r.status.attempts) continue;
-    const QColor colour = r.status.status == "completed" ? QColor(70, 160, 90)
-                          : r.status.status == "degraded" ? QColor(230, 150, 40)
-                                                          : QColor(200, 50, 50);
+    if (!r.status.attempts || r.status.status == "pending") continue;
+    const QColor colour = r.status.status == "completed"     ? QColor(70, 160, 90)
+                          : r.status.status == "degraded"    ? QColor(230, 150, 40)
+                          : r.status.status == "interrupted" ? QColor(150, 150, 150)
+                                                             : QColor(200, 50, 50);
     c.painter.setPen(Qt::NoPen);
     c.painter.setBrush(colour);
     c.painter.drawRect(QRectF(QPointF(x - w / 2, c.Y(r.status.seconds)), QPointF(x + w / 2, c.Y(0))));

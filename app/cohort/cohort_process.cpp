@@ -2,6 +2,7 @@
 
 #include "sinew/core/types.h"
 
+#include <algorithm>
 #include <cerrno>
 #include <cstring>
 #include <fcntl.h>
@@ -9,7 +10,9 @@
 #include <fstream>
 #include <mutex>
 #include <set>
+#include <sched.h>
 #include <spawn.h>
+#include <thread>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -22,10 +25,12 @@ namespace fs = std::filesystem;
 namespace {
 std::mutex runningMutex;
 std::set<pid_t> running;
+bool terminating = false;
 }  // namespace
 
 void terminatePrograms() {
   const std::lock_guard lock(runningMutex);
+  terminating = true;
   for (pid_t pid : running) ::kill(pid, SIGTERM);
 }
 
@@ -59,6 +64,7 @@ ProgramResult runProgram(const std::vector<std::string>& argv, const fs::path& l
   {
     const std::lock_guard lock(runningMutex);
     running.insert(pid);
+    if (terminating) ::kill(pid, SIGTERM);  // started as the stop came
   }
   int status = 0;
   int waited;
@@ -92,11 +98,23 @@ std::string lastErrorLine(const fs::path& log) {
     if (!line.empty() && line.back() == '\r') line.pop_back();
     // Progress redraws leave carriage returns: keep what follows the last one.
     if (const auto cr = line.rfind('\r'); cr != std::string::npos) line = line.substr(cr + 1);
-    if (line.find_first_not_of(" \t") == std::string::npos || line.rfind("== ", 0) == 0) continue;
+    if (line.rfind("== ", 0) == 0) {  // a new attempt: what came before is not its
+      lastError.clear();
+      lastLine.clear();
+      continue;
+    }
+    if (line.find_first_not_of(" \t") == std::string::npos) continue;
     lastLine = line;
     if (line.find("error:") != std::string::npos) lastError = line;
   }
   return lastError.empty() ? lastLine : lastError;
+}
+
+unsigned availableCores() {
+  cpu_set_t set;
+  CPU_ZERO(&set);
+  if (::sched_getaffinity(0, sizeof set, &set) == 0 && CPU_COUNT(&set) > 0) return unsigned(CPU_COUNT(&set));
+  return std::max(1u, std::thread::hardware_concurrency());
 }
 
 std::string hostName() {

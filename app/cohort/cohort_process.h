@@ -19,15 +19,20 @@ struct ProgramResult {
 ProgramResult runProgram(const std::vector<std::string>& argv, const std::filesystem::path& log,
                          const std::vector<std::pair<std::string, std::string>>& env = {});
 
-// Sends SIGTERM to every program runProgram is waiting for (an interrupted cohort ends its runs).
+// Sends SIGTERM to every program runProgram is waiting for, and to any it starts from now on (an
+// interrupted cohort ends its runs).
 void terminatePrograms();
 
 // Sinew's program NAME: beside this executable when it is there (the build tree, an installed
 // package), else NAME as found on PATH.
 std::string siblingProgram(const std::string& name);
 
-// The last line of a log that names an error ("sinew-run: error: ..."), else its last non-empty line.
+// The last line of a log's last section (from its last line starting "== ") that names an error
+// ("sinew-run: error: ..."), else that section's last non-empty line.
 std::string lastErrorLine(const std::filesystem::path& log);
+
+// The CPU cores this process may run on (its affinity mask: a Slurm allocation, taskset).
+unsigned availableCores();
 
 std::string hostName();
 

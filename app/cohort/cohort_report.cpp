@@ -5,7 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <fstream>
-#include <iomanip>
+#include <cstdio>
 #include <numeric>
 #include <sstream>
 
@@ -30,9 +30,9 @@ std::string csvField(const std::string& s) {
 
 std::string num(double v) {
   if (std::isnan(v)) return "";
-  std::ostringstream s;
-  s << std::setprecision(6) << v;
-  return s.str();
+  char s[32];
+  std::snprintf(s, sizeof s, "%.10g", v);
+  return s;
 }
 
 double mean(const std::vector<double>& v) {
@@ -136,7 +136,7 @@ CohortReport gatherReport(const Cohort& cohort) {
       row.status.status = "pending";  // its outputs are gone: it runs again
     }
     const std::string& now = row.status.status;
-    (now == "completed" ? rep.completed : now == "degraded" ? rep.degraded : now == "failed" ? rep.failed : rep.pending)++;
+    (now == "completed" ? rep.completed : now == "degraded" ? rep.degraded : now == "pending" ? rep.pending : rep.failed)++;
     rep.subjects.push_back(std::move(row));
   }
   return rep;
@@ -152,7 +152,7 @@ void writeReport(const Cohort& cohort, const CohortReport& rep) {
   subjects << "subject,status,exit_code,attempts,wall_seconds,total_seconds,simulation_seconds,backend,host,gpu,"
               "mean_assd_mm,mean_dice,overlap_mm3,message\n";
   for (const SubjectRow& r : rep.subjects)
-    subjects << csvField(r.id) << ',' << r.status.status << ',' << (r.status.attempts ? std::to_string(r.status.exitCode) : "")
+    subjects << csvField(r.id) << ',' << r.status.status << ',' << (r.status.exitCode >= 0 ? std::to_string(r.status.exitCode) : "")
              << ',' << r.status.attempts << ',' << num(r.status.seconds) << ',' << num(r.totalSeconds) << ','
              << num(r.simulationSeconds) << ',' << csvField(r.status.backend) << ',' << csvField(r.status.host) << ','
              << csvField(r.status.gpu) << ',' << num(r.meanAssd) << ',' << num(r.meanDice) << ',' << num(r.overlapMm3)
@@ -202,11 +202,11 @@ void writeReport(const Cohort& cohort, const CohortReport& rep) {
                   {"failures", failures},
                   {"subject_wall_seconds", statsJson(statistics(wall))},
                   {"structures", perStructure}};
-  writeFileAtomically(dir / "cohort_report.json", j.dump(2) + "\n");
-
   writeBoxPlot(dir / "assd_boxplot.png", rep, &StructureResult::assdFinal, "Final ASSD per structure", "ASSD (mm)");
   writeBoxPlot(dir / "dice_boxplot.png", rep, &StructureResult::dice, "Dice per structure", "Dice");
   writeRunTimePlot(dir / "run_time.png", rep);
+  // Last: its presence says the report is whole.
+  writeFileAtomically(dir / "cohort_report.json", j.dump(2) + "\n");
 }
 
 }  // namespace sinew::cohort

@@ -52,7 +52,8 @@ namespace {
 std::string now() {
   const std::time_t t = std::time(nullptr);
   char s[32];
-  std::strftime(s, sizeof s, "%Y-%m-%d %H:%M:%S", std::localtime(&t));
+  std::tm local{};
+  std::strftime(s, sizeof s, "%Y-%m-%d %H:%M:%S", localtime_r(&t, &local));
   return s;
 }
 
@@ -73,13 +74,14 @@ std::pair<std::string, double> reportSummary(const fs::path& report) {
 }
 
 std::string describe(const ProgramResult& r) {
-  if (r.signal) return std::string("killed by signal ") + std::to_string(r.signal) + " (" + strsignal(r.signal) + ")";
+  if (r.signal) {
+    const char* name = sigabbrev_np(r.signal);
+    return "killed by signal " + std::to_string(r.signal) + (name ? std::string(" (SIG") + name + ")" : std::string());
+  }
   return "exit " + std::to_string(r.exitCode);
 }
 
 }  // namespace
-
-int usableGpus() { return usableGpuCount(); }
 
 TaskResult runSubject(const Cohort& cohort, size_t i, const TaskOptions& options) {
   TaskResult result;
@@ -104,7 +106,13 @@ TaskResult runSubject(const Cohort& cohort, size_t i, const TaskOptions& options
   std::vector<std::pair<std::string, std::string>> env;
   if (options.gpu) env.emplace_back("CUDA_VISIBLE_DEVICES", *options.gpu);
   const auto start = std::chrono::steady_clock::now();
+  const fs::path report = cohort.outputDir(i) / "report.json";
   for (int attempt = 1; attempt <= 1 + std::max(0, options.retries); ++attempt) {
+    if (stopRequested) break;
+    // A report left by an earlier run (another scene, a run killed after writing) must not pass
+    // for this attempt's.
+    std::error_code ec;
+    fs::remove(report, ec);
     {
       std::ofstream log(cohort.logFile(i), std::ios::app);
       log << "== attempt " << attempt << " at " << now() << " on " << st.host << (options.gpu ? ", GPU " + *options.gpu : "")
@@ -123,22 +131,30 @@ TaskResult runSubject(const Cohort& cohort, size_t i, const TaskOptions& options
     result.ran = true;
     st.attempts = attempt;
     st.exitCode = r.signal ? -1 : r.exitCode;
-    if (stopRequested) return result;  // interrupted: no verdict, the subject stays pending
-    if (r.exitCode == 0 && !r.signal) {
+    const bool wrote = fs::exists(report);
+    if (r.exitCode == 0 && !r.signal && wrote) {  // a run that finished as the stop came counts
       st.status = "completed";
       st.message.clear();
       break;
     }
+    if (stopRequested) break;
     const std::string line = lastErrorLine(cohort.logFile(i));
     st.message = describe(r) + (line.empty() ? "" : ": " + line);
-    if (r.exitCode == 4) {  // its last good meshes are written; running it again gives the same
-      st.status = "degraded";
+    st.status = "failed";
+    // Exit 4 is sinew-run's own verdict: with its last good meshes written (degraded), or with a
+    // non-finite state and nothing written; running it again gives the same.
+    if (r.exitCode == 4) {
+      if (wrote) st.status = "degraded";
       break;
     }
-    st.status = "failed";
+  }
+  if (stopRequested && st.status != "completed") {
+    // Ctrl-C, scancel or Slurm's time limit: not a verdict on the subject, which runs again next time.
+    st.status = "interrupted";
+    st.message = "stopped by a signal (Ctrl-C, scancel or a time limit) before it ended";
   }
   st.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  if (st.status != "failed") st.backend = reportSummary(cohort.outputDir(i) / "report.json").first;
+  if (st.status == "completed" || st.status == "degraded") st.backend = reportSummary(report).first;
   writeStatus(cohort, i, st);
   return result;
 }
@@ -159,24 +175,27 @@ CohortSummary runLocal(const Cohort& cohort, const LocalOptions& options) {
   }
 
   // The slots: jobsPerGpu per GPU, or CPU workers.
-  const unsigned cores = std::max(1u, std::thread::hardware_concurrency());
-  const int usable = options.task.backend == "cpu" || options.gpus == 0 ? 0 : usableGpus();
+  const unsigned cores = availableCores();
+  const std::vector<int> devices = options.task.backend == "cpu" || options.gpus == 0 ? std::vector<int>{} : usableGpus();
+  const int usable = int(devices.size());
   if (options.gpus > usable)
     throw InputError("--gpus " + std::to_string(options.gpus) + ": this host has " + std::to_string(usable) +
                      " GPU(s) the CUDA backend can use" + (options.task.backend == "cpu" ? " with --backend cpu" : ""));
   const int gpus = options.gpus < 0 ? usable : options.gpus;
   std::vector<std::optional<std::string>> slots;
   if (gpus > 0) {
-    // The k-th GPU of those this process may see: CUDA_VISIBLE_DEVICES (Slurm sets it) or 0..n-1.
+    // The usable GPUs by CUDA index among those this process sees; named for the child as this
+    // process's CUDA_VISIBLE_DEVICES names them (Slurm sets it), else by that index.
     std::vector<std::string> visible;
     if (const char* v = std::getenv("CUDA_VISIBLE_DEVICES"); v && *v) {
       std::stringstream s(v);
       for (std::string id; std::getline(s, id, ',');) visible.push_back(id);
     }
     const int perGpu = options.jobsPerGpu > 0 ? options.jobsPerGpu : std::max(1, int(cores) / (2 * gpus));
-    for (int g = 0; g < gpus; ++g)
-      for (int j = 0; j < perGpu; ++j)
-        slots.push_back(size_t(g) < visible.size() ? visible[size_t(g)] : std::to_string(g));
+    for (int g = 0; g < gpus; ++g) {
+      const size_t d = size_t(devices[size_t(g)]);
+      for (int j = 0; j < perGpu; ++j) slots.push_back(d < visible.size() ? visible[d] : std::to_string(d));
+    }
   } else {
     const int workers = options.cpuWorkers > 0 ? options.cpuWorkers : std::max(1, int(cores) / 2);
     slots.assign(size_t(workers), std::nullopt);
@@ -196,12 +215,21 @@ CohortSummary runLocal(const Cohort& cohort, const LocalOptions& options) {
   std::mutex m;
   std::atomic<size_t> next{0};
   int finished = 0;
+  std::exception_ptr firstError;  // a file system error in a worker: the cohort stops after the others
   auto work = [&](const std::optional<std::string>& gpu) {
     TaskOptions t = task;
     t.gpu = gpu;
     for (size_t k; !stopRequested && (k = next++) < todo.size();) {
       const size_t i = todo[k];
-      const TaskResult r = runSubject(cohort, i, t);
+      TaskResult r;
+      try {
+        r = runSubject(cohort, i, t);
+      } catch (...) {
+        const std::lock_guard lock(m);
+        if (!firstError) firstError = std::current_exception();
+        next = todo.size();
+        break;
+      }
       const std::lock_guard lock(m);
       if (stopRequested) break;
       ++finished;
@@ -224,6 +252,7 @@ CohortSummary runLocal(const Cohort& cohort, const LocalOptions& options) {
   std::vector<std::thread> threads;
   for (const auto& slot : slots) threads.emplace_back(work, slot);
   for (std::thread& t : threads) t.join();
+  if (firstError) std::rethrow_exception(firstError);
   sum.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   if (stopRequested) throw Interrupted("interrupted; run the cohort again to finish it (done subjects are kept)");
   return sum;

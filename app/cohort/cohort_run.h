@@ -23,6 +23,7 @@ struct TaskOptions {
 // subjects/ID/run.log; a failure is tried again (options.retries), except exit 4 (sinew-run ended
 // by itself with its last good meshes: a deterministic verdict, docs/cohorts.md). Writes and
 // returns the subject's status. ran is false when the subject was already done or could not start.
+// After a stop signal (stopOnSignals) the status is "interrupted": not done, so it runs next time.
 struct TaskResult {
   SubjectStatus status;
   bool ran = false;
@@ -56,8 +57,5 @@ struct Interrupted : std::runtime_error {
 // Every subject that is not done, over the slots: GPU k's slots run with CUDA_VISIBLE_DEVICES set
 // to the k-th visible device and the cuda backend; CPU slots share the cores. Progress on stderr.
 CohortSummary runLocal(const Cohort& cohort, const LocalOptions& options);
-
-// How many usable GPUs this host has (0 in a build without CUDA).
-int usableGpus();
 
 }  // namespace sinew::cohort

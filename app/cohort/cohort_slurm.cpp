@@ -32,34 +32,48 @@ std::string submit(const SlurmOptions& o, const std::vector<std::string>& args, 
   words.push_back(script.string());
   std::string command;
   for (const std::string& w : words) command.append(quoted(w)).append(" ");
-  command.append("2>&1");
+  // Only stdout is read: sites print warnings on stderr, which goes on to ours.
   FILE* p = ::popen(command.c_str(), "r");
   if (!p) throw InputError(o.sbatch + ": cannot start");
-  std::string out;
+  std::string out, line;
   std::array<char, 512> buffer{};
   while (std::fgets(buffer.data(), int(buffer.size()), p)) out += buffer.data();
   const int status = ::pclose(p);
-  while (!out.empty() && (out.back() == '\n' || out.back() == '\r')) out.pop_back();
-  const std::string id = out.substr(0, out.find(';'));
+  std::istringstream lines(out);
+  std::string id;
+  while (std::getline(lines, line))  // the job id is the last line: "JOBID" or "JOBID;CLUSTER"
+    if (!line.empty()) id = line.substr(0, line.find(';'));
   const bool numeric = !id.empty() && id.find_first_not_of("0123456789") == std::string::npos;
   if (status != 0 || !numeric)
-    throw InputError(script.string() + ": sbatch refused it: " + (out.empty() ? "exit " + std::to_string(WEXITSTATUS(status)) : out));
+    throw InputError(script.string() + ": sbatch refused it (exit " + std::to_string(WEXITSTATUS(status)) +
+                     "; its message is above)");
   return id;
 }
 
-std::string header(const SlurmOptions& o, const std::string& name, const std::string& log, int cpus, int gpus,
-                   const std::string& memory) {
+// A value on an #SBATCH line: sbatch splits those lines on white space and expands % in file names
+// (a folder's % is doubled; pattern, such as "/task-%A_%a.log", is appended as it is).
+std::string sbatchValue(const std::string& option, const std::string& v, bool folder = false,
+                        const std::string& pattern = {}) {
+  if (v.find_first_of("\"\n\r") != std::string::npos) throw InputError(option + " '" + v + "': no quotes or line breaks");
+  std::string out;
+  for (char c : v) out += folder && c == '%' ? std::string("%%") : std::string(1, c);
+  out += pattern;
+  return out.find_first_of(" \t") == std::string::npos ? out : "\"" + out + "\"";
+}
+
+std::string header(const SlurmOptions& o, const std::string& name, const std::string& logDir, const std::string& logName,
+                   int cpus, int gpus, const std::string& memory) {
   std::ostringstream s;
   s << "#!/bin/bash\n"
     << "# Written by sinew-cohort slurm (docs/cohorts.md).\n"
     << "#SBATCH --job-name=" << name << "\n"
-    << "#SBATCH --output=" << log << "\n"
+    << "#SBATCH --output=" << sbatchValue("the cohort folder", logDir, true, "/" + logName) << "\n"
     << "#SBATCH --cpus-per-task=" << cpus << "\n"
-    << "#SBATCH --mem=" << memory << "\n"
-    << "#SBATCH --time=" << o.time << "\n";
+    << "#SBATCH --mem=" << sbatchValue("--mem", memory) << "\n"
+    << "#SBATCH --time=" << sbatchValue("--time", o.time) << "\n";
   if (gpus > 0) s << "#SBATCH --gres=gpu:" << gpus << "\n";
-  if (!o.partition.empty()) s << "#SBATCH --partition=" << o.partition << "\n";
-  if (!o.account.empty()) s << "#SBATCH --account=" << o.account << "\n";
+  if (!o.partition.empty()) s << "#SBATCH --partition=" << sbatchValue("--partition", o.partition) << "\n";
+  if (!o.account.empty()) s << "#SBATCH --account=" << sbatchValue("--account", o.account) << "\n";
   for (const std::string& e : o.extra) s << "#SBATCH " << e << "\n";
   return s.str();
 }
@@ -96,19 +110,32 @@ SlurmJobs writeSlurmJobs(const Cohort& cohort, const SlurmOptions& o) {
   jobs.arrayScript = dir / "array.sbatch";
   jobs.reportScript = dir / "report.sbatch";
   const std::string logs = (dir / "logs").string();
+  // Without GPUs asked for, a task must not take one Slurm did not give it.
+  const std::string backend = o.gpusPerTask == 0 && o.backend == "auto" ? "cpu" : o.backend;
   if (!jobs.indices.empty()) {
-    std::string s = header(o, "sinew-cohort", logs + "/task-%A_%a.log", o.cpusPerTask, o.gpusPerTask, o.memory);
+    std::string s = header(o, "sinew-cohort", logs, "task-%A_%a.log", o.cpusPerTask, o.gpusPerTask, o.memory);
     s.insert(s.find("#SBATCH --output"), "#SBATCH --array=" + arraySpec(jobs.indices) + "%" + std::to_string(std::max(1, o.throttle)) + "\n");
+    // The subjects by name, so that a manifest edited while the array waits cannot swap them.
+    s += "subjects=(";
+    for (size_t i = 0; i < cohort.subjects.size(); ++i) {
+      if (i) s += ' ';
+      s += quoted(cohort.subjects[i].id);
+    }
+    s += ")\n";
     s += "# One subject per task; its exit code is the subject's (sinew-run's), so failures show in sacct.\n";
     s += "exec " + quoted(o.sinewCohort) + " task " + quoted(cohort.dir.string()) +
-         " --index \"$SLURM_ARRAY_TASK_ID\" --threads \"${SLURM_CPUS_PER_TASK:-0}\" --backend " + quoted(o.backend) + "\n";
+         " --subject \"${subjects[$SLURM_ARRAY_TASK_ID]}\" --threads \"${SLURM_CPUS_PER_TASK:-0}\" --backend " + quoted(backend) + "\n";
     writeScript(jobs.arrayScript, s);
   }
-  std::string r = header(o, "sinew-cohort-report", logs + "/report-%j.log", 1, 0, "2G");
+  std::string r = header(o, "sinew-cohort-report", logs, "report-%j.log", 1, 0, "1G");
   r += "exec " + quoted(o.sinewCohort) + " report " + quoted(cohort.dir.string()) + "\n";
   writeScript(jobs.reportScript, r);
   if (!o.submit) return jobs;
-  if (!jobs.indices.empty()) jobs.arrayJob = submit(o, {}, jobs.arrayScript);
+  if (!jobs.indices.empty()) {
+    jobs.arrayJob = submit(o, {}, jobs.arrayScript);
+    std::fprintf(stdout, "submitted array job %s\n", jobs.arrayJob.c_str());
+    std::fflush(stdout);
+  }
   jobs.reportJob = submit(o, jobs.arrayJob.empty() ? std::vector<std::string>{} : std::vector<std::string>{"--dependency=afterany:" + jobs.arrayJob},
                           jobs.reportScript);
   return jobs;

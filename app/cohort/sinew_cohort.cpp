@@ -49,8 +49,11 @@ Cohort cohortFrom(const CohortInputs& in) {
     // sinew-make-scene only reads the model's manifest; the target is replaced for every subject.
     std::ifstream manifest(*model / "model.json");
     const Json m = Json::parse(manifest, nullptr, false);
-    if (m.is_discarded() || !m.contains("atlas_image")) throw InputError(in.model + ": not a Sinew model (no valid model.json)");
-    fs::create_directories(in.out);
+    if (m.is_discarded() || !m.contains("atlas_image") || !m["atlas_image"].is_string())
+      throw InputError(in.model + ": not a Sinew model (no valid model.json)");
+    std::error_code ec;
+    fs::create_directories(in.out, ec);
+    if (ec) throw InputError(in.out + ": cannot create the cohort folder: " + ec.message());
     templateFile = fs::path(in.out) / "template.json";
     const fs::path log = fs::path(in.out) / "template.log";
     const ProgramResult r = runProgram({siblingProgram("sinew-make-scene"), "--model", in.model, "--target",
@@ -126,12 +129,14 @@ int main(int argc, char** argv) {
   bool noSubmit = false;
   sl->add_flag("--no-submit", noSubmit, "write the scripts only");
 
-  std::string taskDir;
+  std::string taskDir, taskSubject;
   size_t taskIndex = 0;
   TaskOptions task;
   auto* tk = cli.add_subcommand("task", "run one subject of a prepared cohort (what each Slurm array task does)");
   tk->add_option("cohort", taskDir, "cohort folder")->required();
-  tk->add_option("--index", taskIndex, "the subject's index (SLURM_ARRAY_TASK_ID)")->required();
+  auto* byIndex = tk->add_option("--index", taskIndex, "the subject's index in cohort.json");
+  auto* byName = tk->add_option("--subject", taskSubject, "the subject's id (what the array script passes)");
+  byIndex->excludes(byName);
   tk->add_option("--backend", task.backend, "sinew-run's backend")->check(CLI::IsMember({"auto", "cuda", "cpu"}))->capture_default_str();
   tk->add_option("-j,--threads", task.threads, "CPU threads (0: all)")->check(CLI::NonNegativeNumber);
   tk->add_option("--retries", task.retries, "times a failed run is tried again")->check(CLI::Range(0, 5))->capture_default_str();
@@ -167,12 +172,19 @@ int main(int argc, char** argv) {
       std::printf("%zu of %zu subjects to run: %s\n", jobs.indices.size(), cohort.subjects.size(),
                   jobs.indices.empty() ? "-" : jobs.arrayScript.string().c_str());
       std::printf("report job: %s\n", jobs.reportScript.string().c_str());
-      if (!jobs.arrayJob.empty()) std::printf("submitted array job %s\n", jobs.arrayJob.c_str());
       if (!jobs.reportJob.empty()) std::printf("submitted report job %s\n", jobs.reportJob.c_str());
       return 0;
     }
     if (*tk) {
+      if (byIndex->count() == 0 && byName->count() == 0) throw InputError("task: give --subject or --index");
       const Cohort cohort = loadCohort(taskDir);
+      if (!taskSubject.empty()) {
+        taskIndex = cohort.subjects.size();
+        for (size_t i = 0; i < cohort.subjects.size(); ++i)
+          if (cohort.subjects[i].id == taskSubject) taskIndex = i;
+        if (taskIndex == cohort.subjects.size())
+          throw InputError(taskDir + ": no subject '" + taskSubject + "' in the cohort");
+      }
       if (taskIndex >= cohort.subjects.size())
         throw InputError(taskDir + ": --index " + std::to_string(taskIndex) + ": the cohort has " +
                          std::to_string(cohort.subjects.size()) + " subjects");
@@ -188,6 +200,7 @@ int main(int argc, char** argv) {
       std::fprintf(stderr, "sinew-cohort: subject %s: %s in %.1f s%s%s\n", id.c_str(), st.status.c_str(), st.seconds,
                    st.message.empty() ? "" : ": ", st.message.c_str());
       if (st.status == "completed") return 0;
+      if (st.status == "interrupted") return 130;
       return st.exitCode > 0 ? st.exitCode : 1;
     }
     if (*rp) return report(loadCohort(reportDir), true);
@@ -195,6 +208,12 @@ int main(int argc, char** argv) {
     std::cerr << "sinew-cohort: " << e.what() << "\n";
     return 130;
   } catch (const InputError& e) {
+    std::cerr << "sinew-cohort: error: " << e.what() << "\n";
+    return 3;
+  } catch (const Json::exception& e) {  // a template or model manifest of the wrong shape
+    std::cerr << "sinew-cohort: error: unexpected JSON: " << e.what() << "\n";
+    return 3;
+  } catch (const fs::filesystem_error& e) {
     std::cerr << "sinew-cohort: error: " << e.what() << "\n";
     return 3;
   } catch (const std::exception& e) {

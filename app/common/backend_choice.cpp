@@ -44,11 +44,11 @@ std::unique_ptr<ExecutionBackend> makeBackend(const std::string& choice, Simulat
 #endif
 }
 
-int usableGpuCount() {
+std::vector<int> usableGpus() {
 #ifdef SINEW_WITH_CUDA
-  return cuda::usableDeviceCount();
+  return cuda::usableDevices();
 #else
-  return 0;
+  return {};
 #endif
 }
 

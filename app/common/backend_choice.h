@@ -8,6 +8,7 @@
 #include <functional>
 #include <memory>
 #include <string>
+#include <vector>
 
 namespace sinew {
 
@@ -21,7 +22,8 @@ std::unique_ptr<ExecutionBackend> makeBackend(const std::string& choice, Simulat
 // Nothing for "cpu" or in a build without CUDA.
 void startDeviceEarly(const std::string& choice);
 
-// How many GPUs the CUDA backend can use on this host (0 in a build without CUDA).
-int usableGpuCount();
+// The GPUs the CUDA backend can use on this host, by CUDA index among the visible devices (none in
+// a build without CUDA).
+std::vector<int> usableGpus();
 
 }  // namespace sinew

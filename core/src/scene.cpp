@@ -351,7 +351,8 @@ SceneDesc parseScene(const std::string& text, const fs::path& file) {
   if (root.has("stability")) {
     const Node g = root.at("stability");
     g.expectObject({"guard", "max_step_mm", "max_retries", "min_volume_ratio", "max_volume_ratio", "max_drift_mm",
-                    "max_outside_fraction", "max_inverted_fraction", "max_collapsed_fraction"});
+                    "max_outside_fraction", "max_inverted_fraction", "max_collapsed_fraction",
+                    "max_self_intersecting_fraction"});
     if (g.has("guard")) s.stability.enabled = g.at("guard").boolean();
     if (g.has("max_step_mm")) s.stability.maxStepMm = g.at("max_step_mm").number();
     if (!(s.stability.maxStepMm > 0.0)) g.at("max_step_mm").fail("must be positive");
@@ -374,6 +375,9 @@ SceneDesc parseScene(const std::string& text, const fs::path& file) {
     if (g.has("max_collapsed_fraction")) shape.maxCollapsedFraction = g.at("max_collapsed_fraction").number();
     if (!(shape.maxCollapsedFraction >= 0.0 && shape.maxCollapsedFraction <= 1.0))
       g.at("max_collapsed_fraction").fail("must be in [0, 1]");
+    if (g.has("max_self_intersecting_fraction")) shape.maxSelfIntersectingFraction = g.at("max_self_intersecting_fraction").number();
+    if (!(shape.maxSelfIntersectingFraction >= 0.0 && shape.maxSelfIntersectingFraction <= 1.0))
+      g.at("max_self_intersecting_fraction").fail("must be in [0, 1]");
   }
   if (root.has("report")) {
     const Node r = root.at("report");
@@ -478,7 +482,8 @@ std::string sceneToJson(const SceneDesc& s) {
                     {"max_drift_mm", s.stability.shape.maxDriftMm},
                     {"max_outside_fraction", s.stability.shape.maxOutsideFraction},
                     {"max_inverted_fraction", s.stability.shape.maxInvertedFraction},
-                    {"max_collapsed_fraction", s.stability.shape.maxCollapsedFraction}};
+                    {"max_collapsed_fraction", s.stability.shape.maxCollapsedFraction},
+                    {"max_self_intersecting_fraction", s.stability.shape.maxSelfIntersectingFraction}};
   j["report"] = {{"sample_interval", s.sampleInterval}, {"surface_sample_spacing_mm", s.surfaceSampleSpacingMm}};
   j["outputs"] = {{"mesh_format", s.meshFormat}, {"meshes", s.writeMeshes}, {"label_map", s.labelMapName}};
   return j.dump(2) + "\n";

@@ -1,5 +1,6 @@
 #include "sinew/core/shape_guard.h"
 
+#include "sinew/core/self_intersection.h"
 #include "sinew/core/simplex_mesh.h"
 
 #include <tbb/parallel_for.h>
@@ -133,6 +134,18 @@ std::string ShapeGuard::checkOne(MeshStore& store, Index m, const ImageGeometry&
                   "shape check: %s has %.3g %% of its cells collapsed below 1 %% of their area at the start (limit %.3g %%)",
                   name.c_str(), 100.0 * collapsed / cells, 100.0 * limits.maxCollapsedFraction);
     return text;
+  }
+  // Last: the dearest check, on a sample of the surface.
+  if (limits.maxSelfIntersectingFraction < 1.0) {
+    const SelfIntersectionSample si = sampleSelfIntersections(store, store.positions(), m);
+    if (si.fraction() > limits.maxSelfIntersectingFraction) {
+      std::snprintf(text, sizeof text,
+                    "shape check: %s crosses itself: %.3g %% of %lld sampled surface triangles pass through another part "
+                    "of it (limit %.3g %%)",
+                    name.c_str(), 100.0 * si.fraction(), static_cast<long long>(si.sampled),
+                    100.0 * limits.maxSelfIntersectingFraction);
+      return text;
+    }
   }
   return {};
 }

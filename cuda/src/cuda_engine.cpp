@@ -46,12 +46,13 @@ DeviceStatus probeDevice() {
   return st;
 }
 
-int usableDeviceCount() {
-  int count = 0, usable = 0;
-  if (cudaGetDeviceCount(&count) != cudaSuccess) return 0;
+std::vector<int> usableDevices() {
+  int count = 0;
+  std::vector<int> usable;
+  if (cudaGetDeviceCount(&count) != cudaSuccess) return usable;
   for (int d = 0; d < count; ++d) {
     cudaDeviceProp p{};
-    if (cudaGetDeviceProperties(&p, d) == cudaSuccess && p.major >= 9) ++usable;
+    if (cudaGetDeviceProperties(&p, d) == cudaSuccess && p.major >= 9) usable.push_back(d);
   }
   return usable;
 }

@@ -157,7 +157,7 @@ private slots:
     QVERIFY2(r.code == 0, qPrintable(r.err));
     const QString script = readText(path("local/slurm/array.sbatch"));
     QVERIFY2(script.contains("#SBATCH --array=3%3\n") && script.contains("#SBATCH --gres=gpu:1\n") &&
-                 script.contains("#SBATCH --qos=short\n") && script.contains(" task '" + path("local") + "' --index"),
+                 script.contains("#SBATCH --qos=short\n") && script.contains(" task '" + path("local") + "' --subject") && script.contains("subjects=('s1' 'missing' 's2' 'truncated')"),
              qPrintable(script));
   }
 

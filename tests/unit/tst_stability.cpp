@@ -1,6 +1,7 @@
 // Issue 7's acceptance: the stability suite never produces a non-finite vertex, implicit Euler
 // stays stable at >= 5x the largest stable Verlet step on the stiff cases, and the guard's
 // rollback and clean failure are exercised and reported.
+#include "sinew/core/self_intersection.h"
 #include "sinew/core/shape_guard.h"
 #include "stability_suite.h"
 #include "synthetic.h"
@@ -210,6 +211,34 @@ private Q_SLOTS:
     const QString needle = moveBall([&](const Vec3& p) -> Vec3 { return c + Vec3(p.x() - c.x(), 1e-3f * (p.y() - c.y()), 1e-3f * (p.z() - c.z())); },
                                     onlyCollapse);
     QVERIFY2(needle.contains("structure 'ball' has 100 % of its cells collapsed"), qPrintable(needle));
+    // Crossed: the top cap (z above half the radius) carried down 16 mm, whole, through the bottom
+    // of the sphere. The sphere as it started, and turned, crosses nothing.
+    ShapeLimits onlySelf;
+    onlySelf.minVolumeRatio = 0.0;
+    onlySelf.maxVolumeRatio = 1e9;
+    onlySelf.maxDriftMm = 1e9;
+    onlySelf.maxInvertedFraction = onlySelf.maxCollapsedFraction = 1.0;
+    onlySelf.maxSelfIntersectingFraction = 0.0;
+    QCOMPARE(moveBall([&](const Vec3& p) -> Vec3 { return c + turn * (p - c); }, onlySelf), QString());
+    QCOMPARE(sampleSelfIntersections(s, s.positions(), 0).intersecting, Index(0));
+    const QString crossed = moveBall([&](const Vec3& p) -> Vec3 { return p.z() > base ? Vec3(p - Vec3(0, 0, 16)) : p; }, onlySelf);
+    QVERIFY2(crossed.contains("structure 'ball' crosses itself"), qPrintable(crossed));
+    const SelfIntersectionSample cap = sampleSelfIntersections(s, s.positions(), 0);
+    qInfo("cap through the bottom: %lld of %lld sampled triangles cross", (long long)cap.intersecting, (long long)cap.sampled);
+    QVERIFY(cap.sampled > 500 && cap.fraction() > ShapeLimits{}.maxSelfIntersectingFraction);  // the default fires too
+    QCOMPARE(sampleSelfIntersections(s, s.positions(), 1).intersecting, Index(0));  // the other structure
+  }
+
+  // The triangle test behind the self-intersection check.
+  void trianglesCrossOnlyWhenTheyDo() {
+    const Eigen::Vector3d t[3] = {{0, 0, 0}, {2, 0, 0}, {0, 2, 0}};
+    const Eigen::Vector3d through[3] = {{0.5, 0.5, -1}, {0.5, 0.5, 1}, {3, 3, 0.5}};   // an edge through t
+    const Eigen::Vector3d above[3] = {{0.5, 0.5, 0.1}, {1.5, 0.2, 0.2}, {0.2, 1.5, 0.3}};  // over t
+    const Eigen::Vector3d beside[3] = {{3, 0, -1}, {3, 0, 1}, {4, 1, 0}};              // its plane crosses t's, not t
+    QVERIFY(trianglesIntersect(t, through));
+    QVERIFY(trianglesIntersect(through, t));
+    QVERIFY(!trianglesIntersect(t, above));
+    QVERIFY(!trianglesIntersect(t, beside));
   }
 };
 

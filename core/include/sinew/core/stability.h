@@ -22,6 +22,9 @@ struct ShapeLimits {
   // hippocampus at level 4: 2 %) without being wrong as a whole.
   double maxInvertedFraction = 0.05;
   double maxCollapsedFraction = 0.05;
+  // Sampled triangles of the surface (self_intersection.h) that cross another part of the same
+  // surface, as a share of the sample; the same allowance as folded cells.
+  double maxSelfIntersectingFraction = 0.05;
 };
 
 struct StabilityGuard {

@@ -9,6 +9,7 @@
 
 #include <memory>
 #include <string>
+#include <vector>
 
 namespace sinew::cuda {
 
@@ -23,8 +24,8 @@ DeviceStatus probeDevice();
 // probeDevice(), then the device's context created (the first CUDA call's cost, a few tenths of a
 // second), so that a later CudaEngine starts at once. Never throws.
 DeviceStatus startDevice();
-// How many devices this build can use (compute capability 9.0 or later) are visible. Never throws.
-int usableDeviceCount();
+// The visible devices this build can use (compute capability 9.0 or later), by CUDA index. Never throws.
+std::vector<int> usableDevices();
 
 class CudaEngine final : public ExecutionBackend {
 public:

@@ -1,0 +1,29 @@
+// Self-intersections of one structure's surface, for the shape guard (shape_guard.h): the surface
+// is the Fig. 1b tessellation (each cell fanned around its centroid, as the volume and the written
+// meshes use), and a sample of its triangles is tested against every triangle of the structure
+// that shares no vertex and no cell with it. Triangles are binned on a uniform grid whose spacing is
+// twice the 99th percentile of their extents, so a query looks at 27 bins (and at the few larger
+// triangles); one pass is linear in the structure's size.
+#pragma once
+
+#include "sinew/core/mesh_store.h"
+
+#include <span>
+
+namespace sinew {
+
+struct SelfIntersectionSample {
+  Index sampled = 0;       // triangles tested
+  Index intersecting = 0;  // of them, those that cross a triangle they are not joined to
+  double fraction() const { return sampled ? double(intersecting) / double(sampled) : 0.0; }
+};
+
+// At most maxSamples triangles, evenly spread over the structure's (deterministic).
+SelfIntersectionSample sampleSelfIntersections(const MeshStore& store, std::span<const Vec3> positions, Index mesh,
+                                               Index maxSamples = 2048);
+
+// Whether two triangles cross (an edge of one passes through the other); coplanar overlaps are
+// not counted.
+bool trianglesIntersect(const Eigen::Vector3d a[3], const Eigen::Vector3d b[3]);
+
+}  // namespace sinew
