@@ -27,14 +27,20 @@ bool segmentCrossesTriangle(const Eigen::Vector3d& p, const Eigen::Vector3d& q, 
   return along >= 0.0 && along <= 1.0;
 }
 
-struct Triangle {
-  std::array<Index, 3> vertex;  // mesh vertices; the centroid corner is -1
-  Index cell;
-};
+}  // namespace
 
+namespace {
+// Whether the three points lie strictly on one side of the plane through t (Moller's early-out: then
+// no edge of theirs reaches t).
+bool oneSide(const Eigen::Vector3d t[3], const Eigen::Vector3d p[3]) {
+  const Eigen::Vector3d n = (t[1] - t[0]).cross(t[2] - t[0]);
+  const double d0 = n.dot(p[0] - t[0]), d1 = n.dot(p[1] - t[0]), d2 = n.dot(p[2] - t[0]);
+  return (d0 > 0.0 && d1 > 0.0 && d2 > 0.0) || (d0 < 0.0 && d1 < 0.0 && d2 < 0.0);
+}
 }  // namespace
 
 bool trianglesIntersect(const Eigen::Vector3d a[3], const Eigen::Vector3d b[3]) {
+  if (oneSide(a, b) || oneSide(b, a)) return false;
   for (int i = 0; i < 3; ++i) {
     if (segmentCrossesTriangle(a[i], a[(i + 1) % 3], b)) return true;
     if (segmentCrossesTriangle(b[i], b[(i + 1) % 3], a)) return true;
@@ -47,108 +53,103 @@ SelfIntersectionSample sampleSelfIntersections(const MeshStore& store, std::span
   const MeshRange& r = store.range(mesh);
   const auto offsets = store.cellOffsets();
   const auto vertices = store.cellVertices();
-  // The fan triangles and their corners.
-  std::vector<Triangle> tris;
-  std::vector<Vec3> corners;
-  tris.reserve(std::size_t(offsets[r.cellEnd] - offsets[r.cellBegin]));
-  corners.reserve(tris.capacity() * 3);
-  for (Index c = r.cellBegin; c < r.cellEnd; ++c) {
-    const Index begin = offsets[c], end = offsets[c + 1];
-    Vec3 centre = Vec3::Zero();
-    for (Index i = begin; i < end; ++i) centre += x[vertices[i]];
-    centre /= float(end - begin);
-    for (Index i = begin; i < end; ++i) {
-      const Index a = vertices[i], b = vertices[i + 1 == end ? begin : i + 1];
-      tris.push_back({{a, b, -1}, c});
-      corners.insert(corners.end(), {x[a], x[b], centre});
-    }
-  }
   SelfIntersectionSample out;
-  const Index n = Index(tris.size());
-  if (n == 0) return out;
-  for (const Vec3& p : corners)
-    if (!p.allFinite()) return out;  // the numerical guard's business
-
-  // Bins: spacing twice the 99th percentile of the triangles' extents, so two crossing triangles
-  // of at most half the spacing have their centroids within one bin of each other. The few larger
-  // triangles (a stretched cell) are kept aside and tested against everything.
+  const Index cells = r.cellEnd - r.cellBegin;
+  if (cells <= 0) return out;
+  // Per cell: its centroid (the fan's apex), its box (the fan lies in its corners' hull) and extent.
+  std::vector<Vec3> centre(static_cast<std::size_t>(cells));
+  std::vector<Eigen::AlignedBox3f> box(static_cast<std::size_t>(cells));
+  std::vector<float> extent(static_cast<std::size_t>(cells));
   Eigen::AlignedBox3f all;
-  std::vector<Eigen::AlignedBox3f> boxes(static_cast<std::size_t>(n));
-  std::vector<float> extents(static_cast<std::size_t>(n));
-  for (Index t = 0; t < n; ++t) {
-    Eigen::AlignedBox3f& b = boxes[std::size_t(t)];
-    for (int k = 0; k < 3; ++k) b.extend(corners[std::size_t(3 * t + k)]);
+  for (Index c = 0; c < cells; ++c) {
+    const Index begin = offsets[r.cellBegin + c], end = offsets[r.cellBegin + c + 1];
+    Vec3 sum = Vec3::Zero();
+    Eigen::AlignedBox3f& b = box[std::size_t(c)];
+    for (Index i = begin; i < end; ++i) {
+      const Vec3& p = x[vertices[i]];
+      if (!p.allFinite()) return out;  // the numerical guard's business
+      sum += p;
+      b.extend(p);
+    }
+    centre[std::size_t(c)] = sum / float(end - begin);
+    extent[std::size_t(c)] = b.sizes().maxCoeff();
     all.extend(b);
-    extents[std::size_t(t)] = b.sizes().maxCoeff();
   }
-  std::vector<float> sorted = extents;
-  const auto p99 = sorted.begin() + std::ptrdiff_t(std::size_t(n - 1) * 99 / 100);
+
+  // Cells binned by centroid on a grid of twice the 99th percentile of their extents: two cells of
+  // at most half the spacing whose boxes meet have centroids within one bin of each other. The few
+  // larger cells (stretched) are kept aside and tested against every query.
+  std::vector<float> sorted = extent;
+  const auto p99 = sorted.begin() + std::ptrdiff_t(std::size_t(cells - 1) * 99 / 100);
   std::nth_element(sorted.begin(), p99, sorted.end());
   float spacing = std::max(2.0f * *p99, 1e-6f);
   std::array<long, 3> dims{};
   for (;;) {
     for (int a = 0; a < 3; ++a) dims[a] = long(all.sizes()[a] / spacing) + 1;
-    if (dims[0] * dims[1] * dims[2] <= 8L * n + 64) break;
+    if (dims[0] * dims[1] * dims[2] <= 8L * cells + 64) break;
     spacing *= 1.5f;
   }
-  const auto binOf = [&](const Vec3& p, int a) {
-    return std::clamp(long((p[a] - all.min()[a]) / spacing), 0L, dims[a] - 1);
-  };
-  const auto centroid = [&](Index t) {
-    return Vec3((corners[std::size_t(3 * t)] + corners[std::size_t(3 * t + 1)] + corners[std::size_t(3 * t + 2)]) / 3.0f);
-  };
-  const auto oversize = [&](Index t) { return extents[std::size_t(t)] > 0.5f * spacing; };
-  // Counting sort of the other triangles by the bin of their centroid.
+  const auto binOf = [&](const Vec3& p, int a) { return std::clamp(long((p[a] - all.min()[a]) / spacing), 0L, dims[a] - 1); };
   const std::size_t binCount = std::size_t(dims[0] * dims[1] * dims[2]);
-  std::vector<Index> start(binCount + 1, 0), order, binOfTriangle(std::size_t(n), -1), large;
-  for (Index t = 0; t < n; ++t) {
-    if (oversize(t)) {
-      large.push_back(t);
+  std::vector<Index> start(binCount + 1, 0), binOfCell(static_cast<std::size_t>(cells), -1), large;
+  for (Index c = 0; c < cells; ++c) {
+    if (extent[std::size_t(c)] > 0.5f * spacing) {
+      large.push_back(c);
       continue;
     }
-    const Vec3 c = centroid(t);
-    binOfTriangle[std::size_t(t)] = Index((binOf(c, 2) * dims[1] + binOf(c, 1)) * dims[0] + binOf(c, 0));
-    ++start[std::size_t(binOfTriangle[std::size_t(t)]) + 1];
+    const Vec3& p = centre[std::size_t(c)];
+    binOfCell[std::size_t(c)] = Index((binOf(p, 2) * dims[1] + binOf(p, 1)) * dims[0] + binOf(p, 0));
+    ++start[std::size_t(binOfCell[std::size_t(c)]) + 1];
   }
   for (std::size_t b = 0; b < binCount; ++b) start[b + 1] += start[b];
-  order.resize(std::size_t(start[binCount]));
+  std::vector<Index> order(static_cast<std::size_t>(start[binCount]));
   {
     std::vector<Index> fill(start.begin(), start.end() - 1);
-    for (Index t = 0; t < n; ++t)
-      if (binOfTriangle[std::size_t(t)] >= 0) order[std::size_t(fill[std::size_t(binOfTriangle[std::size_t(t)])]++)] = t;
+    for (Index c = 0; c < cells; ++c)
+      if (binOfCell[std::size_t(c)] >= 0) order[std::size_t(fill[std::size_t(binOfCell[std::size_t(c)])]++)] = c;
   }
 
-  const auto joined = [&](const Triangle& a, const Triangle& b) {
-    if (a.cell == b.cell) return true;
-    for (Index u : a.vertex)
-      for (Index v : b.vertex)
-        if (u >= 0 && u == v) return true;
+  // The sampled triangle (corners a, its cell's vertices u, v) against cell d's fan: each of d's
+  // triangles that shares no vertex with it.
+  const auto crossesCell = [&](Index d, const Eigen::Vector3d a[3], Index u, Index v, const Eigen::AlignedBox3f& tbox) {
+    if (!box[std::size_t(d)].intersects(tbox)) return false;
+    const Index begin = offsets[r.cellBegin + d], end = offsets[r.cellBegin + d + 1];
+    Eigen::Vector3d b[3];
+    b[2] = centre[std::size_t(d)].cast<double>();
+    for (Index i = begin; i < end; ++i) {
+      const Index p = vertices[i], q = vertices[i + 1 == end ? begin : i + 1];
+      if (p == u || p == v || q == u || q == v) continue;
+      b[0] = x[p].cast<double>();
+      b[1] = x[q].cast<double>();
+      if (trianglesIntersect(a, b)) return true;
+    }
     return false;
   };
-  const auto crosses = [&](Index t, Index u, const Eigen::Vector3d a[3]) {
-    if (u == t || !boxes[std::size_t(t)].intersects(boxes[std::size_t(u)]) || joined(tris[std::size_t(t)], tris[std::size_t(u)]))
-      return false;
-    Eigen::Vector3d b[3];
-    for (int q = 0; q < 3; ++q) b[q] = corners[std::size_t(3 * u + q)].cast<double>();
-    return trianglesIntersect(a, b);
-  };
-  const Index stride = std::max<Index>(1, (n + maxSamples - 1) / std::max<Index>(1, maxSamples));
-  for (Index t = 0; t < n; t += stride) {
+
+  const Index triangles = offsets[r.cellEnd] - offsets[r.cellBegin];
+  const Index stride = std::max<Index>(1, (triangles + maxSamples - 1) / std::max<Index>(1, maxSamples));
+  for (Index t = 0, c = 0; t < triangles; t += stride) {
+    while (offsets[r.cellBegin + c + 1] - offsets[r.cellBegin] <= t) ++c;  // the cell of triangle t
+    const Index begin = offsets[r.cellBegin + c], end = offsets[r.cellBegin + c + 1];
+    const Index i = offsets[r.cellBegin] + t;
+    const Index u = vertices[i], v = vertices[i + 1 == end ? begin : i + 1];
+    Eigen::Vector3d a[3] = {x[u].cast<double>(), x[v].cast<double>(), centre[std::size_t(c)].cast<double>()};
+    Eigen::AlignedBox3f tbox;
+    for (const Eigen::Vector3d& p : a) tbox.extend(p.cast<float>());
     ++out.sampled;
-    Eigen::Vector3d a[3];
-    for (int k = 0; k < 3; ++k) a[k] = corners[std::size_t(3 * t + k)].cast<double>();
     bool crossed = false;
-    if (oversize(t)) {  // against everything
-      for (Index u = 0; u < n && !crossed; ++u) crossed = crosses(t, u, a);
+    const auto test = [&](Index d) { crossed = crossed || (d != c && crossesCell(d, a, u, v, tbox)); };
+    if (extent[std::size_t(c)] > 0.5f * spacing) {  // a large cell: against every cell
+      for (Index d = 0; d < cells && !crossed; ++d) test(d);
     } else {
-      for (Index k = 0; k < Index(large.size()) && !crossed; ++k) crossed = crosses(t, large[std::size_t(k)], a);
-      const Vec3 c = centroid(t);
-      const long bx = binOf(c, 0), by = binOf(c, 1), bz = binOf(c, 2);
+      for (std::size_t k = 0; k < large.size() && !crossed; ++k) test(large[k]);
+      const Vec3& p = centre[std::size_t(c)];
+      const long bx = binOf(p, 0), by = binOf(p, 1), bz = binOf(p, 2);
       for (long z = std::max(0L, bz - 1); z <= std::min(dims[2] - 1, bz + 1) && !crossed; ++z)
         for (long y = std::max(0L, by - 1); y <= std::min(dims[1] - 1, by + 1) && !crossed; ++y)
           for (long xb = std::max(0L, bx - 1); xb <= std::min(dims[0] - 1, bx + 1) && !crossed; ++xb) {
             const std::size_t bin = std::size_t((z * dims[1] + y) * dims[0] + xb);
-            for (Index k = start[bin]; k < start[bin + 1] && !crossed; ++k) crossed = crosses(t, order[std::size_t(k)], a);
+            for (Index k = start[bin]; k < start[bin + 1] && !crossed; ++k) test(order[std::size_t(k)]);
           }
     }
     out.intersecting += crossed;

@@ -1,12 +1,15 @@
 // The stability guard's and the autosave's cost to the frame loop (docs/reliability.md): the
 // workstation's session stepped in frames of a fixed simulation budget, as its Run does, without
 // the guard, with it, and with it and an autosave every second (what a user sees with changes at
-// every frame: the worst case), side by side in one run. Reports the frame time's median, 99th percentile and maximum, and the autosave's
-// copy on the frame's thread (its writing runs on a thread of its own).
+// every frame: the worst case), side by side in one run, each phase from the same state. Reports the
+// frame time's median, 99th percentile and maximum, and the autosave's copy on the frame's thread
+// (its writing runs on a thread of its own); first, one shape check's own cost at this size.
 //   bench_autosave SCENE [--level 5] [--backend auto] [--seconds 10] [--budget-ms 16]
 #include "builtin_plugins.h"
 #include "segmentation_session.h"
 #include "session_recovery.h"
+#include "sinew/core/self_intersection.h"
+#include "sinew/core/shape_guard.h"
 
 #include <CLI/CLI.hpp>
 
@@ -52,11 +55,41 @@ int main(int argc, char** argv) {
   session.setParameter("smoothing", -1, "weight", session.parameter("smoothing", 0, "weight"));  // one undo step
   std::printf("%ld vertices at level %d, backend %s (%s)\n\n", long(session.simulation().store().vertexCount()),
               session.level(), session.backendName().c_str(), session.deviceName().c_str());
+  const SessionState start = session.state();  // also brings the host's copy of the state up to date
+
+  // One shape check (shape_guard.h) on the host at this size, every structure, and the
+  // self-intersection sampling alone; the image is made large enough to hold every vertex.
+  {
+    MeshStore& store = session.simulation().store();
+    ShapeGuard shape;
+    shape.capture(store);
+    ImageGeometry everywhere;
+    everywhere.size = {40000, 40000, 40000};
+    everywhere.origin = Eigen::Vector3d(-20000, -20000, -20000);
+    std::vector<std::string> names(std::size_t(store.meshCount()), "s");
+    std::vector<double> check, self;
+    for (int r = 0; r < 11; ++r) {
+      auto c0 = Clock::now();
+      const std::string problem = shape.check(store, everywhere, StabilityGuard{}.shape, names);
+      check.push_back(since(c0));
+      c0 = Clock::now();
+      for (Index m = 0; m < store.meshCount(); ++m) sampleSelfIntersections(store, store.positions(), m);
+      self.push_back(since(c0));
+      if (r == 0 && !problem.empty()) std::printf("(the check finds: %s)\n", problem.c_str());
+    }
+    std::sort(check.begin(), check.end());
+    std::sort(self.begin(), self.end());
+    std::printf("one shape check, every structure (parallel over structures): median %.2f ms; the self-intersection "
+                "sampling alone, one structure after another: median %.2f ms (11 runs)\n\n",
+                1e3 * check[5], 1e3 * self[5]);
+  }
+
   const std::filesystem::path root = std::filesystem::temp_directory_path() / "sinew-bench-autosave";
   std::printf("| phase | frames | median ms | p99 ms | max ms | autosave |\n| --- | --- | --- | --- | --- | --- |\n");
   const StabilityGuard guard = session.simulation().stabilityGuard();
   for (const int phase : {0, 1, 2}) {  // guard off; the guard; the guard and the autosave
     const bool autosave = phase == 2;
+    if (phase > 0) session.restoreState(start, options);
     StabilityGuard g = guard;
     g.enabled = phase > 0;
     session.simulation().setStabilityGuard(g);

@@ -1,9 +1,9 @@
 // Self-intersections of one structure's surface, for the shape guard (shape_guard.h): the surface
 // is the Fig. 1b tessellation (each cell fanned around its centroid, as the volume and the written
 // meshes use), and a sample of its triangles is tested against every triangle of the structure
-// that shares no vertex and no cell with it. Triangles are binned on a uniform grid whose spacing is
+// that shares no vertex and no cell with it. The cells are binned on a uniform grid whose spacing is
 // twice the 99th percentile of their extents, so a query looks at 27 bins (and at the few larger
-// triangles); one pass is linear in the structure's size.
+// cells); one pass is linear in the structure's cell count.
 #pragma once
 
 #include "sinew/core/mesh_store.h"
@@ -20,7 +20,7 @@ struct SelfIntersectionSample {
 
 // At most maxSamples triangles, evenly spread over the structure's (deterministic).
 SelfIntersectionSample sampleSelfIntersections(const MeshStore& store, std::span<const Vec3> positions, Index mesh,
-                                               Index maxSamples = 2048);
+                                               Index maxSamples = 512);
 
 // Whether two triangles cross (an edge of one passes through the other); coplanar overlaps are
 // not counted.
