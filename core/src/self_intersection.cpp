@@ -1,6 +1,12 @@
 #include "sinew/core/self_intersection.h"
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
+
 #include <algorithm>
+#include <atomic>
+#include <functional>
 #include <array>
 #include <cmath>
 
@@ -60,21 +66,25 @@ SelfIntersectionSample sampleSelfIntersections(const MeshStore& store, std::span
   std::vector<Vec3> centre(static_cast<std::size_t>(cells));
   std::vector<Eigen::AlignedBox3f> box(static_cast<std::size_t>(cells));
   std::vector<float> extent(static_cast<std::size_t>(cells));
-  Eigen::AlignedBox3f all;
-  for (Index c = 0; c < cells; ++c) {
-    const Index begin = offsets[r.cellBegin + c], end = offsets[r.cellBegin + c + 1];
-    Vec3 sum = Vec3::Zero();
-    Eigen::AlignedBox3f& b = box[std::size_t(c)];
-    for (Index i = begin; i < end; ++i) {
-      const Vec3& p = x[vertices[i]];
-      if (!p.allFinite()) return out;  // the numerical guard's business
-      sum += p;
-      b.extend(p);
+  std::atomic<bool> finite{true};
+  tbb::parallel_for(tbb::blocked_range<Index>(0, cells, 2048), [&](const tbb::blocked_range<Index>& range) {
+    for (Index c = range.begin(); c < range.end(); ++c) {
+      const Index begin = offsets[r.cellBegin + c], end = offsets[r.cellBegin + c + 1];
+      Vec3 sum = Vec3::Zero();
+      Eigen::AlignedBox3f& b = box[std::size_t(c)];
+      for (Index i = begin; i < end; ++i) {
+        const Vec3& p = x[vertices[i]];
+        if (!p.allFinite()) finite = false;
+        sum += p;
+        b.extend(p);
+      }
+      centre[std::size_t(c)] = sum / float(end - begin);
+      extent[std::size_t(c)] = b.sizes().maxCoeff();
     }
-    centre[std::size_t(c)] = sum / float(end - begin);
-    extent[std::size_t(c)] = b.sizes().maxCoeff();
-    all.extend(b);
-  }
+  });
+  if (!finite) return out;  // the numerical guard's business
+  Eigen::AlignedBox3f all;
+  for (const Eigen::AlignedBox3f& b : box) all.extend(b);
 
   // Cells binned by centroid on a grid of twice the 99th percentile of their extents: two cells of
   // at most half the spacing whose boxes meet have centroids within one bin of each other. The few
@@ -128,32 +138,43 @@ SelfIntersectionSample sampleSelfIntersections(const MeshStore& store, std::span
 
   const Index triangles = offsets[r.cellEnd] - offsets[r.cellBegin];
   const Index stride = std::max<Index>(1, (triangles + maxSamples - 1) / std::max<Index>(1, maxSamples));
-  for (Index t = 0, c = 0; t < triangles; t += stride) {
-    while (offsets[r.cellBegin + c + 1] - offsets[r.cellBegin] <= t) ++c;  // the cell of triangle t
-    const Index begin = offsets[r.cellBegin + c], end = offsets[r.cellBegin + c + 1];
+  const Index samples = (triangles + stride - 1) / stride;
+  const auto firstCorner = offsets.begin() + r.cellBegin, lastCorner = offsets.begin() + r.cellEnd + 1;
+  // Whether sampled triangle t (the t-th corner of the structure's cells, with the next corner and
+  // its cell's centroid) crosses a cell it is not joined to.
+  const auto sampleCrosses = [&](Index t) {
     const Index i = offsets[r.cellBegin] + t;
+    const Index c = Index(std::upper_bound(firstCorner, lastCorner, i) - firstCorner) - 1;  // its cell
+    const Index begin = offsets[r.cellBegin + c], end = offsets[r.cellBegin + c + 1];
     const Index u = vertices[i], v = vertices[i + 1 == end ? begin : i + 1];
-    Eigen::Vector3d a[3] = {x[u].cast<double>(), x[v].cast<double>(), centre[std::size_t(c)].cast<double>()};
+    const Eigen::Vector3d a[3] = {x[u].cast<double>(), x[v].cast<double>(), centre[std::size_t(c)].cast<double>()};
     Eigen::AlignedBox3f tbox;
     for (const Eigen::Vector3d& p : a) tbox.extend(p.cast<float>());
-    ++out.sampled;
     bool crossed = false;
     const auto test = [&](Index d) { crossed = crossed || (d != c && crossesCell(d, a, u, v, tbox)); };
     if (extent[std::size_t(c)] > 0.5f * spacing) {  // a large cell: against every cell
       for (Index d = 0; d < cells && !crossed; ++d) test(d);
-    } else {
-      for (std::size_t k = 0; k < large.size() && !crossed; ++k) test(large[k]);
-      const Vec3& p = centre[std::size_t(c)];
-      const long bx = binOf(p, 0), by = binOf(p, 1), bz = binOf(p, 2);
-      for (long z = std::max(0L, bz - 1); z <= std::min(dims[2] - 1, bz + 1) && !crossed; ++z)
-        for (long y = std::max(0L, by - 1); y <= std::min(dims[1] - 1, by + 1) && !crossed; ++y)
-          for (long xb = std::max(0L, bx - 1); xb <= std::min(dims[0] - 1, bx + 1) && !crossed; ++xb) {
-            const std::size_t bin = std::size_t((z * dims[1] + y) * dims[0] + xb);
-            for (Index k = start[bin]; k < start[bin + 1] && !crossed; ++k) test(order[std::size_t(k)]);
-          }
+      return crossed;
     }
-    out.intersecting += crossed;
-  }
+    for (std::size_t k = 0; k < large.size() && !crossed; ++k) test(large[k]);
+    const Vec3& p = centre[std::size_t(c)];
+    const long bx = binOf(p, 0), by = binOf(p, 1), bz = binOf(p, 2);
+    for (long z = std::max(0L, bz - 1); z <= std::min(dims[2] - 1, bz + 1) && !crossed; ++z)
+      for (long y = std::max(0L, by - 1); y <= std::min(dims[1] - 1, by + 1) && !crossed; ++y)
+        for (long xb = std::max(0L, bx - 1); xb <= std::min(dims[0] - 1, bx + 1) && !crossed; ++xb) {
+          const std::size_t bin = std::size_t((z * dims[1] + y) * dims[0] + xb);
+          for (Index k = start[bin]; k < start[bin + 1] && !crossed; ++k) test(order[std::size_t(k)]);
+        }
+    return crossed;
+  };
+  out.sampled = samples;
+  out.intersecting = tbb::parallel_reduce(
+      tbb::blocked_range<Index>(0, samples, 16), Index(0),
+      [&](const tbb::blocked_range<Index>& range, Index count) {
+        for (Index k = range.begin(); k < range.end(); ++k) count += sampleCrosses(k * stride);
+        return count;
+      },
+      std::plus<Index>());
   return out;
 }
 
