@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <cerrno>
 #include <csignal>
 #include <cstdio>
 #include <cstdlib>
@@ -17,6 +18,10 @@
 #include <mutex>
 #include <sstream>
 #include <thread>
+
+#include <fcntl.h>
+#include <sys/file.h>
+#include <unistd.h>
 
 namespace sinew::cohort {
 
@@ -160,6 +165,24 @@ TaskResult runSubject(const Cohort& cohort, size_t i, const TaskOptions& options
 }
 
 CohortSummary runLocal(const Cohort& cohort, const LocalOptions& options) {
+  // One local run per cohort folder at a time: a second would run the same missing subjects.
+  const int lockFd = ::open((cohort.dir / ".sinew-cohort.lock").c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+  if (lockFd < 0) throw InputError(cohort.dir.string() + ": cannot lock the cohort folder: " + std::strerror(errno));
+  if (::flock(lockFd, LOCK_EX | LOCK_NB) != 0) {
+    char pid[32] = {0};
+    const ssize_t n = ::pread(lockFd, pid, sizeof pid - 1, 0);
+    ::close(lockFd);
+    throw InputError(cohort.dir.string() + ": another sinew-cohort run" + (n > 0 ? " (process " + std::string(pid, size_t(n)) + ")" : "") +
+                     " is running this cohort; wait for it");
+  }
+  const std::string self = std::to_string(::getpid());
+  if (::ftruncate(lockFd, 0) != 0 || ::pwrite(lockFd, self.data(), self.size(), 0) < 0) {
+    // Only a courtesy for the message above; the lock itself holds.
+  }
+  struct Unlock {
+    int fd;
+    ~Unlock() { ::close(fd); }  // the kernel drops the lock however the process ends
+  } unlock{lockFd};
   stopOnSignals();
   const auto start = std::chrono::steady_clock::now();
   CohortSummary sum;

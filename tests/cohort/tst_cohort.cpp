@@ -131,6 +131,20 @@ private slots:
     QVERIFY(QFile::remove(path("nowhere.nii.gz")));
   }
 
+  void aSecondRunOnTheFolderIsRefused() {
+    writeText(path("one.csv"), "subject,target\ns1,subject1/image.nii.gz\n");
+    QProcess first;
+    first.start(SINEW_COHORT, {"run", path("one.csv"), "--model", path("model"), "-o", path("locked"), "-q"});
+    QVERIFY(first.waitForStarted());
+    for (int i = 0; i < 200 && !QFile::exists(path("locked/subjects/s1/run.log")); ++i) QThread::msleep(50);
+    const ToolResult second = runTool(SINEW_COHORT, {"run", "-o", path("locked")});
+    QCOMPARE(second.code, 3);
+    QVERIFY2(second.err.contains("another sinew-cohort run (process") && second.err.contains("is running this cohort"),
+             qPrintable(second.err));
+    QVERIFY(first.waitForFinished(300000));
+    QCOMPARE(first.exitCode(), 0);
+  }
+
   void badManifestsAreRefused() {
     const QList<QPair<QString, QString>> cases = {
         {"subject,target\na,x.nii.gz\na,y.nii.gz\n", "subject id 'a' appears twice"},
