@@ -29,8 +29,8 @@ namespace fs = std::filesystem;
 
 namespace {
 
-// Set by SIGINT/SIGTERM: the runs in flight end (they share the signal), nothing is retried and no
-// failure is recorded for them, so the next run of the cohort picks them up.
+// Set by SIGINT/SIGTERM: the runs in flight are ended, nothing is retried, and they are recorded as
+// interrupted (not done), so the next run of the cohort picks them up.
 std::atomic<bool> stopRequested{false};
 extern "C" void onStopSignal(int) { stopRequested = true; }
 
