@@ -99,7 +99,7 @@ CohortReport gatherReport(const Cohort& cohort) {
     row.status = readStatus(cohort, i);
     row.totalSeconds = row.simulationSeconds = row.meanAssd = row.meanDice = row.overlapMm3 = kNaN;
     const std::string& st = row.status.status;
-    const bool hasOutputs = (st == "completed" || st == "degraded") && isDone(cohort, i);
+    const bool hasOutputs = (st == "completed" || st == "degraded") && fs::exists(cohort.outputDir(i) / "report.json");
     if (hasOutputs) {
       std::ifstream in(cohort.outputDir(i) / "report.json");
       const Json j = Json::parse(in, nullptr, false);

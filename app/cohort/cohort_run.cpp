@@ -2,12 +2,12 @@
 
 #include "backend_choice.h"
 #include "cohort_process.h"
+#include "process_lock.h"
 #include "sinew/core/types.h"
 
 #include <algorithm>
 #include <atomic>
 #include <chrono>
-#include <cerrno>
 #include <csignal>
 #include <cstdio>
 #include <cstdlib>
@@ -18,10 +18,7 @@
 #include <mutex>
 #include <sstream>
 #include <thread>
-
-#include <fcntl.h>
-#include <sys/file.h>
-#include <unistd.h>
+#include <tuple>
 
 namespace sinew::cohort {
 
@@ -159,30 +156,20 @@ TaskResult runSubject(const Cohort& cohort, size_t i, const TaskOptions& options
     st.message = "stopped by a signal (Ctrl-C, scancel or a time limit) before it ended";
   }
   st.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  if (st.status == "completed" || st.status == "degraded") st.backend = reportSummary(report).first;
+  if (st.status == "completed" || st.status == "degraded")
+    std::tie(st.backend, result.meanAssdMm) = reportSummary(report);
   writeStatus(cohort, i, st);
   return result;
 }
 
 CohortSummary runLocal(const Cohort& cohort, const LocalOptions& options) {
   // One local run per cohort folder at a time: a second would run the same missing subjects.
-  const int lockFd = ::open((cohort.dir / ".sinew-cohort.lock").c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
-  if (lockFd < 0) throw InputError(cohort.dir.string() + ": cannot lock the cohort folder: " + std::strerror(errno));
-  if (::flock(lockFd, LOCK_EX | LOCK_NB) != 0) {
-    char pid[32] = {0};
-    const ssize_t n = ::pread(lockFd, pid, sizeof pid - 1, 0);
-    ::close(lockFd);
-    throw InputError(cohort.dir.string() + ": another sinew-cohort run" + (n > 0 ? " (process " + std::string(pid, size_t(n)) + ")" : "") +
+  ProcessLock lock(cohort.dir / ".sinew-cohort.lock");
+  if (!lock.tryLock()) {
+    const std::string holder = lock.holder();
+    throw InputError(cohort.dir.string() + ": another sinew-cohort run" + (holder.empty() ? "" : " (process " + holder + ")") +
                      " is running this cohort; wait for it");
   }
-  const std::string self = std::to_string(::getpid());
-  if (::ftruncate(lockFd, 0) != 0 || ::pwrite(lockFd, self.data(), self.size(), 0) < 0) {
-    // Only a courtesy for the message above; the lock itself holds.
-  }
-  struct Unlock {
-    int fd;
-    ~Unlock() { ::close(fd); }  // the kernel drops the lock however the process ends
-  } unlock{lockFd};
   stopOnSignals();
   const auto start = std::chrono::steady_clock::now();
   CohortSummary sum;
@@ -263,10 +250,7 @@ CohortSummary runLocal(const Cohort& cohort, const LocalOptions& options) {
       std::snprintf(line, sizeof line, "[%d/%zu] %s %s in %.1f s", finished, todo.size(), cohort.subjects[i].id.c_str(),
                     st.status.c_str(), st.seconds);
       std::cerr << line << (gpu ? " on GPU " + *gpu : std::string(" on the CPU"));
-      if (st.status != "failed") {
-        const double assd = reportSummary(cohort.outputDir(i) / "report.json").second;
-        if (!std::isnan(assd)) std::fprintf(stderr, " (mean ASSD %.2f mm)", assd);
-      }
+      if (!std::isnan(r.meanAssdMm)) std::fprintf(stderr, " (mean ASSD %.2f mm)", r.meanAssdMm);
       if (st.attempts > 1) std::cerr << " after " << st.attempts << " attempts";
       if (!st.message.empty()) std::cerr << ": " << st.message;
       std::cerr << std::endl;

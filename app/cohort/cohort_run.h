@@ -4,6 +4,7 @@
 
 #include "cohort.h"
 
+#include <cmath>
 #include <functional>
 #include <optional>
 #include <stdexcept>
@@ -27,6 +28,7 @@ struct TaskOptions {
 struct TaskResult {
   SubjectStatus status;
   bool ran = false;
+  double meanAssdMm = std::nan("");  // over the structures of the report this run wrote; NaN without one
 };
 TaskResult runSubject(const Cohort& cohort, size_t i, const TaskOptions& options);
 

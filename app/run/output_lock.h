@@ -4,7 +4,10 @@
 // also removes the staging folders that killed runs left behind.
 #pragma once
 
+#include "process_lock.h"
+
 #include <filesystem>
+#include <optional>
 
 namespace sinew {
 
@@ -21,8 +24,8 @@ public:
 
 private:
   void release();
-  std::filesystem::path dir_, file_;
-  int fd_ = -1;
+  std::filesystem::path dir_;
+  std::optional<ProcessLock> lock_;
   bool created_ = false;
   int staleRemoved_ = 0;
 };

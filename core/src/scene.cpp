@@ -366,18 +366,15 @@ SceneDesc parseScene(const std::string& text, const fs::path& file) {
     if (!(shape.maxVolumeRatio > 1.0)) g.at("max_volume_ratio").fail("must be above 1");
     if (g.has("max_drift_mm")) shape.maxDriftMm = g.at("max_drift_mm").number();
     if (!(shape.maxDriftMm > 0.0)) g.at("max_drift_mm").fail("must be positive");
-    if (g.has("max_outside_fraction")) shape.maxOutsideFraction = g.at("max_outside_fraction").number();
-    if (!(shape.maxOutsideFraction >= 0.0 && shape.maxOutsideFraction <= 1.0))
-      g.at("max_outside_fraction").fail("must be in [0, 1]");
-    if (g.has("max_inverted_fraction")) shape.maxInvertedFraction = g.at("max_inverted_fraction").number();
-    if (!(shape.maxInvertedFraction >= 0.0 && shape.maxInvertedFraction <= 1.0))
-      g.at("max_inverted_fraction").fail("must be in [0, 1]");
-    if (g.has("max_collapsed_fraction")) shape.maxCollapsedFraction = g.at("max_collapsed_fraction").number();
-    if (!(shape.maxCollapsedFraction >= 0.0 && shape.maxCollapsedFraction <= 1.0))
-      g.at("max_collapsed_fraction").fail("must be in [0, 1]");
-    if (g.has("max_self_intersecting_fraction")) shape.maxSelfIntersectingFraction = g.at("max_self_intersecting_fraction").number();
-    if (!(shape.maxSelfIntersectingFraction >= 0.0 && shape.maxSelfIntersectingFraction <= 1.0))
-      g.at("max_self_intersecting_fraction").fail("must be in [0, 1]");
+    // Shares of a structure's vertices, cells or sampled triangles.
+    const auto fraction = [&](const char* key, double& value) {
+      if (g.has(key)) value = g.at(key).number();
+      if (!(value >= 0.0 && value <= 1.0)) g.at(key).fail("must be in [0, 1]");
+    };
+    fraction("max_outside_fraction", shape.maxOutsideFraction);
+    fraction("max_inverted_fraction", shape.maxInvertedFraction);
+    fraction("max_collapsed_fraction", shape.maxCollapsedFraction);
+    fraction("max_self_intersecting_fraction", shape.maxSelfIntersectingFraction);
   }
   if (root.has("report")) {
     const Node r = root.at("report");
