@@ -10,7 +10,9 @@
 #include <itkImage.h>
 #include <itkImageFileReader.h>
 #include <itkImageFileWriter.h>
-#include <itkImageIOFactory.h>
+#include <itkMetaImageIO.h>
+#include <itkNiftiImageIO.h>
+#include <itkNrrdImageIO.h>
 #include <itkImageSeriesReader.h>
 
 #include <zlib.h>
@@ -263,13 +265,20 @@ Volume<Pixel> readNonSeries(const fs::path& path) {
   if (extension == ".nii" || extension == ".nii.gz") checkNiftiHeader(path);
   itk::ImageIOBase::Pointer io;
   {
-    // Images are read on several threads at once (scene_runner.cpp); ITK's factory list is not
-    // guarded for concurrent first use.
+    // Images are read on several threads at once (scene_runner.cpp); ITK's object factory list is
+    // not guarded for concurrent first use.
     static std::mutex factoryMutex;
     const std::lock_guard lock(factoryMutex);
-    io = itk::ImageIOFactory::CreateImageIO(path.c_str(), itk::CommonEnums::IOFileMode::ReadMode);
+    // The reader the name says, not ITK's factory: the factory asks every reader it knows whether it
+    // can read the file, and GDCM's asserts (aborting the process) on a file that holds "DICM" where
+    // a DICOM preamble would end (found by fuzz_image).
+    if (extension == ".nii" || extension == ".nii.gz") io = itk::NiftiImageIO::New();
+    else if (extension == ".nrrd" || extension == ".nhdr") io = itk::NrrdImageIO::New();
+    else if (extension == ".mha" || extension == ".mhd") io = itk::MetaImageIO::New();
   }
-  if (!io) fail(path, "is not an image in a format Sinew reads (NIfTI, NRRD, MetaImage, DICOM), or it is corrupt");
+  if (!io || !io->CanReadFile(path.c_str()))
+    fail(path, "is not a " + (extension.empty() ? std::string("readable") : extension) +
+                   " image of a format Sinew reads (NIfTI, NRRD, MetaImage; DICOM as a folder), or it is corrupt");
   io->SetFileName(path.string());
   try {
     io->ReadImageInformation();
