@@ -5,7 +5,8 @@
 # default). Each harness starts from its seed corpus (tests/fuzz/corpus/NAME, copied, never
 # modified) and stops at the first crash, leaving the input as build/fuzz/crash-NAME-*; add it to
 # tests/fuzz/regressions/NAME once fixed (docs/reliability.md). JOBS=N runs N workers per harness.
-# The long run: FUZZ_RUNS=10000000 scripts/fuzz.sh 0 (each harness until 10^7 inputs).
+# The long run: FUZZ_RUNS=10000000 JOBS=16 scripts/fuzz.sh 0 (each harness until 10^7 inputs in
+# all, shared over the JOBS workers).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 seconds=${1:-30}
@@ -14,7 +15,12 @@ harnesses=("$@")
 ((${#harnesses[@]})) || harnesses=(scene image mesh model)
 jobs=${JOBS:-1}
 runs=${FUZZ_RUNS:--1}
-seed=${FUZZ_SEED:-1}  # fixed for the bounded run: it repeats; FUZZ_SEED=0 picks one
+((runs > 0)) && runs=$(((runs + jobs - 1) / jobs))  # libFuzzer's -runs counts per job
+# Fixed for the bounded run, so that it repeats; 0 (libFuzzer picks one per worker) with several
+# workers, which would otherwise all run the same inputs.
+default_seed=1
+((jobs > 1)) && default_seed=0
+seed=${FUZZ_SEED:-$default_seed}
 build=${FUZZ_BUILD:-build/fuzz}
 
 if ! command -v clang++ >/dev/null || [ ! -e "$(clang++ -print-resource-dir)/lib/linux/libclang_rt.fuzzer-x86_64.a" ]; then
@@ -32,6 +38,8 @@ ninja -C "$build" "${harnesses[@]/#/fuzz_}"
 # over 2 GB: the inputs are at most 64 KB, and a reader that asks for more (VTK, in its child
 # process) then fails at once instead of filling gigabytes.
 export ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=0:allocator_may_return_null=1:max_allocation_size_mb=2048}
+# The harnesses write each input to a file (the readers take paths): on tmpfs where there is one.
+if [ -z "${TMPDIR:-}" ] && [ -d /dev/shm ] && [ -w /dev/shm ]; then export TMPDIR=/dev/shm; fi
 export UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}
 status=0
 root=$(pwd)
@@ -51,7 +59,10 @@ for h in "${harnesses[@]}"; do
     tail -60 "$log" "$work"/fuzz-*.log 2>/dev/null >&2 || true
     status=1
   fi
-  # Inputs run (per worker with JOBS > 1).
-  grep -h "stat::number_of_executed_units" "$log" "$work"/fuzz-*.log 2>/dev/null || true
+  # Inputs run, in all (libFuzzer prints them per worker with JOBS > 1, and a worker's log may
+  # repeat its own line).
+  if ((jobs > 1)); then logs=("$work"/fuzz-*.log); else logs=("$log"); fi
+  grep -h -m1 "stat::number_of_executed_units" "${logs[@]}" 2>/dev/null |
+    awk -v h="$h" '{n += $2} END {printf "fuzz_%s: %d inputs in all\n", h, n}' || true
 done
 exit $status

@@ -180,11 +180,11 @@ TriangleMesh readMesh(const fs::path& path) {
     const std::shared_lock vtkInUse(vtkWorkMutex());
     return readMeshHere(path);
   }
-  return readIsolated(path, [&] { return readMeshHere(path); });
+  return readIsolated(path, &readMeshHere);
 }
 
 TriangleMesh readMeshExact(const fs::path& path) {
-  return readIsolated(path, [&] { return readMeshExactHere(path); });
+  return readIsolated(path, &readMeshExactHere);
 }
 
 template <class Writer>

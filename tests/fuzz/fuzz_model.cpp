@@ -17,6 +17,7 @@
 #include <cstdio>
 #include <fstream>
 #include <iterator>
+#include <map>
 
 namespace {
 namespace fs = std::filesystem;
@@ -48,26 +49,46 @@ std::string hex(std::uint32_t v) {
   std::snprintf(s, sizeof s, "%08x", v);
   return s;
 }
+
+// The pristine folder's files, in memory: each input changes one or two of them in a working copy,
+// and they are put back afterwards (cheaper than copying the folder per input).
+struct Files {
+  fs::path folder = scratch() / "model";
+  std::map<std::string, std::string> pristineBytes;
+  nlohmann::json manifest;
+  Files() {
+    fs::remove_all(folder);
+    fs::copy(pristine(), folder, fs::copy_options::recursive);
+    for (const char* f : kFiles) {
+      std::ifstream in(folder / f, std::ios::binary);
+      pristineBytes[f].assign(std::istreambuf_iterator<char>(in), {});
+    }
+    manifest = nlohmann::json::parse(pristineBytes["model.json"]);
+  }
+  void write(const std::string& file, const void* data, std::size_t size) const {
+    std::ofstream out(folder / file, std::ios::binary | std::ios::trunc);
+    out.write(static_cast<const char*>(data), std::streamsize(size));
+  }
+  void restore(const std::string& file) const {
+    const std::string& bytes = pristineBytes.at(file);
+    write(file, bytes.data(), bytes.size());
+  }
+};
 }  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   if (size < 1) return 0;
+  static const Files files;
   const std::string file = kFiles[data[0] % kFiles.size()];
-  const fs::path folder = scratch() / "model";
-  fs::remove_all(folder);
-  fs::copy(pristine(), folder, fs::copy_options::recursive);
-  {
-    std::ofstream out(folder / file, std::ios::binary | std::ios::trunc);
-    out.write(reinterpret_cast<const char*>(data + 1), std::streamsize(size - 1));
-  }
+  files.write(file, data + 1, size - 1);
   if (file != "model.json") {
-    std::ifstream in(folder / "model.json");
-    nlohmann::json manifest = nlohmann::json::parse(in);
+    nlohmann::json manifest = files.manifest;
     manifest["files"][file] = hex(std::uint32_t(crc32(0L, data + 1, uInt(size - 1))));
-    std::ofstream(folder / "model.json", std::ios::trunc) << manifest.dump(2);
+    const std::string text = manifest.dump(2);
+    files.write("model.json", text.data(), text.size());
   }
   try {
-    const sinew::Model model = sinew::readModel(sinew::fuzz::registry(), folder);
+    const sinew::Model model = sinew::readModel(sinew::fuzz::registry(), files.folder);
     for (const auto& s : model.structures) {
       if (s.positions.size() != std::size_t(s.levels.levelCount())) __builtin_trap();
       for (int l = 0; l < s.levels.levelCount(); ++l)
@@ -75,5 +96,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     }
   } catch (const sinew::InputError&) {
   }
+  files.restore(file);
+  if (file != "model.json") files.restore("model.json");
   return 0;
 }
