@@ -18,6 +18,17 @@ for f in "${bins[@]}" "$build"/core/libsinew_core.so* "$build"/tests/plugins/*/s
   mkdir -p "$stage/root$(dirname "$f")"
   cp -a "$f" "$stage/root$f"
 done
+# FUZZ=1: the libFuzzer harnesses of build/fuzz (scripts/fuzz.sh) too, without their debug
+# information, for the long run (CHECKS=fuzz).
+if [ "${FUZZ:-0}" = 1 ]; then
+  fuzz="$(realpath build/fuzz)"
+  for f in "$fuzz"/tests/fuzz/fuzz_{scene,image,mesh,model} "$fuzz"/core/libsinew_core.so*; do
+    mkdir -p "$stage/root$(dirname "$f")"
+    cp -a "$f" "$stage/root$f"
+    [ -L "$f" ] || strip --strip-debug "$stage/root$f"
+    [[ "$f" == */fuzz_* ]] && bins+=("$f")
+  done
+fi
 mkdir -p "$stage/lib" "$stage/qt/platforms" "$stage/fonts" "$stage/data"
 for f in "${bins[@]}"; do ldd "$f" | awk '/=> \//{print $3}'; done | sort -u |
   grep -v -E '/(libc|libm|libdl|librt|libpthread|ld-linux-x86-64|libstdc\+\+|libgcc_s)\.so' |

@@ -50,6 +50,14 @@ for c in ${CHECKS:-parity demo accuracy}; do
     demo) "$build/tests/tst_backend_demo" 2>&1 | tee "$out/demo.txt" | grep -E "PASS|FAIL|QINFO|Totals|SKIP" ;;
     memory) "$build/tests/tst_device_memory" 2>&1 | tee "$out/memory.txt" | grep -E "PASS|FAIL|QINFO|Totals|SKIP" ;;
     soak) "$build/tests/bench/bench_soak" ${SOAK_ARGS:---steps 1000000} 2>&1 | tee "$out/soak.txt" ;;
+    fuzz)
+      # The long fuzz run (docs/reliability.md): FUZZ_RUNS inputs in all per harness over the cores,
+      # at most FUZZ_SECONDS each (the bundle made with FUZZ=1 scripts/device-bundle.sh).
+      FUZZ_PREBUILT=1 FUZZ_BUILD="$(dirname "$build")/fuzz" JOBS=${FUZZ_JOBS:-$(nproc)} FUZZ_RUNS=${FUZZ_RUNS:-10000000} \
+        bash scripts/fuzz.sh ${FUZZ_SECONDS:-0} ${FUZZ_HARNESSES:-scene image mesh model} 2>&1 | tee "$out/fuzz.txt"
+      for h in ${FUZZ_HARNESSES:-scene image mesh model}; do
+        tail -n 3 "$(dirname "$build")"/fuzz/work-$h/fuzz-*.log 2>/dev/null | grep -E "Done|ERROR|exec/s" | tail -n 2
+      done ;;
     autosave)
       # The autosave against the frame loop at about a million vertices (docs/reliability.md).
       t=/usr/share/mricron/templates

@@ -23,16 +23,19 @@ default_seed=1
 seed=${FUZZ_SEED:-$default_seed}
 build=${FUZZ_BUILD:-build/fuzz}
 
-if ! command -v clang++ >/dev/null || [ ! -e "$(clang++ -print-resource-dir)/lib/linux/libclang_rt.fuzzer-x86_64.a" ]; then
+if [ "${FUZZ_PREBUILT:-0}" = 1 ]; then
+  :  # the harnesses are already built in $build (the device machine: scripts/device-checks.sh fuzz)
+elif ! command -v clang++ >/dev/null || [ ! -e "$(clang++ -print-resource-dir)/lib/linux/libclang_rt.fuzzer-x86_64.a" ]; then
   echo "fuzz.sh: clang++ with libFuzzer is needed (apt-get install clang libclang-rt-14-dev)" >&2
   exit 2
+else
+  launcher=()
+  command -v ccache >/dev/null && launcher=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache -DCMAKE_C_COMPILER_LAUNCHER=ccache)
+  [ -f "$build/build.ninja" ] || cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+    -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ "${launcher[@]}" -DSINEW_FUZZ=ON \
+    -DSINEW_ENABLE_CUDA=OFF -DSINEW_BUILD_TESTS=OFF -DSINEW_BUILD_BENCHMARKS=OFF >/dev/null
+  ninja -C "$build" "${harnesses[@]/#/fuzz_}"
 fi
-launcher=()
-command -v ccache >/dev/null && launcher=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache -DCMAKE_C_COMPILER_LAUNCHER=ccache)
-[ -f "$build/build.ninja" ] || cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
-  -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ "${launcher[@]}" -DSINEW_FUZZ=ON \
-  -DSINEW_ENABLE_CUDA=OFF -DSINEW_BUILD_TESTS=OFF -DSINEW_BUILD_BENCHMARKS=OFF >/dev/null
-ninja -C "$build" "${harnesses[@]/#/fuzz_}"
 
 # ITK and VTK are not instrumented; their leaks at exit are not ours to fix. No single allocation
 # over 2 GB: the inputs are at most 64 KB, and a reader that asks for more (VTK, in its child

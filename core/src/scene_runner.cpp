@@ -547,6 +547,7 @@ RunReport SceneRunner::run() {
           if (options_.log) options_.log(std::string("numerical failure: ") + e.what());
         }
       };
+      if (sim.stabilityGuard().enabled) holdChunkStart();
       if (sim.stabilityGuard().enabled)
         runShapeGuarded(runChunk, chunk, report, [&] {
           if (backend) backend->reload();

@@ -4,6 +4,14 @@
 
 namespace sinew {
 
+void SceneRunner::holdChunkStart() {
+  MeshStore& store = simulation().store();  // previousPositions() has no const form
+  chunkStart_.positions.assign(store.positions().begin(), store.positions().end());
+  if (store.has(Attribute::PreviousPosition))
+    chunkStart_.previous.assign(store.previousPositions().begin(), store.previousPositions().end());
+  else chunkStart_.previous.clear();
+}
+
 // The shape guard (shape_guard.h) around one chunk, on either path: the chunk's end state is held
 // against each structure at the start of the simulation; a violation undoes the chunk, halves the
 // step like a numerical failure and runs it again, until the guard has no retry left.
@@ -15,10 +23,6 @@ void SceneRunner::runShapeGuarded(const std::function<void()>& runChunk, int chu
   shapeGuard_.followLevel(store);
   std::vector<std::string> names;
   for (const auto& s : scene_.structures) names.push_back(s.name);
-  const std::vector<Vec3> goodX(store.positions().begin(), store.positions().end());
-  std::vector<Vec3> goodPrev;
-  if (store.has(Attribute::PreviousPosition))
-    goodPrev.assign(store.previousPositions().begin(), store.previousPositions().end());
   for (int attempt = 0;; ++attempt) {
     runChunk();
     if (!report.numericalFailure.empty()) return;
@@ -27,7 +31,7 @@ void SceneRunner::runShapeGuarded(const std::function<void()>& runChunk, int chu
     if (options_.log) options_.log("stability guard: " + problem + "; the last " + std::to_string(chunk) + " steps undone");
     sim.countExternalSteps(-chunk);
     try {
-      sim.recover(goodX, goodPrev, problem, attempt);
+      sim.recover(chunkStart_.positions, chunkStart_.previous, problem, attempt);
     } catch (const NumericalError& e) {
       report.numericalFailure = e.what();
       report.shapeFailure = true;
@@ -48,21 +52,16 @@ void SceneRunner::runGuarded(ExecutionBackend& backend, int chunk, RunReport& re
     backend.download();
     return;
   }
-  MeshStore& store = sim.store();
-  const std::vector<Vec3> goodX(store.positions().begin(), store.positions().end());
-  std::vector<Vec3> goodPrev;
-  if (store.has(Attribute::PreviousPosition))
-    goodPrev.assign(store.previousPositions().begin(), store.previousPositions().end());
   for (int attempt = 0;; ++attempt) {
     backend.run(chunk);
     backend.download();
     // A whole chunk may move a vertex no farther than one step may on the CPU: legitimate motion is
     // far slower, and a looser bound would let oscillation just below the explosion through.
-    const std::string problem = sim.checkStep(goodX);
+    const std::string problem = sim.checkStep(chunkStart_.positions);
     if (problem.empty()) return;
     sim.countExternalSteps(-chunk);  // the chunk is undone
     try {
-      sim.recover(goodX, goodPrev, problem, attempt);
+      sim.recover(chunkStart_.positions, chunkStart_.previous, problem, attempt);
     } catch (const NumericalError& e) {
       report.numericalFailure = e.what();
       if (options_.log) options_.log(std::string("numerical failure: ") + e.what());
@@ -83,6 +82,7 @@ std::string SceneRunner::runGuardedChunk(ExecutionBackend* backend, int chunk, b
       report.numericalFailure = e.what();  // the last good state stays in the store
     }
   };
+  if (sim.stabilityGuard().enabled) holdChunkStart();
   if (checkShape && sim.stabilityGuard().enabled)
     runShapeGuarded(runChunk, chunk, report, [&] {
       if (backend) backend->reload();

@@ -62,119 +62,122 @@ SelfIntersectionSample sampleSelfIntersections(const MeshStore& store, std::span
   SelfIntersectionSample out;
   const Index cells = r.cellEnd - r.cellBegin;
   if (cells <= 0) return out;
-  // Per cell: its centroid (the fan's apex), its box (the fan lies in its corners' hull) and extent.
-  std::vector<Vec3> centre(static_cast<std::size_t>(cells));
-  std::vector<Eigen::AlignedBox3f> box(static_cast<std::size_t>(cells));
-  std::vector<float> extent(static_cast<std::size_t>(cells));
-  std::atomic<bool> finite{true};
-  tbb::parallel_for(tbb::blocked_range<Index>(0, cells, 2048), [&](const tbb::blocked_range<Index>& range) {
-    for (Index c = range.begin(); c < range.end(); ++c) {
-      const Index begin = offsets[r.cellBegin + c], end = offsets[r.cellBegin + c + 1];
-      Vec3 sum = Vec3::Zero();
-      Eigen::AlignedBox3f& b = box[std::size_t(c)];
-      for (Index i = begin; i < end; ++i) {
-        const Vec3& p = x[vertices[i]];
-        if (!p.allFinite()) finite = false;
-        sum += p;
-        b.extend(p);
-      }
-      centre[std::size_t(c)] = sum / float(end - begin);
-      extent[std::size_t(c)] = b.sizes().maxCoeff();
-    }
-  });
-  if (!finite) return out;  // the numerical guard's business
-  Eigen::AlignedBox3f all;
-  for (const Eigen::AlignedBox3f& b : box) all.extend(b);
+  for (Index v = r.vertexBegin; v < r.vertexEnd; ++v)
+    if (!x[v].allFinite()) return out;  // the numerical guard's business
+  const auto centreOf = [&](Index c) {
+    const Index begin = offsets[r.cellBegin + c], end = offsets[r.cellBegin + c + 1];
+    Vec3 sum = Vec3::Zero();
+    for (Index i = begin; i < end; ++i) sum += x[vertices[i]];
+    return Vec3(sum / float(end - begin));
+  };
 
-  // Cells binned by centroid on a grid of twice the 99th percentile of their extents: two cells of
-  // at most half the spacing whose boxes meet have centroids within one bin of each other. The few
-  // larger cells (stretched) are kept aside and tested against every query.
-  std::vector<float> sorted = extent;
-  const auto p99 = sorted.begin() + std::ptrdiff_t(std::size_t(cells - 1) * 99 / 100);
-  std::nth_element(sorted.begin(), p99, sorted.end());
+  // The sampled triangles: the t-th corner of the structure's cells, the next corner of its cell and
+  // the cell's centroid.
+  struct Sample {
+    Index cell, u, v;
+    Eigen::Vector3d corner[3];
+    Eigen::AlignedBox3f box;
+  };
+  const Index triangles = offsets[r.cellEnd] - offsets[r.cellBegin];
+  const Index stride = std::max<Index>(1, (triangles + maxSamples - 1) / std::max<Index>(1, maxSamples));
+  const Index sampleCount = (triangles + stride - 1) / stride;
+  std::vector<Sample> samples(static_cast<std::size_t>(sampleCount));
+  const auto firstCorner = offsets.begin() + r.cellBegin, lastCorner = offsets.begin() + r.cellEnd + 1;
+  Eigen::AlignedBox3f all;
+  std::vector<float> extents;
+  for (Index k = 0; k < sampleCount; ++k) {
+    Sample& s = samples[std::size_t(k)];
+    const Index i = offsets[r.cellBegin] + k * stride;
+    s.cell = Index(std::upper_bound(firstCorner, lastCorner, i) - firstCorner) - 1;
+    const Index begin = offsets[r.cellBegin + s.cell], end = offsets[r.cellBegin + s.cell + 1];
+    s.u = vertices[i];
+    s.v = vertices[i + 1 == end ? begin : i + 1];
+    const Vec3 corners[3] = {x[s.u], x[s.v], centreOf(s.cell)};
+    for (int j = 0; j < 3; ++j) {
+      s.corner[j] = corners[j].cast<double>();
+      s.box.extend(corners[j]);
+    }
+    all.extend(s.box);
+    extents.push_back(s.box.sizes().maxCoeff());
+  }
+
+  // The samples binned on a grid over their own bounding box, each in every bin its box meets; the
+  // spacing twice their 99th-percentile extent, coarsened until the grid has at most 64^3 bins.
+  const auto p99 = extents.begin() + std::ptrdiff_t(std::size_t(sampleCount - 1) * 99 / 100);
+  std::nth_element(extents.begin(), p99, extents.end());
   float spacing = std::max(2.0f * *p99, 1e-6f);
   std::array<long, 3> dims{};
   for (;;) {
     for (int a = 0; a < 3; ++a) dims[a] = long(all.sizes()[a] / spacing) + 1;
-    if (dims[0] * dims[1] * dims[2] <= 8L * cells + 64) break;
+    if (dims[0] * dims[1] * dims[2] <= 64L * 64 * 64) break;
     spacing *= 1.5f;
   }
-  const auto binOf = [&](const Vec3& p, int a) { return std::clamp(long((p[a] - all.min()[a]) / spacing), 0L, dims[a] - 1); };
+  const auto binOf = [&](float p, int a) { return std::clamp(long((p - all.min()[a]) / spacing), 0L, dims[a] - 1); };
   const std::size_t binCount = std::size_t(dims[0] * dims[1] * dims[2]);
-  std::vector<Index> start(binCount + 1, 0), binOfCell(static_cast<std::size_t>(cells), -1), large;
-  for (Index c = 0; c < cells; ++c) {
-    if (extent[std::size_t(c)] > 0.5f * spacing) {
-      large.push_back(c);
-      continue;
+  const auto binIndex = [&](long bx, long by, long bz) { return std::size_t((bz * dims[1] + by) * dims[0] + bx); };
+  std::vector<Index> start(binCount + 1, 0), order;
+  for (int pass = 0; pass < 2; ++pass) {  // count, then fill
+    std::vector<Index> fill;
+    if (pass == 1) {
+      for (std::size_t b = 0; b < binCount; ++b) start[b + 1] += start[b];
+      order.resize(std::size_t(start[binCount]));
+      fill.assign(start.begin(), start.end() - 1);
     }
-    const Vec3& p = centre[std::size_t(c)];
-    binOfCell[std::size_t(c)] = Index((binOf(p, 2) * dims[1] + binOf(p, 1)) * dims[0] + binOf(p, 0));
-    ++start[std::size_t(binOfCell[std::size_t(c)]) + 1];
-  }
-  for (std::size_t b = 0; b < binCount; ++b) start[b + 1] += start[b];
-  std::vector<Index> order(static_cast<std::size_t>(start[binCount]));
-  {
-    std::vector<Index> fill(start.begin(), start.end() - 1);
-    for (Index c = 0; c < cells; ++c)
-      if (binOfCell[std::size_t(c)] >= 0) order[std::size_t(fill[std::size_t(binOfCell[std::size_t(c)])]++)] = c;
+    for (Index k = 0; k < sampleCount; ++k) {
+      const Eigen::AlignedBox3f& b = samples[std::size_t(k)].box;
+      for (long z = binOf(b.min()[2], 2); z <= binOf(b.max()[2], 2); ++z)
+        for (long y = binOf(b.min()[1], 1); y <= binOf(b.max()[1], 1); ++y)
+          for (long xb = binOf(b.min()[0], 0); xb <= binOf(b.max()[0], 0); ++xb) {
+            const std::size_t bin = binIndex(xb, y, z);
+            if (pass == 0) ++start[bin + 1];
+            else order[std::size_t(fill[bin]++)] = k;
+          }
+    }
   }
 
-  // The sampled triangle (corners a, its cell's vertices u, v) against cell d's fan: each of d's
-  // triangles that shares no vertex with it.
-  const auto crossesCell = [&](Index d, const Eigen::Vector3d a[3], Index u, Index v, const Eigen::AlignedBox3f& tbox) {
-    if (!box[std::size_t(d)].intersects(tbox)) return false;
-    const Index begin = offsets[r.cellBegin + d], end = offsets[r.cellBegin + d + 1];
-    Eigen::Vector3d b[3];
-    b[2] = centre[std::size_t(d)].cast<double>();
-    for (Index i = begin; i < end; ++i) {
-      const Index p = vertices[i], q = vertices[i + 1 == end ? begin : i + 1];
-      if (p == u || p == v || q == u || q == v) continue;
-      b[0] = x[p].cast<double>();
-      b[1] = x[q].cast<double>();
-      if (trianglesIntersect(a, b)) return true;
+  // One pass over the cells: each cell's fan against the samples in the bins its box meets. A pair
+  // met in several bins is tested in one only: the bin of the larger of the two boxes' minima.
+  std::vector<std::atomic<bool>> crossed(static_cast<std::size_t>(sampleCount));
+  tbb::parallel_for(tbb::blocked_range<Index>(0, cells, 1024), [&](const tbb::blocked_range<Index>& range) {
+    for (Index c = range.begin(); c < range.end(); ++c) {
+      const Index begin = offsets[r.cellBegin + c], end = offsets[r.cellBegin + c + 1];
+      Eigen::AlignedBox3f box;
+      Vec3 sum = Vec3::Zero();
+      for (Index i = begin; i < end; ++i) {
+        sum += x[vertices[i]];
+        box.extend(x[vertices[i]]);
+      }
+      if (!box.intersects(all)) continue;
+      const Eigen::Vector3d apex = (sum / float(end - begin)).cast<double>();
+      const Eigen::AlignedBox3f inGrid = box.intersection(all);
+      for (long z = binOf(inGrid.min()[2], 2); z <= binOf(inGrid.max()[2], 2); ++z)
+        for (long y = binOf(inGrid.min()[1], 1); y <= binOf(inGrid.max()[1], 1); ++y)
+          for (long xb = binOf(inGrid.min()[0], 0); xb <= binOf(inGrid.max()[0], 0); ++xb) {
+            const std::size_t bin = binIndex(xb, y, z);
+            for (Index k = start[bin]; k < start[bin + 1]; ++k) {
+              const Index t = order[std::size_t(k)];
+              const Sample& s = samples[std::size_t(t)];
+              if (s.cell == c || crossed[std::size_t(t)].load(std::memory_order_relaxed) || !s.box.intersects(box)) continue;
+              const Vec3 lo = s.box.min().cwiseMax(box.min());
+              if (binIndex(binOf(lo[0], 0), binOf(lo[1], 1), binOf(lo[2], 2)) != bin) continue;
+              Eigen::Vector3d b[3];
+              b[2] = apex;
+              for (Index i = begin; i < end; ++i) {
+                const Index p = vertices[i], q = vertices[i + 1 == end ? begin : i + 1];
+                if (p == s.u || p == s.v || q == s.u || q == s.v) continue;
+                b[0] = x[p].cast<double>();
+                b[1] = x[q].cast<double>();
+                if (trianglesIntersect(s.corner, b)) {
+                  crossed[std::size_t(t)].store(true, std::memory_order_relaxed);
+                  break;
+                }
+              }
+            }
+          }
     }
-    return false;
-  };
-
-  const Index triangles = offsets[r.cellEnd] - offsets[r.cellBegin];
-  const Index stride = std::max<Index>(1, (triangles + maxSamples - 1) / std::max<Index>(1, maxSamples));
-  const Index samples = (triangles + stride - 1) / stride;
-  const auto firstCorner = offsets.begin() + r.cellBegin, lastCorner = offsets.begin() + r.cellEnd + 1;
-  // Whether sampled triangle t (the t-th corner of the structure's cells, with the next corner and
-  // its cell's centroid) crosses a cell it is not joined to.
-  const auto sampleCrosses = [&](Index t) {
-    const Index i = offsets[r.cellBegin] + t;
-    const Index c = Index(std::upper_bound(firstCorner, lastCorner, i) - firstCorner) - 1;  // its cell
-    const Index begin = offsets[r.cellBegin + c], end = offsets[r.cellBegin + c + 1];
-    const Index u = vertices[i], v = vertices[i + 1 == end ? begin : i + 1];
-    const Eigen::Vector3d a[3] = {x[u].cast<double>(), x[v].cast<double>(), centre[std::size_t(c)].cast<double>()};
-    Eigen::AlignedBox3f tbox;
-    for (const Eigen::Vector3d& p : a) tbox.extend(p.cast<float>());
-    bool crossed = false;
-    const auto test = [&](Index d) { crossed = crossed || (d != c && crossesCell(d, a, u, v, tbox)); };
-    if (extent[std::size_t(c)] > 0.5f * spacing) {  // a large cell: against every cell
-      for (Index d = 0; d < cells && !crossed; ++d) test(d);
-      return crossed;
-    }
-    for (std::size_t k = 0; k < large.size() && !crossed; ++k) test(large[k]);
-    const Vec3& p = centre[std::size_t(c)];
-    const long bx = binOf(p, 0), by = binOf(p, 1), bz = binOf(p, 2);
-    for (long z = std::max(0L, bz - 1); z <= std::min(dims[2] - 1, bz + 1) && !crossed; ++z)
-      for (long y = std::max(0L, by - 1); y <= std::min(dims[1] - 1, by + 1) && !crossed; ++y)
-        for (long xb = std::max(0L, bx - 1); xb <= std::min(dims[0] - 1, bx + 1) && !crossed; ++xb) {
-          const std::size_t bin = std::size_t((z * dims[1] + y) * dims[0] + xb);
-          for (Index k = start[bin]; k < start[bin + 1] && !crossed; ++k) test(order[std::size_t(k)]);
-        }
-    return crossed;
-  };
-  out.sampled = samples;
-  out.intersecting = tbb::parallel_reduce(
-      tbb::blocked_range<Index>(0, samples, 16), Index(0),
-      [&](const tbb::blocked_range<Index>& range, Index count) {
-        for (Index k = range.begin(); k < range.end(); ++k) count += sampleCrosses(k * stride);
-        return count;
-      },
-      std::plus<Index>());
+  });
+  out.sampled = sampleCount;
+  for (const auto& c : crossed) out.intersecting += c.load(std::memory_order_relaxed);
   return out;
 }
 

@@ -173,17 +173,19 @@ TriangleMesh readMeshExactHere(const fs::path& path) {
   return m;
 }
 
-// Read in a child process: VTK's readers crash on some corrupt files (isolated_read.h). A PLY file
-// is read by Sinew's own reader, here.
+// Read in a reader server: VTK's readers crash on some corrupt files (isolated_read.h). A PLY file
+// is read by Sinew's own reader, here; a VTP file's sizes are checked here first.
 TriangleMesh readMesh(const fs::path& path) {
   if (ioExtension(path) == ".ply") {
     const std::shared_lock vtkInUse(vtkWorkMutex());
     return readMeshHere(path);
   }
+  if (ioExtension(path) == ".vtp" && fs::is_regular_file(path)) checkVtkXmlSizes(path);
   return readIsolated(path, &readMeshHere);
 }
 
 TriangleMesh readMeshExact(const fs::path& path) {
+  if (ioExtension(path) == ".vtp" && fs::is_regular_file(path)) checkVtkXmlSizes(path);
   return readIsolated(path, &readMeshExactHere);
 }
 

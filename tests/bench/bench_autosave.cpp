@@ -50,7 +50,11 @@ int main(int argc, char** argv) {
   SessionOpenOptions options;
   options.backend = backend;
   session.open(scene, options);
-  while (session.level() < level && session.nextLevel()) {
+  // Through the levels as a run goes: each level's planned steps before the next (entered directly,
+  // the finest levels of the big scene fold within a few steps).
+  while (session.level() < level) {
+    session.step(session.levelIterationsPlanned());
+    if (!session.nextLevel()) break;
   }
   session.setParameter("smoothing", -1, "weight", session.parameter("smoothing", 0, "weight"));  // one undo step
   std::printf("%ld vertices at level %d, backend %s (%s)\n\n", long(session.simulation().store().vertexCount()),

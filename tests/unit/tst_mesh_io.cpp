@@ -5,7 +5,10 @@
 #include <QTemporaryDir>
 #include <QtTest>
 
+#include <cstring>
 #include <fstream>
+#include <functional>
+#include <iterator>
 
 using namespace sinew;
 using namespace sinew::testing;
@@ -57,6 +60,47 @@ private slots:
     fs::copy_file(path("whole.vtk"), path("half.vtk"));
     fs::resize_file(path("half.vtk"), fs::file_size(path("whole.vtk")) / 2);
     refused(path("half.vtk"), "");
+    // A VTP whose header claims more than the file holds (VTK would allocate the claim first).
+    io().write(path("whole.vtp"), tessellate(s.topology, s.positions));
+    std::string vtp;
+    {
+      std::ifstream in(path("whole.vtp"), std::ios::binary);
+      vtp.assign(std::istreambuf_iterator<char>(in), {});
+    }
+    QVERIFY(vtp.find("compressor=\"vtkZLibDataCompressor\"") != std::string::npos);
+    const auto damaged = [&](const std::string& name, const std::function<void(std::string&)>& damage) {
+      std::string bytes = vtp;
+      damage(bytes);
+      std::ofstream(path(name), std::ios::binary) << bytes;
+      return path(name);
+    };
+    const auto setAttribute = [](std::string& b, const std::string& name, const std::string& value) {
+      const std::size_t at = b.find(name + "=\"") + name.size() + 2;
+      b.replace(at, b.find('"', at) - at, value);
+    };
+    // The points' block header at offset 0 of the appended data, three 32-bit words in base64 as
+    // Sinew writes it: blocks, block size, last block size.
+    QVERIFY(vtp.find("<AppendedData encoding=\"base64\"") != std::string::npos);
+    const std::size_t data = vtp.find('_', vtp.find("<AppendedData")) + 1;
+    const auto setHeader = [&](std::string& b, std::uint32_t blocks, std::uint32_t blockSize, std::uint32_t last) {
+      const std::uint32_t words[3] = {blocks, blockSize, last};
+      unsigned char raw[12];
+      std::memcpy(raw, words, sizeof raw);
+      const char* digits = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+      for (int g = 0; g < 4; ++g) {
+        const std::uint32_t bits = raw[3 * g] << 16 | raw[3 * g + 1] << 8 | raw[3 * g + 2];
+        for (int k = 0; k < 4; ++k) b[data + 4 * g + k] = digits[(bits >> (18 - 6 * k)) & 63];
+      }
+    };
+    refused(damaged("points.vtp", [&](std::string& b) { setAttribute(b, "NumberOfPoints", "4000000000"); }),
+            "NumberOfPoints is 4000000000, more than a file of");
+    refused(damaged("count.vtp", [&](std::string& b) { setAttribute(b, "NumberOfPolys", "12x"); }), "is not a count");
+    refused(damaged("blocks.vtp", [&](std::string& b) { setHeader(b, 0x7fffffffu, 32768, 0); }),
+            "array Points claims 2147483647 compressed blocks; the file holds at most");
+    refused(damaged("expands.vtp", [&](std::string& b) { setHeader(b, 1, 0x7fffff00u, 0); }),
+            "more than zlib can expand them to");
+    refused(damaged("offset.vtp", [&](std::string& b) { setAttribute(b, "offset", "99999999"); }), "starts beyond the end of the file");
+    QCOMPARE(io().read(damaged("same.vtp", [](std::string&) {})).points.size(), tessellate(s.topology, s.positions).points.size());
   }
 
   void refusesToWriteNaN() {

@@ -229,6 +229,65 @@ private Q_SLOTS:
     QCOMPARE(sampleSelfIntersections(s, s.positions(), 1).intersecting, Index(0));  // the other structure
   }
 
+  // The sampling's binning against brute force: a sphere crumpled by random moves of up to several
+  // cell sizes, each sampled triangle tested against every fan triangle it shares no vertex with.
+  void selfIntersectionSamplingMatchesBruteForce() {
+    Simulation sim(forceRegistry());
+    sim.addStructure(sphereStructure("ball", 3, 10.0f, Vec3(50, 50, 50)));
+    sim.addForce("smoothing");
+    sim.setIntegrator("damped_verlet");
+    sim.initialize();
+    MeshStore& s = sim.store();
+    const auto offsets = s.cellOffsets();
+    const auto cellVertices = s.cellVertices();
+    const Index cells = s.range(0).cellEnd;
+    std::vector<Vec3> centre(static_cast<std::size_t>(cells));
+    const auto fanTriangle = [&](Index i, Index c, Eigen::Vector3d t[3], Index& u, Index& v) {
+      const Index begin = offsets[c], end = offsets[c + 1];
+      u = cellVertices[i];
+      v = cellVertices[i + 1 == end ? begin : i + 1];
+      t[0] = s.positions()[u].cast<double>();
+      t[1] = s.positions()[v].cast<double>();
+      t[2] = centre[std::size_t(c)].cast<double>();
+    };
+    for (const float amplitude : {0.0f, 1.5f, 4.0f}) {
+      auto x = s.positionsForWrite();
+      std::uint32_t state = 12345;
+      const auto random = [&] {
+        state = state * 1664525u + 1013904223u;
+        return float(state >> 8) / float(1u << 24) - 0.5f;
+      };
+      for (Index v = 0; v < s.vertexCount(); ++v) x[v] += amplitude * Vec3(random(), random(), random());
+      for (Index c = 0; c < cells; ++c) {
+        Vec3 sum = Vec3::Zero();
+        for (Index i = offsets[c]; i < offsets[c + 1]; ++i) sum += x[cellVertices[i]];
+        centre[std::size_t(c)] = sum / float(offsets[c + 1] - offsets[c]);
+      }
+      const Index triangles = offsets[cells], maxSamples = 300;
+      const Index stride = (triangles + maxSamples - 1) / maxSamples;
+      Index expected = 0, sampled = 0;
+      for (Index i = 0; i < triangles; i += stride, ++sampled) {
+        const Index c = Index(std::upper_bound(offsets.begin(), offsets.begin() + cells + 1, i) - offsets.begin()) - 1;
+        Eigen::Vector3d a[3], b[3];
+        Index u, v, p, q;
+        fanTriangle(i, c, a, u, v);
+        bool crosses = false;
+        for (Index d = 0; d < cells && !crosses; ++d)
+          for (Index j = offsets[d]; d != c && j < offsets[d + 1] && !crosses; ++j) {
+            fanTriangle(j, d, b, p, q);
+            crosses = p != u && p != v && q != u && q != v && trianglesIntersect(a, b);
+          }
+        expected += crosses;
+      }
+      const SelfIntersectionSample got = sampleSelfIntersections(s, s.positions(), 0, maxSamples);
+      qInfo("moves of %.1f mm: %lld of %lld sampled triangles cross", double(amplitude), (long long)got.intersecting,
+            (long long)got.sampled);
+      QCOMPARE(got.sampled, sampled);
+      QCOMPARE(got.intersecting, expected);
+      if (amplitude == 4.0f) QVERIFY(expected > 10);  // the case is not vacuous
+    }
+  }
+
   // The triangle test behind the self-intersection check.
   void trianglesCrossOnlyWhenTheyDo() {
     const Eigen::Vector3d t[3] = {{0, 0, 0}, {2, 0, 0}, {0, 2, 0}};
