@@ -46,8 +46,9 @@ if [ -z "${TMPDIR:-}" ] && [ -d /dev/shm ] && [ -w /dev/shm ]; then export TMPDI
 export UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}
 status=0
 root=$(pwd)
+buildAbs=$(cd "$build" && pwd)
 for h in "${harnesses[@]}"; do
-  work="$root/$build/work-$h"  # libFuzzer's worker logs (fuzz-N.log) land here
+  work="$buildAbs/work-$h"  # libFuzzer's worker logs (fuzz-N.log) land here
   corpus="$work/corpus"
   mkdir -p "$corpus"
   cp -n tests/fuzz/corpus/"$h"/* "$corpus"/
@@ -55,9 +56,9 @@ for h in "${harnesses[@]}"; do
   [ -d tests/fuzz/regressions/"$h" ] && inputs+=("$root/tests/fuzz/regressions/$h")
   echo "== fuzz_$h: ${seconds} s, $jobs worker(s), at most $runs inputs"
   log="$work/fuzz.log"
-  if ! (cd "$work" && "$root/$build/tests/fuzz/fuzz_$h" "${inputs[@]}" -max_total_time="$seconds" -runs="$runs" -seed="$seed" \
+  if ! (cd "$work" && "$buildAbs/tests/fuzz/fuzz_$h" "${inputs[@]}" -max_total_time="$seconds" -runs="$runs" -seed="$seed" \
       -rss_limit_mb=4096 -malloc_limit_mb=65536 -timeout=20 -max_len=65536 -jobs="$jobs" -workers="$jobs" \
-      -artifact_prefix="$root/$build/crash-$h-" -print_final_stats=1 > "$log" 2>&1); then
+      -artifact_prefix="$buildAbs/crash-$h-" -print_final_stats=1 > "$log" 2>&1); then
     echo "fuzz_$h FAILED; the input: $build/crash-$h-*; the log: $log" >&2
     tail -60 "$log" "$work"/fuzz-*.log 2>/dev/null >&2 || true
     status=1

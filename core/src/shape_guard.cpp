@@ -3,39 +3,81 @@
 #include "sinew/core/self_intersection.h"
 #include "sinew/core/simplex_mesh.h"
 
+#include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
 
 #include <cstdio>
 
 namespace sinew {
 
-// The Fig. 1b tessellation's volume (tessellate(), then TriangleMesh::volume(): the same triangles
-// in the same order, so the same value) without building the triangle mesh: the guard runs at every
-// chunk in the workstation, at a million vertices too.
+namespace {
+// Six times the volume that cell c's fan (Fig. 1b: each cell fanned around its centroid) adds.
+double cellVolume6(std::span<const Vec3> x, std::span<const Index> offsets, std::span<const Index> vertices, Index c) {
+  const Index begin = offsets[c], end = offsets[c + 1];
+  Vec3 sum = Vec3::Zero();
+  for (Index i = begin; i < end; ++i) sum += x[vertices[i]];
+  const Eigen::Vector3d centre = (sum / static_cast<float>(end - begin)).cast<double>();
+  double v = 0.0;
+  for (Index i = begin; i < end; ++i) {
+    const Eigen::Vector3d a = x[vertices[i]].cast<double>();
+    const Eigen::Vector3d b = x[vertices[i + 1 == end ? begin : i + 1]].cast<double>();
+    v += a.dot(b.cross(centre));
+  }
+  return v;
+}
+
+// Sums over a structure's cells or vertices in parallel, in a fixed order (the same value on every
+// run and thread count): the guard runs at every chunk in the workstation, at a million vertices too.
+template <class T, class Add>
+T deterministicSum(Index begin, Index end, const T& zero, Add add) {
+  return tbb::parallel_deterministic_reduce(
+      tbb::blocked_range<Index>(begin, end, 4096), zero,
+      [&](const tbb::blocked_range<Index>& range, T sum) {
+        for (Index i = range.begin(); i < range.end(); ++i) add(sum, i);
+        return sum;
+      },
+      [](T a, const T& b) {
+        a += b;
+        return a;
+      });
+}
+
+struct CellSums {
+  double volume6 = 0.0;
+  Index inverted = 0, collapsed = 0;
+  CellSums& operator+=(const CellSums& o) {
+    volume6 += o.volume6;
+    inverted += o.inverted;
+    collapsed += o.collapsed;
+    return *this;
+  }
+};
+struct VertexSums {
+  Eigen::Vector3d position = Eigen::Vector3d::Zero();
+  Index outside = 0;
+  VertexSums& operator+=(const VertexSums& o) {
+    position += o.position;
+    outside += o.outside;
+    return *this;
+  }
+};
+}  // namespace
+
+// The Fig. 1b tessellation's volume, without building the triangle mesh.
 double structureVolume(MeshStore& store, Index mesh) {
   const MeshRange& r = store.range(mesh);
   const auto x = store.positions();
   const auto offsets = store.cellOffsets();
   const auto vertices = store.cellVertices();
-  double v = 0.0;
-  for (Index c = r.cellBegin; c < r.cellEnd; ++c) {
-    const Index begin = offsets[c], end = offsets[c + 1];
-    Vec3 sum = Vec3::Zero();
-    for (Index i = begin; i < end; ++i) sum += x[vertices[i]];
-    const Eigen::Vector3d centre = (sum / static_cast<float>(end - begin)).cast<double>();
-    for (Index i = begin; i < end; ++i) {
-      const Eigen::Vector3d a = x[vertices[i]].cast<double>();
-      const Eigen::Vector3d b = x[vertices[i + 1 == end ? begin : i + 1]].cast<double>();
-      v += a.dot(b.cross(centre));
-    }
-  }
-  return v / 6.0;
+  return deterministicSum(r.cellBegin, r.cellEnd, 0.0, [&](double& v, Index c) { v += cellVolume6(x, offsets, vertices, c); }) / 6.0;
 }
 
 Vec3 structureCentroid(MeshStore& store, Index mesh) {
   const MeshRange& r = store.range(mesh);
-  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-  for (Index v = r.vertexBegin; v < r.vertexEnd; ++v) sum += store.positions()[v].cast<double>();
+  const auto x = store.positions();
+  const Eigen::Vector3d sum =
+      deterministicSum(r.vertexBegin, r.vertexEnd, Eigen::Vector3d::Zero().eval(), [&](Eigen::Vector3d& s, Index v) { s += x[v].cast<double>(); });
   return (sum / double(std::max<Index>(1, r.vertexCount()))).cast<float>();
 }
 
@@ -64,7 +106,7 @@ void ShapeGuard::capture(MeshStore& store) {
 void ShapeGuard::followLevel(MeshStore& store) {
   if (cellArea_.size() == std::size_t(store.cellCount())) return;
   cellArea_.resize(store.cellCount());
-  for (Index c = 0; c < store.cellCount(); ++c) cellArea_[c] = cellVectorArea(store, store.positions(), c);
+  tbb::parallel_for(Index(0), store.cellCount(), [&](Index c) { cellArea_[c] = cellVectorArea(store, store.positions(), c); });
 }
 
 std::string ShapeGuard::check(MeshStore& store, const ImageGeometry& image, const ShapeLimits& limits,
@@ -91,7 +133,26 @@ std::string ShapeGuard::checkOne(MeshStore& store, Index m, const ImageGeometry&
   };
   char text[256];
   const std::string name = "structure '" + (m < Index(names.size()) ? names[m] : std::to_string(m)) + "'";
-  const double ratio = volume_[m] > 0.0 ? structureVolume(store, m) / volume_[m] : 1.0;
+  // Two passes, each in parallel: the cells (volume, turned over, collapsed), the vertices (centroid,
+  // outside the image). A cell turned over points its vector area against the start's; a collapsed
+  // one keeps under a hundredth of the start's area.
+  const MeshRange& r = store.range(m);
+  const auto x = store.positions();
+  const auto offsets = store.cellOffsets();
+  const auto vertices = store.cellVertices();
+  const Index areaEnd = std::min<Index>(r.cellEnd, Index(cellArea_.size()));
+  const CellSums cellSums = deterministicSum(r.cellBegin, r.cellEnd, CellSums{}, [&](CellSums& s, Index c) {
+    s.volume6 += cellVolume6(x, offsets, vertices, c);
+    if (c >= areaEnd) return;
+    const Vec3 now = cellVectorArea(store, x, c);
+    s.inverted += now.dot(cellArea_[c]) < 0.0f;
+    s.collapsed += now.norm() < 0.01f * cellArea_[c].norm();
+  });
+  const VertexSums vertexSums = deterministicSum(r.vertexBegin, r.vertexEnd, VertexSums{}, [&](VertexSums& s, Index v) {
+    s.position += x[v].cast<double>();
+    s.outside += !inside(x[v]);
+  });
+  const double ratio = volume_[m] > 0.0 ? cellSums.volume6 / 6.0 / volume_[m] : 1.0;
   if (!(ratio >= limits.minVolumeRatio && ratio <= limits.maxVolumeRatio)) {
     const bool shrunk = !(ratio >= limits.minVolumeRatio);
     std::snprintf(text, sizeof text, "shape check: %s has %.4g times its volume at the start, %s the %s %.3g",
@@ -99,30 +160,20 @@ std::string ShapeGuard::checkOne(MeshStore& store, Index m, const ImageGeometry&
                   shrunk ? limits.minVolumeRatio : limits.maxVolumeRatio);
     return text;
   }
-  const double drift = (structureCentroid(store, m) - centroid_[m]).norm();
+  const Vec3 centroid = (vertexSums.position / double(std::max<Index>(1, r.vertexCount()))).cast<float>();
+  const double drift = (centroid - centroid_[m]).norm();
   if (!(drift <= limits.maxDriftMm)) {
     std::snprintf(text, sizeof text, "shape check: %s drifted %.3g mm from where it started (limit %.3g mm)",
                   name.c_str(), drift, limits.maxDriftMm);
     return text;
   }
-  const MeshRange& r = store.range(m);
-  Index outside = 0;
-  for (Index v = r.vertexBegin; v < r.vertexEnd; ++v) outside += !inside(store.positions()[v]);
-  const double fraction = double(outside) / double(std::max<Index>(1, r.vertexCount()));
+  const double fraction = double(vertexSums.outside) / double(std::max<Index>(1, r.vertexCount()));
   if (fraction > limits.maxOutsideFraction) {
     std::snprintf(text, sizeof text, "shape check: %s has %.3g %% of its vertices outside the image (limit %.3g %%)",
                   name.c_str(), 100.0 * fraction, 100.0 * limits.maxOutsideFraction);
     return text;
   }
-  // A cell turned over points its vector area against the start's; a collapsed one keeps under a
-  // hundredth of the start's area. Both are shares of the structure's cells.
-  Index inverted = 0, collapsed = 0;
-  for (Index c = r.cellBegin; c < r.cellEnd && c < Index(cellArea_.size()); ++c) {
-    const Vec3 now = cellVectorArea(store, store.positions(), c);
-    const float before = cellArea_[c].norm();
-    inverted += now.dot(cellArea_[c]) < 0.0f;
-    collapsed += now.norm() < 0.01f * before;
-  }
+  const Index inverted = cellSums.inverted, collapsed = cellSums.collapsed;
   const double cells = double(std::max<Index>(1, r.cellEnd - r.cellBegin));
   if (inverted / cells > limits.maxInvertedFraction) {
     std::snprintf(text, sizeof text, "shape check: %s has %.3g %% of its cells turned over against the start (limit %.3g %%)",

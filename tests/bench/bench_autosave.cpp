@@ -49,6 +49,12 @@ int main(int argc, char** argv) {
   SegmentationSession session(registry);
   SessionOpenOptions options;
   options.backend = backend;
+  // The guard's rollbacks, as the workstation's log shows them: each with its time in the phase.
+  auto phaseStart = Clock::now();
+  int logged = 0;
+  options.log = [&](const std::string& line) {
+    if (++logged <= 20) std::printf("  [%.2f s] %s\n", since(phaseStart), line.c_str());
+  };
   session.open(scene, options);
   // Through the levels as a run goes: each level's planned steps before the next (entered directly,
   // the finest levels of the big scene fold within a few steps).
@@ -101,6 +107,8 @@ int main(int argc, char** argv) {
     if (autosave) recovery = std::make_unique<SessionRecovery>(root);
     std::vector<double> frames;
     const auto t0 = Clock::now();
+    phaseStart = t0;
+    logged = 0;
     std::string stopped;
     while (since(t0) < seconds && stopped.empty()) {
       const auto f0 = Clock::now();
