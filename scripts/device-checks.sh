@@ -55,15 +55,18 @@ for c in ${CHECKS:-parity demo accuracy}; do
       # at most FUZZ_SECONDS each (the bundle made with FUZZ=1 scripts/device-bundle.sh).
       FUZZ_PREBUILT=1 FUZZ_BUILD="$(dirname "$build")/fuzz" JOBS=${FUZZ_JOBS:-$(nproc)} FUZZ_RUNS=${FUZZ_RUNS:-10000000} \
         bash scripts/fuzz.sh ${FUZZ_SECONDS:-0} ${FUZZ_HARNESSES:-scene image mesh model} 2>&1 | tee "$out/fuzz.txt"
-      for h in ${FUZZ_HARNESSES:-scene image mesh model}; do
-        tail -n 3 "$(dirname "$build")"/fuzz/work-$h/fuzz-*.log 2>/dev/null | grep -E "Done|ERROR|exec/s" | tail -n 2
-      done ;;
+      # What a finding left: its input (one file) and the end of its worker's log.
+      crashes=$(ls "$(dirname "$build")"/fuzz/crash-* 2>/dev/null | head -3)
+      for f in $crashes; do cp "$f" "$out/"; done
+      [ -n "$crashes" ] && grep -l -E "ERROR|Deadly|crash" "$(dirname "$build")"/fuzz/work-*/fuzz-*.log 2>/dev/null | head -1 |
+        xargs -r tail -n 60 > "$out/fuzz-finding.log" ;;
     autosave)
       # The autosave against the frame loop at about a million vertices (docs/reliability.md).
       t=/usr/share/mricron/templates
       "$build/app/sinew-make-scene" --atlas $t/aal.nii.gz --labels $t/aal.nii.txt --training $t/ch2.nii.gz \
         --target $t/ch2better.nii.gz --iterations 20,10,10,10,10,10 -o /tmp/big/scene.json >/dev/null
-      "$build/tests/bench/bench_autosave" /tmp/big/scene.json --backend cuda ${AUTOSAVE_ARGS:---level 5} 2>&1 | tee "$out/autosave.txt" ;;
+      "$build/tests/bench/bench_autosave" /tmp/big/scene.json --backend cuda ${AUTOSAVE_ARGS:---level 5} 2>&1 | tee "$out/autosave.txt"
+      [ -n "${AUTOSAVE_ARGS2:-}" ] && "$build/tests/bench/bench_autosave" /tmp/big/scene.json --backend cuda $AUTOSAVE_ARGS2 2>&1 | tee "$out/autosave2.txt" ;;
     accuracy)
       for backend in ${ACC_BACKENDS:-cuda cpu}; do
         bash scripts/accuracy.sh "$build" /tmp/acc "$backend" ${SEEDS:-201 202 203 204 205} > "$out/accuracy-$backend.md" 2>"$out/accuracy-$backend.err"

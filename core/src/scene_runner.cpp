@@ -550,7 +550,7 @@ RunReport SceneRunner::run() {
       if (sim.stabilityGuard().enabled) holdChunkStart();
       if (sim.stabilityGuard().enabled)
         runShapeGuarded(runChunk, chunk, report, [&] {
-          if (backend) backend->reload();
+          if (backend) backend->restoreState();
         });
       else runChunk();
       simSeconds += since(t0);

@@ -67,7 +67,7 @@ void SceneRunner::runGuarded(ExecutionBackend& backend, int chunk, RunReport& re
       if (options_.log) options_.log(std::string("numerical failure: ") + e.what());
       return;
     }
-    backend.reload();
+    backend.restoreState();
   }
 }
 
@@ -85,7 +85,7 @@ std::string SceneRunner::runGuardedChunk(ExecutionBackend* backend, int chunk, b
   if (sim.stabilityGuard().enabled) holdChunkStart();
   if (checkShape && sim.stabilityGuard().enabled)
     runShapeGuarded(runChunk, chunk, report, [&] {
-      if (backend) backend->reload();
+      if (backend) backend->restoreState();
     });
   else runChunk();
   return report.numericalFailure;

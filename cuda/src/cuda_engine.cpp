@@ -595,6 +595,14 @@ void CudaEngine::download() {
 
 void CudaEngine::reload() { impl_->upload(); }
 
+void CudaEngine::restoreState() {
+  Impl& I = *impl_;
+  MeshStore& s = I.sim.store();
+  uploadAs(I.x, s.positions(), I.stream);  // same sizes: the buffers, and so the captured graphs, stay
+  uploadAs(I.prev, std::span<const Vec3>(s.previousPositions()), I.stream);
+  SINEW_CUDA(cudaStreamSynchronize(I.stream));
+}
+
 bool CudaEngine::measureError(SampledError& error, std::vector<std::optional<SurfaceDistanceStats>>& out) {
   Impl& I = *impl_;
   out = I.sampledError.measure(error, I.sim.store(), I.view, I.stream);

@@ -5,6 +5,7 @@
 // frame time's median, 99th percentile and maximum, and the autosave's copy on the frame's thread
 // (its writing runs on a thread of its own); first, one shape check's own cost at this size.
 //   bench_autosave SCENE [--level 5] [--backend auto] [--seconds 10] [--budget-ms 16]
+//                  [--max-self-intersecting-fraction F]
 #include "builtin_plugins.h"
 #include "segmentation_session.h"
 #include "session_recovery.h"
@@ -42,6 +43,9 @@ int main(int argc, char** argv) {
   cli.add_option("--backend", backend)->check(CLI::IsMember({"auto", "cuda", "cpu"}))->capture_default_str();
   cli.add_option("--seconds", seconds, "per phase")->capture_default_str();
   cli.add_option("--budget-ms", budgetMs, "simulation per frame")->capture_default_str();
+  double selfLimit = -1.0;
+  cli.add_option("--max-self-intersecting-fraction", selfLimit,
+                 "the guard's self-intersection limit for the phases (default: the scene's); the check runs in full either way");
   CLI11_PARSE(cli, argc, argv);
 
   Registry registry;
@@ -102,6 +106,7 @@ int main(int argc, char** argv) {
     if (phase > 0) session.restoreState(start, options);
     StabilityGuard g = guard;
     g.enabled = phase > 0;
+    if (selfLimit >= 0.0) g.shape.maxSelfIntersectingFraction = selfLimit;
     session.simulation().setStabilityGuard(g);
     std::unique_ptr<SessionRecovery> recovery;
     if (autosave) recovery = std::make_unique<SessionRecovery>(root);

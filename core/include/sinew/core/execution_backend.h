@@ -22,6 +22,9 @@ public:
   virtual void download() = 0;
   // Uploads the host store again after the host changed it (an edit).
   virtual void reload() = 0;
+  // Uploads only the host's positions and previous positions (a guard's rollback: the host put the
+  // chunk's start state back and halved the step; nothing else changed). By default, reload().
+  virtual void restoreState() { reload(); }
   // After Simulation::advanceLevel(): carry the backend's own state to the new level (the host's
   // copy may be older); by default the host's state is uploaded.
   virtual void levelChanged() { reload(); }

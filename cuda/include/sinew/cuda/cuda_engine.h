@@ -42,6 +42,7 @@ public:
   void download() override;
   // Uploads the host store again (after a host-side edit).
   void reload() override;
+  void restoreState() override;
   // After Simulation::advanceLevel(): positions and previous positions are prolongated on the
   // device (the state never visits the host); topology, reference and profiles come from the host.
   void levelChanged() override;
