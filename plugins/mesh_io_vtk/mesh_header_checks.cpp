@@ -4,11 +4,13 @@
 
 #include <bit>
 #include <cctype>
+#include <cmath>
 #include <cstdlib>
 #include <cstdint>
 #include <cstring>
 #include <fstream>
 #include <iterator>
+#include <limits>
 #include <map>
 #include <sstream>
 #include <string>
@@ -164,7 +166,10 @@ TriangleMesh readPly(const fs::path& path) {
         const Property& prop = e.properties[k];
         if (prop.countType.empty()) {
           const double v = values.next(prop.type, what.c_str());
-          if (isVertex && (k == x || k == y || k == z)) p[k == x ? 0 : k == y ? 1 : 2] = float(v);
+          if (!isVertex || (k != x && k != y && k != z)) continue;
+          if (!(std::abs(v) <= double(std::numeric_limits<float>::max())))  // NaN too: float(v) would be undefined
+            fail(path, "vertex " + std::to_string(i) + " has a coordinate that is not a finite float (" + std::to_string(v) + ")");
+          p[k == x ? 0 : k == y ? 1 : 2] = float(v);
           continue;
         }
         const double count = values.next(prop.countType, what.c_str());
@@ -172,7 +177,8 @@ TriangleMesh readPly(const fs::path& path) {
         std::vector<Index> ids(static_cast<std::size_t>(count));
         for (auto& id : ids) {
           const double v = values.next(prop.type, what.c_str());
-          if (isFace && k == list && !(v >= 0 && v < double(mesh.points.size()) && v == double(Index(v))))
+          if (!isFace || k != list) continue;  // another list: read past it
+          if (!(v >= 0 && v < double(mesh.points.size()) && v == std::floor(v)))
             fail(path, "face " + std::to_string(i) + " refers to vertex " + std::to_string(v) + ", which does not exist");
           id = Index(v);
         }
