@@ -45,6 +45,7 @@ constexpr int kIdleExitCode = 75;         // a server idle this long exits with 
 constexpr int kIdleMilliseconds = 5000;   // short: an idle server holds the parent's old pages
 constexpr int kReadsPerServer = 256;      // bounds what VTK's leaks on bad files add up to
 constexpr int kReadSeconds = 120;
+constexpr int kReadySeconds = 10;
 
 [[noreturn]] void fail(const fs::path& path, const std::string& problem) { throw InputError(path.string() + ": " + problem); }
 
@@ -133,6 +134,14 @@ void limitMemory() {
   }
   ::close_range(kServerFd + 1, ~0U, 0);
   limitMemory();
+  // Ready, once the allocator has been used: a fork taken while another thread held an allocator
+  // lock would hang here (seen under ASan, whose allocator has no fork handlers in clang 14), and the
+  // parent then starts another server instead of waiting out a read's 120 s.
+  {
+    std::vector<std::string> warm;
+    for (std::size_t size = 16; size <= (1u << 20); size *= 4) warm.emplace_back(size, 'w');
+  }
+  if (!sendAll(kServerFd, "R", 1)) ::_exit(0);
   for (;;) {
     pollfd p{kServerFd, POLLIN, 0};
     const int ready = ::poll(&p, 1, kIdleMilliseconds);
@@ -173,7 +182,24 @@ int discard(const Server& s, bool kill) {
   return status;
 }
 
-Server startServer(const fs::path& path) {
+// Whether a new server said it is ready within kReadySeconds.
+bool ready(const Server& s) {
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(kReadySeconds);
+  for (;;) {
+    const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now()).count();
+    if (left <= 0) return false;
+    pollfd p{s.fd, POLLIN, 0};
+    const int n = ::poll(&p, 1, int(left));
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) return false;
+    char byte = 0;
+    const ssize_t got = ::read(s.fd, &byte, 1);
+    if (got < 0 && errno == EINTR) continue;
+    return got == 1 && byte == 'R';
+  }
+}
+
+Server forkServer(const fs::path& path) {
   int fds[2];
   if (::socketpair(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0, fds) != 0)
     fail(path, std::string("cannot start the mesh reader: ") + std::strerror(errno));
@@ -192,6 +218,16 @@ Server startServer(const fs::path& path) {
     fail(path, std::string("cannot start the mesh reader: ") + std::strerror(errno));
   }
   return {pid, fds[0], 0};
+}
+
+// A new server that said it is ready; a second try when the first did not.
+Server startServer(const fs::path& path) {
+  for (int attempt = 0;; ++attempt) {
+    const Server s = forkServer(path);
+    if (ready(s)) return s;
+    discard(s, true);
+    if (attempt == 1) fail(path, "cannot start the mesh reader: it did not answer");
+  }
 }
 
 // An idle server that is still alive, else a new one; fresh says which.
