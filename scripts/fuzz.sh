@@ -41,6 +41,10 @@ fi
 # over 2 GB: the inputs are at most 64 KB, and a reader that asks for more (VTK, in its child
 # process) then fails at once instead of filling gigabytes.
 export ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=0:allocator_may_return_null=1:max_allocation_size_mb=2048}
+# A mesh read's deadline in the reader server (plugins/mesh_io_vtk/isolated_read.cpp), 120 s for
+# users: below libFuzzer's -timeout here, so that a hung server ends as users would see it, in an
+# InputError (a server forked under ASan can hang on an allocator lock held at the fork).
+export SINEW_MESH_READ_SECONDS=${SINEW_MESH_READ_SECONDS:-5}
 # The harnesses write each input to a file (the readers take paths): on tmpfs where there is one.
 if [ -z "${TMPDIR:-}" ] && [ -d /dev/shm ] && [ -w /dev/shm ]; then export TMPDIR=/dev/shm; fi
 export UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}
