@@ -5,6 +5,7 @@
 
 #include <cstdio>
 #include <fstream>
+#include <limits>
 #include <unistd.h>
 
 namespace sinew {
@@ -152,9 +153,20 @@ Model readModel(const Registry& registry, const fs::path& folder) {
     throw InputError(manifest.string() + ": not valid JSON: " + e.what());
   }
   auto fail = [&](const std::string& problem) -> void { throw InputError(manifest.string() + ": " + problem); };
+  // An integer field of T's range (nlohmann's get<int>() casts a number like 1e46 unchecked:
+  // undefined behaviour, found by fuzz_model).
+  const auto integer = [&]<class T>(const Json& v, const std::string& what, T) -> T {
+    const bool fits = v.is_number_unsigned() ? v.get<std::uint64_t>() <= std::uint64_t(std::numeric_limits<T>::max())
+                      : v.is_number_integer() ? v.get<std::int64_t>() >= std::int64_t(std::numeric_limits<T>::min()) &&
+                                                    (v.get<std::int64_t>() < 0 || std::uint64_t(v.get<std::int64_t>()) <= std::uint64_t(std::numeric_limits<T>::max()))
+                                              : false;
+    if (!fits) fail("\"" + what + "\" must be a whole number from " + std::to_string(std::numeric_limits<T>::min()) + " to " +
+                    std::to_string(std::numeric_limits<T>::max()) + ", not " + v.dump());
+    return v.is_number_unsigned() ? T(v.get<std::uint64_t>()) : T(v.get<std::int64_t>());
+  };
   try {
     if (j.value("format", "") != "sinew-model") fail("not a Sinew model (\"format\" is not \"sinew-model\")");
-    const int version = j.at("version").get<int>();
+    const int version = integer(j.at("version"), "version", int());
     if (version != kModelFormatVersion)
       fail("model format version " + std::to_string(version) + " is not supported (this Sinew reads version " +
            std::to_string(kModelFormatVersion) + "); rebuild it with sinew-build-model");
@@ -163,12 +175,12 @@ Model readModel(const Registry& registry, const fs::path& folder) {
     m.createdBy = j.value("created_by", "");
     m.created = j.value("created", "");
     m.coarseSpacingMm = j.at("parameters").at("coarse_spacing_mm").get<double>();
-    m.relaxIterations = j.at("parameters").at("relax_iterations").get<int>();
-    const int levels = j.at("parameters").at("levels").get<int>();
+    m.relaxIterations = integer(j.at("parameters").at("relax_iterations"), "relax_iterations", int());
+    const int levels = integer(j.at("parameters").at("levels"), "levels", int());
     if (levels < 1 || levels > 6) fail("parameters/levels must be 1 to 6");
     for (const auto& in : j.at("inputs"))
       m.inputs.push_back({in.at("role").get<std::string>(), in.at("path").get<std::string>(),
-                          in.at("bytes").get<std::uintmax_t>(), parseHex(in.at("crc32").get<std::string>(), manifest)});
+                          integer(in.at("bytes"), "bytes", std::uintmax_t()), parseHex(in.at("crc32").get<std::string>(), manifest)});
     const auto& files = j.at("files");
     auto checked = [&](const fs::path& relative) {
       const std::string key = relative.generic_string();
@@ -188,8 +200,10 @@ Model readModel(const Registry& registry, const fs::path& folder) {
       if (ms.name.empty() || ms.name.find_first_not_of("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789_-.") !=
                                  std::string::npos || ms.name[0] == '.')
         fail("structure name '" + ms.name + "' is not a plain name");
-      ms.label = s.at("label").get<int>();
-      const auto counts = s.at("vertices").get<std::vector<Index>>();
+      ms.label = integer(s.at("label"), "label", int());
+      if (!s.at("vertices").is_array()) fail("structure '" + ms.name + "': \"vertices\" must be a list of counts");
+      std::vector<Index> counts;
+      for (const Json& c : s.at("vertices")) counts.push_back(integer(c, "vertices", Index()));
       if (int(counts.size()) != levels) fail("structure '" + ms.name + "': vertex counts for " +
                                              std::to_string(counts.size()) + " levels, " + std::to_string(levels) + " expected");
       const fs::path topo = checked(topologyFile(ms.name));

@@ -1,5 +1,6 @@
 #include "sinew/core/scene.h"
 
+#include <limits>
 #include <nlohmann/json.hpp>
 
 #include "sinew/core/io.h"
@@ -60,7 +61,11 @@ public:
   }
   int integer() const {
     if (!j_.is_number_integer()) fail("expected an integer, got " + typeName());
-    return j_.get<int>();
+    const bool fits = j_.is_number_unsigned() ? j_.get<std::uint64_t>() <= std::uint64_t(std::numeric_limits<int>::max())
+                                              : j_.get<std::int64_t>() >= std::numeric_limits<int>::min() &&
+                                                    j_.get<std::int64_t>() <= std::numeric_limits<int>::max();
+    if (!fits) fail("the integer " + j_.dump() + " is out of range");
+    return int(j_.get<std::int64_t>());
   }
   bool boolean() const {
     if (!j_.is_boolean()) fail("expected true or false, got " + typeName());

@@ -272,6 +272,11 @@ private slots:
     text.replace(text.find("\"version\": 1"), 12, "\"version\": 7");
     { std::ofstream(folder / "model.json") << text; }
     expectError([&] { readModel(registry, folder); }, "model format version 7 is not supported");
+    // A version beyond an integer's range (a float to nlohmann-json; cast unchecked it was
+    // undefined behaviour, found by fuzz_model).
+    text.replace(text.find("\"version\": 7"), 12, "\"version\": 1e46");
+    { std::ofstream(folder / "model.json") << text; }
+    expectError([&] { readModel(registry, folder); }, "\"version\" must be a whole number from");
     // A folder that is not a model is never replaced.
     const fs::path other = fs::path(dir.path().toStdString()) / "other";
     fs::create_directories(other);
