@@ -12,60 +12,8 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
-#include <sstream>
 
 namespace sinew::cuda {
-
-DeviceStatus probeDevice() {
-  DeviceStatus st;
-  int count = 0;
-  const cudaError_t e = cudaGetDeviceCount(&count);
-  if (e != cudaSuccess) {
-    st.reason = std::string("no usable CUDA device (") + cudaGetErrorString(e) + ")";
-    return st;
-  }
-  if (count == 0) {
-    st.reason = "no CUDA device found";
-    return st;
-  }
-  cudaDeviceProp p{};
-  if (cudaGetDeviceProperties(&p, 0) != cudaSuccess) {
-    st.reason = "cannot query CUDA device 0";
-    return st;
-  }
-  std::ostringstream d;
-  d << p.name << " (sm_" << p.major << p.minor << ", " << std::fixed;
-  d.precision(1);
-  d << double(p.totalGlobalMem) / (1 << 30) << " GiB)";
-  st.description = d.str();
-  if (p.major < 9) {
-    st.reason = st.description + " is older than this build's target (sm_90: Hopper)";
-    return st;
-  }
-  st.usable = true;
-  return st;
-}
-
-std::vector<int> usableDevices() {
-  int count = 0;
-  std::vector<int> usable;
-  if (cudaGetDeviceCount(&count) != cudaSuccess) return usable;
-  for (int d = 0; d < count; ++d) {
-    cudaDeviceProp p{};
-    if (cudaGetDeviceProperties(&p, d) == cudaSuccess && p.major >= 9) usable.push_back(d);
-  }
-  return usable;
-}
-
-DeviceStatus startDevice() {
-  DeviceStatus st = probeDevice();
-  if (!st.usable) return st;
-  if (const cudaError_t e = cudaFree(nullptr); e != cudaSuccess) {
-    st.usable = false;
-    st.reason = st.description + ": cannot create a context (" + cudaGetErrorString(e) + ")";
-  }
-  return st;
-}
 
 namespace {
 VolumeView viewOf(const ImageGeometry& g) {
@@ -300,6 +248,14 @@ struct CudaEngine::Impl {
     invalidateGraph();
   }
 
+  // The host's positions and previous positions (sizes unchanged within a level: the buffers, and so
+  // the captured graphs, stay).
+  void uploadState() {
+    MeshStore& s = sim.store();
+    uploadAs(x, s.positions(), stream);
+    uploadAs(prev, std::span<const Vec3>(s.previousPositions()), stream);
+  }
+
   void upload(bool state = true) {
     invalidateGraph();
     MeshStore& s = sim.store();
@@ -316,10 +272,7 @@ struct CudaEngine::Impl {
     hostMeshBegin = begin;
     meshEnd.upload(end, stream);
     density.upload(dens, stream);
-    if (state) {
-      uploadAs(x, s.positions(), stream);
-      uploadAs(prev, std::span<const Vec3>(s.previousPositions()), stream);
-    }
+    if (state) uploadState();
     force.resize(s.vertexCount());
     if (s.has(Attribute::Normal)) normal.resize(s.vertexCount());
     if (s.has(Attribute::Elevation)) elevation.resize(s.vertexCount());
@@ -596,11 +549,8 @@ void CudaEngine::download() {
 void CudaEngine::reload() { impl_->upload(); }
 
 void CudaEngine::restoreState() {
-  Impl& I = *impl_;
-  MeshStore& s = I.sim.store();
-  uploadAs(I.x, s.positions(), I.stream);  // same sizes: the buffers, and so the captured graphs, stay
-  uploadAs(I.prev, std::span<const Vec3>(s.previousPositions()), I.stream);
-  SINEW_CUDA(cudaStreamSynchronize(I.stream));
+  impl_->uploadState();
+  SINEW_CUDA(cudaStreamSynchronize(impl_->stream));
 }
 
 bool CudaEngine::measureError(SampledError& error, std::vector<std::optional<SurfaceDistanceStats>>& out) {
@@ -621,14 +571,11 @@ void CudaEngine::levelChanged() {
   const MeshStore& fine = I.sim.store();
   // The coarse ranges are those of the last upload.
   const GlobalProlongation g = globalProlongation(sim, sim.level() - 1, I.hostMeshBegin);
-  const std::vector<int>& rows = g.rows;
-  const std::vector<int>& index = g.index;
-  const std::vector<float>& weight = g.weight;
   DeviceArray<int> dRows, dIndex;
   DeviceArray<float> dWeight;
-  dRows.upload(rows, I.stream);
-  dIndex.upload(index, I.stream);
-  dWeight.upload(weight, I.stream);
+  dRows.upload(g.rows, I.stream);
+  dIndex.upload(g.index, I.stream);
+  dWeight.upload(g.weight, I.stream);
   DeviceArray<float3> x(fine.vertexCount()), prev(fine.vertexCount());
   const int n = static_cast<int>(fine.vertexCount());
   launchProlong(dRows.get(), dIndex.get(), dWeight.get(), n, I.x.get(), x.get(), I.stream);
