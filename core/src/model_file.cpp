@@ -1,5 +1,7 @@
 #include "sinew/core/model_file.h"
 
+#include "json_integer.h"
+
 #include <nlohmann/json.hpp>
 #include <zlib.h>
 
@@ -154,16 +156,12 @@ Model readModel(const Registry& registry, const fs::path& folder) {
     throw InputError(manifest.string() + ": not valid JSON: " + e.what());
   }
   auto fail = [&](const std::string& problem) -> void { throw InputError(manifest.string() + ": " + problem); };
-  // An integer field of T's range (nlohmann's get<int>() casts a number like 1e46 unchecked:
-  // undefined behaviour, found by fuzz_model).
+  // An integer field of T's range (json_integer.h).
   const auto integer = [&]<class T>(const Json& v, const std::string& what, T) -> T {
-    const bool fits = v.is_number_unsigned() ? v.get<std::uint64_t>() <= std::uint64_t(std::numeric_limits<T>::max())
-                      : v.is_number_integer() ? v.get<std::int64_t>() >= std::int64_t(std::numeric_limits<T>::min()) &&
-                                                    (v.get<std::int64_t>() < 0 || std::uint64_t(v.get<std::int64_t>()) <= std::uint64_t(std::numeric_limits<T>::max()))
-                                              : false;
-    if (!fits) fail("\"" + what + "\" must be a whole number from " + std::to_string(std::numeric_limits<T>::min()) + " to " +
-                    std::to_string(std::numeric_limits<T>::max()) + ", not " + v.dump());
-    return v.is_number_unsigned() ? T(v.get<std::uint64_t>()) : T(v.get<std::int64_t>());
+    const std::optional<T> i = integerOf<T>(v);
+    if (!i) fail("\"" + what + "\" must be a whole number from " + std::to_string(std::numeric_limits<T>::min()) + " to " +
+                 std::to_string(std::numeric_limits<T>::max()) + ", not " + v.dump());
+    return *i;
   };
   try {
     if (j.value("format", "") != "sinew-model") fail("not a Sinew model (\"format\" is not \"sinew-model\")");

@@ -1,8 +1,8 @@
 #include "sinew/core/scene.h"
 
-#include <limits>
 #include <nlohmann/json.hpp>
 
+#include "json_integer.h"
 #include "sinew/core/io.h"
 
 #include <algorithm>
@@ -61,11 +61,9 @@ public:
   }
   int integer() const {
     if (!j_.is_number_integer()) fail("expected an integer, got " + typeName());
-    const bool fits = j_.is_number_unsigned() ? j_.get<std::uint64_t>() <= std::uint64_t(std::numeric_limits<int>::max())
-                                              : j_.get<std::int64_t>() >= std::numeric_limits<int>::min() &&
-                                                    j_.get<std::int64_t>() <= std::numeric_limits<int>::max();
-    if (!fits) fail("the integer " + j_.dump() + " is out of range");
-    return int(j_.get<std::int64_t>());
+    const std::optional<int> i = integerOf<int>(j_);
+    if (!i) fail("the integer " + j_.dump() + " is out of range");
+    return *i;
   }
   bool boolean() const {
     if (!j_.is_boolean()) fail("expected true or false, got " + typeName());

@@ -64,6 +64,8 @@ private slots:
                                  << "/data/scene.json: /structures/0/initial/sclae: unknown key";
     QTest::newRow("wrong type") << R"("iterations": 10)" << R"("iterations": "10")"
                                 << "/schedule/0/iterations: expected an integer, got a string";
+    QTest::newRow("integer out of range") << R"("iterations": 10)" << R"("iterations": 4294967306)"
+                                          << "/schedule/0/iterations: the integer 4294967306 is out of range";
     QTest::newRow("missing key") << R"("images": {"target": "t.nii.gz"})" << R"("images": {})"
                                  << "/images: missing required key 'target'";
     QTest::newRow("version") << R"("version": 1)" << R"("version": 7)" << "/version: scene version 7 is not supported";
