@@ -1,9 +1,9 @@
 // Self-intersections of one structure's surface, for the shape guard (shape_guard.h): the surface
 // is the Fig. 1b tessellation (each cell fanned around its centroid, as the volume and the written
 // meshes use), and a sample of its triangles is tested against every triangle of the structure
-// that shares no vertex and no cell with it. The cells are binned on a uniform grid whose spacing is
-// twice the 99th percentile of their extents, so a query looks at 27 bins (and at the few larger
-// cells); one pass is linear in the structure's cell count.
+// that shares no vertex and no cell with it. The samples are binned on a uniform grid over their
+// bounding box, and one parallel pass over the structure's cells tests each cell's fan against the
+// samples in the bins its box meets: linear in the cell count, with no grid of every cell built.
 #pragma once
 
 #include "sinew/core/mesh_store.h"
