@@ -547,12 +547,14 @@ RunReport SceneRunner::run() {
           if (options_.log) options_.log(std::string("numerical failure: ") + e.what());
         }
       };
-      if (sim.stabilityGuard().enabled) holdChunkStart();
-      if (sim.stabilityGuard().enabled)
+      if (sim.stabilityGuard().enabled) {
+        holdChunkStart();
         runShapeGuarded(runChunk, chunk, report, [&] {
           if (backend) backend->restoreState();
         });
-      else runChunk();
+      } else {
+        runChunk();
+      }
       simSeconds += since(t0);
       it += chunk;
       done += chunk;

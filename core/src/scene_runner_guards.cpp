@@ -82,8 +82,10 @@ std::string SceneRunner::runGuardedChunk(ExecutionBackend* backend, int chunk, b
       report.numericalFailure = e.what();  // the last good state stays in the store
     }
   };
-  if (sim.stabilityGuard().enabled) holdChunkStart();
-  if (checkShape && sim.stabilityGuard().enabled)
+  const bool guarded = sim.stabilityGuard().enabled;
+  // Both guards undo to the chunk's start; the CPU's own step guard keeps its own copy.
+  if (guarded && (checkShape || backend)) holdChunkStart();
+  if (guarded && checkShape)
     runShapeGuarded(runChunk, chunk, report, [&] {
       if (backend) backend->restoreState();
     });
