@@ -255,6 +255,11 @@ int main(int argc, char** argv) {
     runner.load();
     RunReport report = runner.run();
     report.stageSeconds.insert(report.stageSeconds.begin(), {"startup", startup});
+    if (scene.thickness) {
+      const auto thicknessStart = std::chrono::steady_clock::now();
+      addThickness(report, Executor(threads));
+      report.stageSeconds.emplace_back("thickness", since(thicknessStart));
+    }
     const auto outputsStart = std::chrono::steady_clock::now();
     for (const auto& s : report.structures)
       for (const Vec3& p : s.surface.points)

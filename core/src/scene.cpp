@@ -389,9 +389,10 @@ SceneDesc parseScene(const std::string& text, const fs::path& file) {
   }
   if (root.has("outputs")) {
     const Node o = root.at("outputs");
-    o.expectObject({"mesh_format", "meshes", "label_map"});
+    o.expectObject({"mesh_format", "meshes", "label_map", "thickness"});
     if (o.has("mesh_format")) s.meshFormat = o.at("mesh_format").string();
     if (o.has("meshes")) s.writeMeshes = o.at("meshes").boolean();
+    if (o.has("thickness")) s.thickness = o.at("thickness").boolean();
     if (o.has("label_map")) s.labelMapName = o.at("label_map").string();
     if (!plainFileName(s.labelMapName)) o.at("label_map").fail("expected a file name such as \"segmentation.nii.gz\"");
     if (s.meshFormat.empty() || s.meshFormat[0] != '.') o.at("mesh_format").fail("expected an extension such as \".vtp\"");
@@ -485,7 +486,7 @@ std::string sceneToJson(const SceneDesc& s) {
                     {"max_collapsed_fraction", s.stability.shape.maxCollapsedFraction},
                     {"max_self_intersecting_fraction", s.stability.shape.maxSelfIntersectingFraction}};
   j["report"] = {{"sample_interval", s.sampleInterval}, {"surface_sample_spacing_mm", s.surfaceSampleSpacingMm}};
-  j["outputs"] = {{"mesh_format", s.meshFormat}, {"meshes", s.writeMeshes}, {"label_map", s.labelMapName}};
+  j["outputs"] = {{"mesh_format", s.meshFormat}, {"meshes", s.writeMeshes}, {"label_map", s.labelMapName}, {"thickness", s.thickness}};
   return j.dump(2) + "\n";
 }
 

@@ -121,4 +121,13 @@ LabelVolume SceneRunner::labelMap(const RunReport& report) const {
   return out;
 }
 
+void addThickness(RunReport& report, const Executor& executor) {
+  for (StructureResult& s : report.structures) {
+    std::vector<float> radii = medialRadii(s.surface, executor);
+    s.medialRadius = summariseRadii(radii);
+    std::erase_if(s.surface.pointData, [](const PointArray& a) { return a.name == "medial_radius_mm"; });
+    s.surface.pointData.push_back({"medial_radius_mm", std::move(radii)});
+  }
+}
+
 }  // namespace sinew

@@ -8,6 +8,7 @@ const sinew::PluginInfo* sinew_plugin_info_intensity_profile();
 const sinew::PluginInfo* sinew_plugin_info_attraction_points();
 const sinew::PluginInfo* sinew_plugin_info_collision();
 const sinew::PluginInfo* sinew_plugin_info_contacts();
+const sinew::PluginInfo* sinew_plugin_info_radial();
 const sinew::PluginInfo* sinew_plugin_info_damped_verlet();
 const sinew::PluginInfo* sinew_plugin_info_implicit_euler();
 
@@ -15,7 +16,7 @@ namespace sinew {
 void addBuiltinForces(PluginLoader& loader) {
   for (auto entry : {sinew_plugin_info_smoothing, sinew_plugin_info_shape_prior, sinew_plugin_info_gradient,
                      sinew_plugin_info_intensity_profile, sinew_plugin_info_attraction_points, sinew_plugin_info_collision,
-                     sinew_plugin_info_contacts,
+                     sinew_plugin_info_contacts, sinew_plugin_info_radial,
                      sinew_plugin_info_damped_verlet, sinew_plugin_info_implicit_euler})
     loader.addBuiltin(*entry());
 }

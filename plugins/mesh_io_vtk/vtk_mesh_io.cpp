@@ -8,6 +8,7 @@
 #include <vtkCellArray.h>
 #include <vtkCleanPolyData.h>
 #include <vtkFlyingEdges3D.h>
+#include <vtkFloatArray.h>
 #include <vtkIdList.h>
 #include <vtkImageData.h>
 #include <vtkNew.h>
@@ -110,6 +111,14 @@ vtkSmartPointer<vtkPolyData> toPolyData(const TriangleMesh& m) {
   auto pd = vtkSmartPointer<vtkPolyData>::New();
   pd->SetPoints(points);
   pd->SetPolys(polys);
+  for (const PointArray& a : m.pointData) {
+    if (a.values.size() != m.points.size()) continue;  // writeMesh refuses these first
+    vtkNew<vtkFloatArray> values;
+    values->SetName(a.name.c_str());
+    values->SetNumberOfValues(vtkIdType(a.values.size()));
+    for (std::size_t i = 0; i < a.values.size(); ++i) values->SetValue(vtkIdType(i), a.values[i]);
+    pd->GetPointData()->AddArray(values);
+  }
   return pd;
 }
 
@@ -204,6 +213,13 @@ void writeMesh(const fs::path& path, const TriangleMesh& m) {
   const std::shared_lock vtkInUse(vtkWorkMutex());
   for (const Vec3& p : m.points)
     if (!p.allFinite()) fail(path, "refusing to write a mesh with a non-finite coordinate");
+  for (const PointArray& a : m.pointData) {
+    if (a.values.size() != m.points.size())
+      fail(path, "point data '" + a.name + "' has " + std::to_string(a.values.size()) + " values for " +
+                     std::to_string(m.points.size()) + " points");
+    for (float v : a.values)
+      if (!std::isfinite(v)) fail(path, "refusing to write point data '" + a.name + "' with a non-finite value");
+  }
   AtomicOutput out(path);
   const auto pd = toPolyData(m);
   const std::string ext = ioExtension(path);

@@ -2,6 +2,8 @@
 
 #include <Eigen/Dense>
 
+#include <algorithm>
+#include <cmath>
 #include <random>
 
 namespace sinew::testing {
@@ -39,6 +41,42 @@ Vec3 onEllipsoid(const Vec3& unitDirection, const Vec3& centre, const Vec3& radi
 TriangleMesh ellipsoidSurface(const Vec3& centre, const Vec3& radii, int level) {
   TriangleMesh m = icosphere(level, 1.0f);
   for (Vec3& p : m.points) p = onEllipsoid(p, centre, radii);
+  return m;
+}
+
+TriangleMesh capsuleSurface(float radius, float length, int around, const Vec3& centre) {
+  const float pi = 3.14159265358979f;
+  const float step = 2.0f * pi * radius / float(around);  // about square faces
+  std::vector<std::pair<float, float>> rings;              // (z, distance from the axis), top to bottom
+  const int capRings = std::max(2, int(std::lround(0.5f * pi * radius / step)));
+  for (int k = 1; k <= capRings; ++k) {
+    const float theta = 0.5f * pi * float(k) / float(capRings);
+    rings.emplace_back(0.5f * length + radius * std::cos(theta), radius * std::sin(theta));
+  }
+  const int cylinderSteps = std::max(1, int(std::lround(length / step)));
+  for (int k = 1; k < cylinderSteps; ++k) rings.emplace_back(0.5f * length - length * float(k) / float(cylinderSteps), radius);
+  for (int k = capRings; k >= 1; --k) {
+    const float theta = 0.5f * pi * float(k) / float(capRings);
+    rings.emplace_back(-0.5f * length - radius * std::cos(theta), radius * std::sin(theta));
+  }
+  TriangleMesh m;
+  m.points.push_back(centre + Vec3(0, 0, 0.5f * length + radius));
+  for (const auto& [z, rho] : rings)
+    for (int j = 0; j < around; ++j) {
+      const float phi = 2.0f * pi * float(j) / float(around);
+      m.points.push_back(centre + Vec3(rho * std::cos(phi), rho * std::sin(phi), z));
+    }
+  m.points.push_back(centre + Vec3(0, 0, -0.5f * length - radius));
+  const Index bottom = Index(m.points.size()) - 1;
+  const auto at = [&](std::size_t ring, int j) { return Index(1 + ring * std::size_t(around) + std::size_t(j % around)); };
+  for (int j = 0; j < around; ++j) m.triangles.push_back({0, at(0, j + 1), at(0, j)});
+  for (std::size_t r = 0; r + 1 < rings.size(); ++r)
+    for (int j = 0; j < around; ++j) {
+      m.triangles.push_back({at(r, j), at(r, j + 1), at(r + 1, j + 1)});
+      m.triangles.push_back({at(r, j), at(r + 1, j + 1), at(r + 1, j)});
+    }
+  for (int j = 0; j < around; ++j) m.triangles.push_back({bottom, at(rings.size() - 1, j), at(rings.size() - 1, j + 1)});
+  for (auto& t : m.triangles) std::swap(t[1], t[2]);  // the rings run counter-clockwise seen from +z: outward
   return m;
 }
 

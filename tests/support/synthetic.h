@@ -27,6 +27,10 @@ Vec3 onEllipsoid(const Vec3& unitDirection, const Vec3& centre, const Vec3& radi
 // Dense triangle surface of the ellipsoid (icosphere of `level` mapped onto it).
 TriangleMesh ellipsoidSurface(const Vec3& centre, const Vec3& radii, int level = 5);
 
+// A capsule (a tube with hemispherical ends) of this radius, its cylinder `length` long along z
+// around `centre`: rings of `around` points about `around / (2 pi)` per radius apart, outward.
+TriangleMesh capsuleSurface(float radius, float length, int around, const Vec3& centre = Vec3::Zero());
+
 struct EllipsoidImageSpec {
   int size = 64;
   float spacing = 1.0f;

@@ -103,6 +103,7 @@ struct SceneDesc {
   double surfaceSampleSpacingMm = 0.5;
   std::string meshFormat = ".vtp";
   bool writeMeshes = true;
+  bool thickness = false;  // "outputs.thickness": each mesh's medial radius per point, and its summary
   std::string labelMapName = "segmentation.nii.gz";
 };
 

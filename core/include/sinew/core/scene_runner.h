@@ -5,6 +5,7 @@
 
 #include "sinew/core/execution_backend.h"
 #include "sinew/core/io.h"
+#include "sinew/core/medial_axis.h"
 #include "sinew/core/scene.h"
 #include "sinew/core/shape_guard.h"
 #include "sinew/core/simulation.h"
@@ -13,6 +14,7 @@
 #include <functional>
 #include <limits>
 #include <memory>
+#include <optional>
 
 namespace sinew {
 
@@ -49,6 +51,7 @@ struct StructureResult {
   double dice = std::numeric_limits<double>::quiet_NaN();
   double seconds = 0.0;  // simulation time; all structures are simulated together
   TriangleMesh surface;  // final Fig. 1b tessellation, world mm
+  std::optional<RadiusSummary> medialRadius;  // with "outputs.thickness" (addThickness)
 };
 
 // One stage of a run with its error per structure: "model" (where the model puts the structures),
@@ -106,6 +109,10 @@ struct RunOptions {
   // Creates the backend that runs the steps (after load); null or returning null: the CPU.
   std::function<std::unique_ptr<ExecutionBackend>(Simulation&)> backend;
 };
+
+// "outputs.thickness": every final surface's medial radius per point (point data
+// "medial_radius_mm", written with the meshes) and its summary (docs/medial.md).
+void addThickness(RunReport& report, const Executor& executor);
 
 class SceneRunner {
 public:

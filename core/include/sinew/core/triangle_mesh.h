@@ -5,13 +5,21 @@
 #include "sinew/core/types.h"
 
 #include <array>
+#include <string>
 #include <vector>
 
 namespace sinew {
 
+// A named value per point (e.g. "medial_radius_mm"), written as point data where the format has it.
+struct PointArray {
+  std::string name;
+  std::vector<float> values;  // one per point
+};
+
 struct TriangleMesh {
   std::vector<Vec3> points;
   std::vector<std::array<Index, 3>> triangles;
+  std::vector<PointArray> pointData;  // optional; readers leave it empty
 
   // Signed volume (positive for an outward-oriented closed mesh).
   double volume() const;

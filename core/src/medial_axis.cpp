@@ -1,0 +1,238 @@
+#include "sinew/core/medial_axis.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <map>
+
+#include <nanoflann.hpp>
+
+namespace sinew {
+
+namespace {
+// The samples for nanoflann's k-d tree.
+struct Samples {
+  std::span<const Vec3> points;
+  std::size_t kdtree_get_point_count() const { return points.size(); }
+  float kdtree_get_pt(std::size_t i, std::size_t dim) const { return points[i][Eigen::Index(dim)]; }
+  template <class Box>
+  bool kdtree_get_bbox(Box&) const { return false; }
+};
+using SampleTree = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<float, Samples>, Samples, 3>;
+
+float boundingRadius(std::span<const Vec3> points) {
+  Vec3 lo = Vec3::Constant(INFINITY), hi = Vec3::Constant(-INFINITY);
+  for (const Vec3& p : points) {
+    lo = lo.cwiseMin(p);
+    hi = hi.cwiseMax(p);
+  }
+  return std::max(0.5f * (hi - lo).norm(), 1e-3f);
+}
+
+constexpr float kInsideTolerance = 0.02f;  // of the radius
+
+// The ball at sample i (point p, outward normal n) of radius r shrinks to the one through p and the
+// nearest other sample q to its centre, tangent at p: |p - r n - q| = r gives
+// r = |p - q|^2 / (2 n.(p - q)), smaller than r whenever q lies inside (and then n.(p - q) > 0).
+InscribedBall shrinkBall(const SampleTree& tree, std::span<const Vec3> samples, std::size_t i, const Vec3& n, float maxRadius) {
+  const Vec3& p = samples[i];
+  float r = maxRadius;
+  for (int iteration = 0; iteration < 100; ++iteration) {
+    const Vec3 c = p - r * n;
+    std::uint32_t index[2];
+    float distance2[2];
+    const std::size_t found = tree.knnSearch(c.data(), 2, index, distance2);
+    std::size_t k = 0;
+    while (k < found && (index[k] == i || (samples[index[k]] - p).squaredNorm() < 1e-12f)) ++k;
+    // No other sample inside, or one barely inside: a polygonal surface's normals are a degree or so
+    // off, and a ball along a tilted normal sticks out of a sphere by about r times the tilt, so
+    // an exact test would shrink it far below the shape's thickness.
+    if (k == found || std::sqrt(distance2[k]) >= r * (1.0f - kInsideTolerance)) break;
+    const Vec3 pq = p - samples[index[k]];
+    const float below = n.dot(pq);
+    if (!(below > 0.0f)) break;
+    const float next = pq.squaredNorm() / (2.0f * below);
+    if (!(next < r)) break;
+    r = next;
+  }
+  return {p - r * n, r};
+}
+}  // namespace
+
+std::vector<InscribedBall> inscribedBalls(std::span<const Vec3> samples, std::span<const Vec3> outwardNormals,
+                                          const Executor& executor) {
+  std::vector<InscribedBall> balls(samples.size());
+  if (samples.empty()) return balls;
+  const Samples cloud{samples};
+  const SampleTree tree(3, cloud, nanoflann::KDTreeSingleIndexAdaptorParams(10));
+  const float maxRadius = boundingRadius(samples);
+  executor.forEach(Index(samples.size()), [&](Index i) { balls[i] = shrinkBall(tree, samples, std::size_t(i), outwardNormals[i], maxRadius); }, 64);
+  // Each sample takes the largest of the balls that touch it (Hildebrand's local thickness over
+  // this set of inscribed balls): its own ball may be small where its normal is tilted.
+  std::vector<std::vector<std::pair<std::uint32_t, float>>> touching(samples.size());
+  executor.forEach(Index(samples.size()), [&](Index j) {
+    const float reach = balls[j].radius * (1.0f + kInsideTolerance);
+    std::vector<std::pair<std::uint32_t, float>> found;
+    nanoflann::SearchParams params;
+    params.sorted = false;
+    tree.radiusSearch(balls[j].centre.data(), reach * reach, found, params);
+    touching[j] = std::move(found);
+  }, 64);
+  std::vector<Index> order(samples.size());
+  for (std::size_t j = 0; j < order.size(); ++j) order[j] = Index(j);
+  std::stable_sort(order.begin(), order.end(), [&](Index a, Index b) { return balls[a].radius > balls[b].radius; });
+  std::vector<InscribedBall> largest(samples.size());
+  std::vector<char> assigned(samples.size(), 0);
+  for (Index j : order)
+    for (const auto& [i, d2] : touching[j])
+      if (!assigned[i]) {
+        assigned[i] = 1;
+        largest[i] = balls[j];
+      }
+  for (std::size_t i = 0; i < samples.size(); ++i)
+    if (!assigned[i]) largest[i] = balls[i];
+  return largest;
+}
+
+std::vector<Vec3> vertexNormals(const TriangleMesh& mesh) {
+  std::vector<Vec3> normals(mesh.points.size(), Vec3::Zero());
+  for (const auto& t : mesh.triangles) {
+    // The cross product's length is twice the area: the sum is area-weighted.
+    const Vec3 n = (mesh.points[t[1]] - mesh.points[t[0]]).cross(mesh.points[t[2]] - mesh.points[t[0]]);
+    for (Index k : t) normals[k] += n;
+  }
+  for (Vec3& n : normals) {
+    const float length = n.norm();
+    n = length > 0.0f ? Vec3(n / length) : Vec3::Zero();
+  }
+  return normals;
+}
+
+std::vector<float> medialRadii(const TriangleMesh& surface, const Executor& executor) {
+  const auto balls = inscribedBalls(surface.points, vertexNormals(surface), executor);
+  std::vector<float> radii(balls.size());
+  std::transform(balls.begin(), balls.end(), radii.begin(), [](const InscribedBall& b) { return b.radius; });
+  return radii;
+}
+
+RadiusSummary summariseRadii(std::span<const float> radii) {
+  RadiusSummary s;
+  if (radii.empty()) return s;
+  std::vector<float> sorted(radii.begin(), radii.end());
+  std::sort(sorted.begin(), sorted.end());
+  double sum = 0.0;
+  for (float r : sorted) sum += r;
+  const auto at = [&](double q) { return double(sorted[std::size_t(std::lround(q * double(sorted.size() - 1)))]); };
+  s.mean = sum / double(sorted.size());
+  s.p5 = at(0.05);
+  s.median = at(0.5);
+  s.p95 = at(0.95);
+  s.max = sorted.back();
+  return s;
+}
+
+Vec3 MedialSurface::foot(Index i, std::span<const Vec3> medialVertices) const {
+  Vec3 f = Vec3::Zero();
+  for (Index k = offsets[i]; k < offsets[i + 1]; ++k) f += weights[k] * medialVertices[medial[k]];
+  return f;
+}
+
+namespace {
+using Cell = std::array<int, 3>;
+Cell cellOf(const Vec3& p, float spacing) {
+  return {int(std::floor(p.x() / spacing)), int(std::floor(p.y() / spacing)), int(std::floor(p.z() / spacing))};
+}
+}  // namespace
+
+MedialSurface buildMedialSurface(std::span<const Vec3> points, std::span<const Vec3> normals, const MedialOptions& options,
+                                 const Executor& executor) {
+  if (points.empty()) throw InputError("medial surface: the structure has no vertices");
+  if (!(options.spacingMm > 0.0f) || options.neighbours < 1) throw InputError("medial surface: spacing and neighbours must be positive");
+  const auto balls = inscribedBalls(points, normals, executor);
+
+  // Medial vertices: the balls' centres clustered on the grid, in the grid's order (deterministic).
+  const float h = options.spacingMm;
+  std::map<Cell, std::pair<Vec3, int>> clusters;
+  for (const auto& b : balls) {
+    auto [it, added] = clusters.try_emplace(cellOf(b.centre, h), Vec3::Zero(), 0);
+    auto& c = it->second;
+    c.first += b.centre;
+    ++c.second;
+  }
+  MedialSurface m;
+  std::map<Cell, Index> indexOf;
+  for (const auto& [cell, c] : clusters) {
+    indexOf[cell] = Index(m.vertices.size());
+    m.vertices.push_back(c.first / float(c.second));
+  }
+
+  // Each surface vertex: the nearest medial vertices to its ball's centre, searched in growing
+  // shells of grid cells until enough are found, weighted by inverse squared distance.
+  const Index n = Index(points.size());
+  const int k = std::min<int>(options.neighbours, int(m.vertices.size()));
+  std::vector<std::vector<std::pair<float, Index>>> nearest(n);
+  executor.forEach(n, [&](Index i) {
+    const Vec3& c = balls[i].centre;
+    const Cell home = cellOf(c, h);
+    auto& found = nearest[i];
+    for (int ring = 1; ring < 1 << 20; ring *= 2) {
+      found.clear();
+      for (int dx = -ring; dx <= ring; ++dx)
+        for (int dy = -ring; dy <= ring; ++dy)
+          for (int dz = -ring; dz <= ring; ++dz) {
+            const auto it = indexOf.find({home[0] + dx, home[1] + dy, home[2] + dz});
+            if (it != indexOf.end()) found.emplace_back((m.vertices[it->second] - c).squaredNorm(), it->second);
+          }
+      // Enough, and the k-th nearest within the shell searched (nothing closer lies outside it).
+      if (int(found.size()) >= k) {
+        std::partial_sort(found.begin(), found.begin() + k, found.end());
+        if (std::sqrt(found[k - 1].first) <= float(ring) * h || ring * h > 1e6f) break;
+      }
+    }
+    found.resize(std::min<std::size_t>(found.size(), std::size_t(k)));
+  }, 64);
+  for (Index i = 0; i < n; ++i) {
+    float sum = 0.0f;
+    const Index begin = Index(m.medial.size());
+    for (const auto& [d2, j] : nearest[i]) {
+      const float w = 1.0f / (d2 + 0.01f * h * h);
+      m.medial.push_back(j);
+      m.weights.push_back(w);
+      sum += w;
+    }
+    for (Index q = begin; q < Index(m.weights.size()); ++q) m.weights[q] /= sum;
+    m.offsets.push_back(Index(m.medial.size()));
+  }
+
+  // R_j: the weighted mean of the distances from the surface to its medial points.
+  std::vector<double> radiusSum(m.vertices.size(), 0.0), weightSum(m.vertices.size(), 0.0);
+  for (Index i = 0; i < n; ++i) {
+    const float d = (points[i] - m.foot(i, m.vertices)).norm();
+    for (Index q = m.offsets[i]; q < m.offsets[i + 1]; ++q) {
+      radiusSum[m.medial[q]] += double(m.weights[q]) * d;
+      weightSum[m.medial[q]] += double(m.weights[q]);
+    }
+  }
+  m.radii.resize(m.vertices.size());
+  for (std::size_t j = 0; j < m.radii.size(); ++j) m.radii[j] = weightSum[j] > 0.0 ? float(radiusSum[j] / weightSum[j]) : 0.0f;
+  m.vertexRadius.resize(n);
+  for (Index i = 0; i < n; ++i) {
+    float r = 0.0f;
+    for (Index q = m.offsets[i]; q < m.offsets[i + 1]; ++q) r += m.weights[q] * m.radii[m.medial[q]];
+    m.vertexRadius[i] = r;
+  }
+  m.reconstructionErrorMm = reconstructionError(m, points, m.vertices);
+  return m;
+}
+
+double reconstructionError(const MedialSurface& medial, std::span<const Vec3> positions, std::span<const Vec3> medialVertices) {
+  const Index n = medial.surfaceVertexCount();
+  if (n == 0) return 0.0;
+  double sum = 0.0;
+  for (Index i = 0; i < n; ++i)
+    sum += std::abs(double(medial.vertexRadius[i]) - double((positions[i] - medial.foot(i, medialVertices)).norm()));
+  return sum / double(n);
+}
+
+}  // namespace sinew

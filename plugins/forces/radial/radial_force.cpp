@@ -1,0 +1,165 @@
+// The radial force (paper 001 section 2.3; docs/medial.md). At each level every active structure's
+// medial surface is built from its reference shape (core/medial_axis.h): medial vertices Q_j, and
+// per vertex i weights w_ij and a radius r_i. A vertex is pulled or pushed along P_i P_i_perp until
+// it lies r_i from its medial point P_i_perp = sum_j w_ij Q_j:
+//   f_i = alpha m_i (1 - r_i / |P_i P_i_perp|) P_i P_i_perp   (mass-scaled, as the contacts).
+// The medial vertices are not carried as state (nothing to roll back, to carry between levels or to
+// the device): at each evaluation they start where the surface puts them (each vertex votes for
+// x_i - r_i n_i) and relax `medial_iterations` times under the paper's momentum-conserving reaction
+// f_ij = -w_ij f_i, averaged per medial vertex (weights w_ij m_i) and divided by the stiffness, which
+// converges to the zero-mass medial vertices' equilibrium, where the forces on the surface sum to 0.
+#include "sinew/core/medial_axis.h"
+#include "sinew/core/registry.h"
+
+#include <vector>
+
+namespace sinew {
+
+namespace {
+struct StructureMedial {
+  MedialSurface medial;
+  // The inverse of medial's weights, per medial vertex: its surface vertices (local) and weights.
+  std::vector<Index> offsets{0}, vertex;
+  std::vector<float> weight;
+};
+
+class RadialForce final : public Force {
+public:
+  Requirements requirements() const override {
+    return {.attributes = {Attribute::Mass, Attribute::Normal, Attribute::ReferencePosition, Attribute::ReferenceNormal},
+            .referenceShape = true};
+  }
+
+  void prepare(ForceContext& ctx) override {
+    MeshStore& s = ctx.store;
+    const MedialOptions options{.spacingMm = ctx.params.getf(0, ctx.params.indexOf("spacing_mm")),
+                                .neighbours = int(ctx.params.get(0, ctx.params.indexOf("neighbours")))};
+    structures_.assign(s.meshCount(), {});
+    const auto reference = s.referencePositions();
+    const auto referenceNormals = s.referenceNormals();
+    for (Index m = 0; m < s.meshCount(); ++m) {
+      if (!(ctx.params.getf(m, 0) > 0.0f)) continue;
+      const auto points = s.mesh(reference, m);
+      StructureMedial& t = structures_[m];
+      t.medial = buildMedialSurface(points, s.mesh(referenceNormals, m), options, ctx.executor);
+      invert(t);
+    }
+    builtFor_ = s.vertexCount();
+  }
+
+  void accumulate(ForceContext& ctx, std::span<Vec3> forces) override {
+    MeshStore& s = ctx.store;
+    if (builtFor_ != s.vertexCount()) prepare(ctx);
+    const int iterations = int(ctx.params.get(0, ctx.params.indexOf("medial_iterations")));
+    direction_.assign(s.vertexCount(), Vec3::Zero());
+    stiffness_.assign(s.vertexCount(), 0.0f);
+    slack_.assign(s.vertexCount(), 0.0f);
+    const auto x = s.positions();
+    const auto normals = s.normals();
+    const auto mass = s.masses();
+    for (Index m = 0; m < s.meshCount(); ++m) {
+      const float alpha = ctx.params.getf(m, 0);
+      if (!(alpha > 0.0f) || structures_[m].medial.surfaceVertexCount() == 0) continue;
+      const StructureMedial& t = structures_[m];
+      const MedialSurface& ms = t.medial;
+      const Index begin = s.range(m).vertexBegin, n = ms.surfaceVertexCount();
+      const Index medialCount = Index(ms.vertices.size());
+      // The surface's votes: where each vertex's reference radius puts its medial point.
+      std::vector<Vec3> q(medialCount);
+      ctx.executor.forEach(medialCount, [&](Index j) {
+        Vec3 sum = Vec3::Zero();
+        float weights = 0.0f;
+        for (Index k = t.offsets[j]; k < t.offsets[j + 1]; ++k) {
+          const Index i = t.vertex[k];
+          sum += t.weight[k] * (x[begin + i] - ms.vertexRadius[i] * normals[begin + i]);
+          weights += t.weight[k];
+        }
+        q[j] = weights > 0.0f ? Vec3(sum / weights) : ms.vertices[j];
+      });
+      // g_i = P_i_perp - (x_i + r_i u_i), u_i the unit vector toward P_i_perp: the force per stiffness.
+      std::vector<Vec3> g(n);
+      const auto springs = [&] {
+        ctx.executor.forEach(n, [&](Index i) {
+          const Vec3 v = ms.foot(i, q) - x[begin + i];
+          const float d = v.norm();
+          g[i] = d > 1e-6f ? Vec3((1.0f - ms.vertexRadius[i] / d) * v) : Vec3::Zero();
+        });
+      };
+      springs();
+      for (int it = 0; it < iterations; ++it) {
+        ctx.executor.forEach(medialCount, [&](Index j) {
+          Vec3 reaction = Vec3::Zero();
+          float stiffness = 0.0f;
+          for (Index k = t.offsets[j]; k < t.offsets[j + 1]; ++k) {
+            const Index i = t.vertex[k];
+            reaction -= t.weight[k] * mass[begin + i] * g[i];
+            stiffness += t.weight[k] * mass[begin + i];
+          }
+          if (stiffness > 0.0f) q[j] += reaction / stiffness;
+        });
+        springs();
+      }
+      ctx.executor.forEach(n, [&](Index i) {
+        const Index v = begin + i;
+        const Vec3 toFoot = ms.foot(i, q) - x[v];
+        const float d = toFoot.norm();
+        if (!(d > 1e-6f)) return;
+        direction_[v] = toFoot / d;
+        stiffness_[v] = alpha * mass[v];
+        slack_[v] = std::max(0.0f, 1.0f - ms.vertexRadius[i] / d);
+        forces[v] += stiffness_[v] * g[i];
+      });
+    }
+  }
+
+  // With the medial points held fixed over the step: d f_i / d x_i =
+  // -alpha m_i [(1 - r_i/d_i)(I - u u^T) + u u^T]; the tangential part clamped at 0 where the vertex
+  // is inside its radius (d_i < r_i), so that the block stays negative semi-definite.
+  bool addJacobian(ForceContext& ctx, JacobianBlocks& jacobian) override {
+    if (stiffness_.size() != std::size_t(ctx.store.vertexCount())) return true;
+    ctx.executor.forEach(ctx.store.vertexCount(), [&](Index v) {
+      if (!(stiffness_[v] > 0.0f)) return;
+      const Vec3& u = direction_[v];
+      const Mat3 along = u * u.transpose();
+      jacobian.self[v] -= stiffness_[v] * (slack_[v] * (Mat3::Identity() - along) + along);
+    });
+    return true;
+  }
+
+private:
+  static void invert(StructureMedial& t) {
+    const MedialSurface& ms = t.medial;
+    std::vector<Index> count(ms.vertices.size() + 1, 0);
+    for (Index j : ms.medial) ++count[j + 1];
+    for (std::size_t j = 1; j < count.size(); ++j) count[j] += count[j - 1];
+    t.offsets = count;
+    t.vertex.assign(ms.medial.size(), 0);
+    t.weight.assign(ms.medial.size(), 0.0f);
+    for (Index i = 0; i < ms.surfaceVertexCount(); ++i)  // in vertex order: the sums are deterministic
+      for (Index k = ms.offsets[i]; k < ms.offsets[i + 1]; ++k) {
+        const Index at = count[ms.medial[k]]++;
+        t.vertex[at] = i;
+        t.weight[at] = ms.weights[k];
+      }
+  }
+
+  std::vector<StructureMedial> structures_;
+  Index builtFor_ = -1;
+  std::vector<Vec3> direction_;
+  std::vector<float> stiffness_, slack_;
+};
+}  // namespace
+
+void registerRadialForce(Registry& registry) {
+  registry.addForce({"radial",
+                     "radial constraint: keeps each vertex at its reference radius from the structure's medial surface "
+                     "(tubular and sheet-like structures; paper 001 section 2.3)",
+                     {{"spacing_mm", 2.0, 0.5, 20.0, "mm", "the medial surface's resolution: one medial vertex per cube of this edge", false},
+                      {"neighbours", 4, 1, 16, "", "medial vertices each surface vertex is interpolated from", false},
+                      {"medial_iterations", 30, 0, 100, "",
+                       "relaxations of the medial vertices under the surface's reaction per evaluation (0: where the surface's votes put them)",
+                       false}},
+                     [] { return std::make_unique<RadialForce>(); }});
+}
+
+}  // namespace sinew
