@@ -45,7 +45,7 @@ private Q_SLOTS:
     Registry registry;
     PluginLoader loader(registry);
     addBuiltinPlugins(loader);
-    QCOMPARE(loader.plugins().size(), std::size_t(11));
+    QCOMPARE(loader.plugins().size(), std::size_t(12));
     for (const PluginRecord& p : loader.plugins()) {
       QVERIFY(p.file.empty());
       QCOMPARE(p.components.size(), std::size_t(1));
@@ -108,7 +108,7 @@ private Q_SLOTS:
       for (const auto& f : registry.forces()) present |= f.name == name;
       QVERIFY2(!present, name);
     }
-    QCOMPARE(registry.forces().size(), std::size_t(8));  // 7 built in + test_constant
+    QCOMPARE(registry.forces().size(), std::size_t(9));  // 8 built in + test_constant
   }
 
   // Of the files of one name, the first on the search path is the plugin even when it is refused

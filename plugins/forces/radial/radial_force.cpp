@@ -3,11 +3,12 @@
 // per vertex i weights w_ij and a radius r_i. A vertex is pulled or pushed along P_i P_i_perp until
 // it lies r_i from its medial point P_i_perp = sum_j w_ij Q_j:
 //   f_i = alpha m_i (1 - r_i / |P_i P_i_perp|) P_i P_i_perp   (mass-scaled, as the contacts).
-// The medial vertices are not carried as state (nothing to roll back, to carry between levels or to
-// the device): at each evaluation they start where the surface puts them (each vertex votes for
-// x_i - r_i n_i) and relax `medial_iterations` times under the paper's momentum-conserving reaction
-// f_ij = -w_ij f_i, averaged per medial vertex (weights w_ij m_i) and divided by the stiffness, which
-// converges to the zero-mass medial vertices' equilibrium, where the forces on the surface sum to 0.
+// The medial vertices are simulated with the surface as massless points: at the first evaluation of
+// a level they start where the surface puts them (each vertex votes for x_i - r_i n_i), and at every
+// evaluation they relax `medial_iterations` times under the paper's momentum-conserving reaction
+// f_ij = -w_ij f_i, averaged per medial vertex (weights w_ij m_i) and divided by the stiffness. Over
+// the steps they follow their equilibrium, where the forces on the surface sum to 0. They are not
+// rolled back with the surface after a guard's rollback: they relax back to it.
 #include "sinew/core/medial_axis.h"
 #include "sinew/core/registry.h"
 
@@ -21,6 +22,7 @@ struct StructureMedial {
   // The inverse of medial's weights, per medial vertex: its surface vertices (local) and weights.
   std::vector<Index> offsets{0}, vertex;
   std::vector<float> weight;
+  std::vector<Vec3> q;  // the medial vertices now (empty until the level's first evaluation)
 };
 
 class RadialForce final : public Force {
@@ -60,22 +62,25 @@ public:
     for (Index m = 0; m < s.meshCount(); ++m) {
       const float alpha = ctx.params.getf(m, 0);
       if (!(alpha > 0.0f) || structures_[m].medial.surfaceVertexCount() == 0) continue;
-      const StructureMedial& t = structures_[m];
+      StructureMedial& t = structures_[m];
       const MedialSurface& ms = t.medial;
       const Index begin = s.range(m).vertexBegin, n = ms.surfaceVertexCount();
       const Index medialCount = Index(ms.vertices.size());
-      // The surface's votes: where each vertex's reference radius puts its medial point.
-      std::vector<Vec3> q(medialCount);
-      ctx.executor.forEach(medialCount, [&](Index j) {
-        Vec3 sum = Vec3::Zero();
-        float weights = 0.0f;
-        for (Index k = t.offsets[j]; k < t.offsets[j + 1]; ++k) {
-          const Index i = t.vertex[k];
-          sum += t.weight[k] * (x[begin + i] - ms.vertexRadius[i] * normals[begin + i]);
-          weights += t.weight[k];
-        }
-        q[j] = weights > 0.0f ? Vec3(sum / weights) : ms.vertices[j];
-      });
+      // First, the surface's votes: where each vertex's reference radius puts its medial point.
+      std::vector<Vec3>& q = t.q;
+      if (q.empty()) {
+        q.resize(medialCount);
+        ctx.executor.forEach(medialCount, [&](Index j) {
+          Vec3 sum = Vec3::Zero();
+          float weights = 0.0f;
+          for (Index k = t.offsets[j]; k < t.offsets[j + 1]; ++k) {
+            const Index i = t.vertex[k];
+            sum += t.weight[k] * (x[begin + i] - ms.vertexRadius[i] * normals[begin + i]);
+            weights += t.weight[k];
+          }
+          q[j] = weights > 0.0f ? Vec3(sum / weights) : ms.vertices[j];
+        });
+      }
       // g_i = P_i_perp - (x_i + r_i u_i), u_i the unit vector toward P_i_perp: the force per stiffness.
       std::vector<Vec3> g(n);
       const auto springs = [&] {
@@ -156,8 +161,8 @@ void registerRadialForce(Registry& registry) {
                      "(tubular and sheet-like structures; paper 001 section 2.3)",
                      {{"spacing_mm", 2.0, 0.5, 20.0, "mm", "the medial surface's resolution: one medial vertex per cube of this edge", false},
                       {"neighbours", 4, 1, 16, "", "medial vertices each surface vertex is interpolated from", false},
-                      {"medial_iterations", 30, 0, 100, "",
-                       "relaxations of the medial vertices under the surface's reaction per evaluation (0: where the surface's votes put them)",
+                      {"medial_iterations", 3, 0, 100, "",
+                       "relaxations of the medial vertices under the surface's reaction per evaluation (0: they stay where the surface's votes put them at the level's start)",
                        false}},
                      [] { return std::make_unique<RadialForce>(); }});
 }
