@@ -2,7 +2,8 @@
 # The radial force against image noise (docs/medial.md): new subjects made from Colin27 with Rician
 # noise (sigma NOISE of the image range, default 0.05), segmented twice with the same model and
 # scene, without and with the force `radial` on the tubular structures (caudate, hippocampus;
-# weight WEIGHT, default 0.3), and the final ASSD of each compared.
+# weight WEIGHT, default 0.3), and the final ASSD of each compared. SHAPE_PRIOR=w sets the shape
+# prior's weight in both scenes (default: as sinew-make-scene writes it).
 # Usage: bash scripts/radial-noise.sh [BUILD_DIR] [OUT_DIR] [SEEDS...]
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -25,17 +26,20 @@ for seed in "${seeds[@]}"; do
   "$app/sinew-make-scene" --model "$out/model" --target "$s/image.nii.gz" --ground-truth "$s/labels.nii.gz" \
     -o "$s/scene.json" 2>/dev/null
   # The same scene with the force on the tubular structures (scene-wide weight 0, per-structure 0.3).
-  python3 - "$s/scene.json" "$s/scene-radial.json" "$weight" <<'PY'
+  python3 - "$s/scene.json" "$s/scene-radial.json" "$weight" "${SHAPE_PRIOR:-}" <<'PY'
 import json, sys
 scene = json.load(open(sys.argv[1]))
+if sys.argv[4]:
+    scene["forces"]["shape_prior"]["weight"] = float(sys.argv[4])
+    json.dump(scene, open(sys.argv[1], "w"), indent=1)
 scene["forces"]["radial"] = {"weight": 0.0}
 for s in scene["structures"]:
     if s["name"].startswith(("Caudate", "Hippocampus")):
         s.setdefault("forces", {})["radial"] = {"weight": float(sys.argv[3])}
 json.dump(scene, open(sys.argv[2], "w"), indent=1)
 PY
-  "$app/sinew-run" "$s/scene.json" -o "$s/run-plain" -q --backend cpu
-  "$app/sinew-run" "$s/scene-radial.json" -o "$s/run-radial" -q --backend cpu
+  "$app/sinew-run" "$s/scene.json" -o "$s/run-plain" -q --backend cpu >/dev/null
+  "$app/sinew-run" "$s/scene-radial.json" -o "$s/run-radial" -q --backend cpu >/dev/null
 done
 python3 - "$out" "${seeds[@]}" <<'PY'
 import json, sys

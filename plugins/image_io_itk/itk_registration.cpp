@@ -6,6 +6,7 @@
 #include <itkBinShrinkImageFilter.h>
 #include <itkCenteredTransformInitializer.h>
 #include <itkImageRegistrationMethodv4.h>
+#include <itkMultiThreaderBase.h>
 #include <itkMattesMutualInformationImageToImageMetricv4.h>
 #include <itkMatrixOffsetTransformBase.h>
 #include <itkRegistrationParameterScalesFromPhysicalShift.h>
@@ -134,7 +135,28 @@ RegistrationStage runStage(const char* name, TransformType* transform, ImageType
 }
 }  // namespace
 
+namespace {
+// ITK on one thread while the registration's objects are made and run. With more, the transform
+// differs in its last digits from run to run (ITK 5.2's Mattes metric adds the threads' joint-PDF
+// derivatives into a shared buffer in whatever order its mutex is taken, and capping the metric's
+// work units alone did not make it repeat), and the segmentation after it by up to 0.1 mm ASSD per
+// structure. Objects take the global default when they are made, so the others are not affected.
+class SerialItk {
+public:
+  SerialItk() : before_(itk::MultiThreaderBase::GetGlobalDefaultNumberOfThreads()) {
+    itk::MultiThreaderBase::SetGlobalDefaultNumberOfThreads(1);
+  }
+  ~SerialItk() { itk::MultiThreaderBase::SetGlobalDefaultNumberOfThreads(before_); }
+  SerialItk(const SerialItk&) = delete;
+  SerialItk& operator=(const SerialItk&) = delete;
+
+private:
+  itk::ThreadIdType before_;
+};
+}  // namespace
+
 RegistrationResult registerImagesItk(const Image3D& target, const Image3D& model, const RegistrationOptions& o) {
+  const SerialItk serial;
   const ImageType::Pointer fixed = binned(target), moving = binned(model);
   RegistrationResult result;
 

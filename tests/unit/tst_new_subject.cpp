@@ -130,6 +130,18 @@ private slots:
     QVERIFY(worst < 3.0);
   }
 
+  // The same scene run again gives the same transform and meshes, byte for byte: the registration
+  // repeats (ITK on one thread for it; its threaded Mattes metric did not) and so does the rest.
+  void repeatsExactly() {
+    const Result r = runTool(SINEW_RUN, {scene_, "-o", path("again"), "-q", "--backend", "cpu"});
+    QVERIFY2(r.code == 0, qPrintable(r.err));
+    for (const QString file : {"subject-to-atlas.tfm", "Hippocampus_L.vtp", "Thalamus_R.vtp"}) {
+      QFile a(run_ + "/" + file), b(path("again/") + file);
+      QVERIFY(a.open(QIODevice::ReadOnly) && b.open(QIODevice::ReadOnly));
+      QVERIFY2(a.readAll() == b.readAll(), qPrintable(file));
+    }
+  }
+
   // The written transform is an input too: the same placement without registering again.
   void reusesTheTransform() {
     QJsonObject scene = readJson(scene_);
