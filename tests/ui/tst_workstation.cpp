@@ -9,6 +9,8 @@
 #include "slice_view.h"
 #include "synthetic.h"
 #include "sinew/core/collision_tree.h"
+#include "sinew/core/medial_axis.h"
+#include "sinew/core/simplex_mesh.h"
 #include "volume_view.h"
 
 #include <QApplication>
@@ -298,6 +300,40 @@ private Q_SLOTS:
     QVERIFY(now != mask);
     QVERIFY(session.contactMask(1e9) == mask);  // throttled: the last mask
     QVERIFY(session.contactMask(0.0) == now);
+  }
+
+  // View > Show Thickness: every vertex in the colour of its structure's medial radius.
+  void thicknessColoursTheSurfaces() {
+    SegmentationSession& session = window_->session();
+    const std::vector<float> radius = session.medialRadius(0.0);
+    MeshStore& store = session.simulation().store();
+    QCOMPARE(radius.size(), std::size_t(store.vertexCount()));
+    for (Index m = 0; m < store.meshCount(); ++m) {
+      const auto x = store.mesh(store.positions(), m);
+      const std::vector<float> core = medialRadii(tessellate(store.topologyOf(m), {x.begin(), x.end()}));
+      const Index begin = store.range(m).vertexBegin;
+      QVERIFY(std::equal(radius.begin() + begin, radius.begin() + begin + x.size(), core.begin()));
+      const RadiusSummary r = summariseRadii(std::span<const float>(radius.data() + begin, x.size()));
+      QVERIFY2(r.median > 1.0 && r.median < 10.0, qPrintable(QString("structure %1: median %2 mm").arg(m).arg(r.median)));
+    }
+    const QImage plain = window_->volumeView()->grabFramebuffer();
+    QAction* thickness = nullptr;
+    for (QAction* a : window_->findChildren<QAction*>())
+      if (a->text() == "Show &Thickness") thickness = a;
+    QVERIFY(thickness);
+    thickness->trigger();
+    QApplication::processEvents();
+    QTest::qWait(200);
+    const QImage coloured = window_->volumeView()->grabFramebuffer();
+    QCOMPARE(coloured.size(), plain.size());
+    long changed = 0;
+    for (int y = 0; y < plain.height(); ++y)
+      for (int x = 0; x < plain.width(); ++x) changed += plain.pixel(x, y) != coloured.pixel(x, y);
+    // The vertices are drawn as points over the surfaces: about a thousand pixels here, none before.
+    QVERIFY2(changed > 300, qPrintable(QString("%1 pixels changed").arg(changed)));
+    // The colour map's ends.
+    QVERIFY((thicknessColour(0.5f) == std::array<unsigned char, 3>{255, 0, 0}));
+    QVERIFY((thicknessColour(7.0f) == std::array<unsigned char, 3>{0, 0, 255}));
   }
 
   void dragMovesPointInOneUndoStep() {

@@ -2,6 +2,8 @@
 
 #include "backend_choice.h"
 #include "sinew/core/collision_tree.h"
+#include "sinew/core/medial_axis.h"
+#include "sinew/core/simplex_mesh.h"
 
 #include <algorithm>
 #include <atomic>
@@ -395,6 +397,27 @@ const std::vector<unsigned char>& SegmentationSession::contactMask(double minInt
   contactRevision_ = revision_;
   contactTime_ = now;
   return contactMask_;
+}
+
+const std::vector<float>& SegmentationSession::medialRadius(double minIntervalSeconds) {
+  const auto now = std::chrono::steady_clock::now();
+  const bool stale = medialRadius_.size() != size_t(simulation().store().vertexCount()) ||
+                     (medialRevision_ != revision_ &&
+                      std::chrono::duration<double>(now - medialTime_).count() >= minIntervalSeconds);
+  if (!stale) return medialRadius_;
+  syncHost();
+  MeshStore& store = simulation().store();
+  medialRadius_.assign(store.vertexCount(), 0.0f);
+  const Executor executor;
+  for (Index m = 0; m < store.meshCount(); ++m) {
+    const auto x = store.mesh(store.positions(), m);
+    // The tessellation's points are the structure's vertices, then its cell centres.
+    const std::vector<float> radii = medialRadii(tessellate(store.topologyOf(m), {x.begin(), x.end()}), executor);
+    std::copy_n(radii.begin(), x.size(), medialRadius_.begin() + store.range(m).vertexBegin);
+  }
+  medialRevision_ = revision_;
+  medialTime_ = now;
+  return medialRadius_;
 }
 
 const std::vector<ConstraintPoint>& SegmentationSession::constraintPoints(Index structure) {

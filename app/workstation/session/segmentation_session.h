@@ -118,6 +118,11 @@ public:
   // the state changed, at most every minIntervalSeconds while it keeps changing (a run), so that it
   // never takes over the frame.
   const std::vector<unsigned char>& contactMask(double minIntervalSeconds = 0.25);
+  // Per vertex, its structure's medial radius there in mm (the radius of the largest ball inside
+  // the structure touching it: core medialRadii on the structure's tessellation), for the 3D view's
+  // thickness colours (docs/medial.md). Recomputed like contactMask, at most every
+  // minIntervalSeconds while the state keeps changing.
+  const std::vector<float>& medialRadius(double minIntervalSeconds = 1.0);
 
   // Edits. Each is undoable; its snapshot holds the mesh state too, so undo restores exactly the
   // state before the edit, however far the simulation moved since. A continuing edit (a drag, a
@@ -179,6 +184,9 @@ private:
   std::vector<unsigned char> contactMask_;
   std::uint64_t contactRevision_ = 0;
   std::chrono::steady_clock::time_point contactTime_{};
+  std::vector<float> medialRadius_;
+  std::uint64_t medialRevision_ = 0;
+  std::chrono::steady_clock::time_point medialTime_{};
 
   using Snapshot = SessionSnapshot;
   using SnapshotPtr = std::shared_ptr<const SessionSnapshot>;

@@ -241,10 +241,19 @@ void MainWindow::buildActions() {
     if (volume_->hasFocus()) focused = 3;
     maximiseView(maximised_ >= 0 ? -1 : std::max(focused, 2));
   });
-  showContacts_ = view->addAction(tr("Show &Contacts"), QKeySequence(tr("C")), this, [this] { refreshViews(); });
+  // The markers are drawn anew when the views are invalidated, not only when the state moves.
+  const auto redrawMarkers = [this] {
+    for (auto* v : slices_) v->invalidate();
+    volume_->invalidate();
+  };
+  showContacts_ = view->addAction(tr("Show &Contacts"), QKeySequence(tr("C")), this, redrawMarkers);
   showContacts_->setCheckable(true);
   showContacts_->setToolTip(tr("Mark, in orange, the vertices inside another structure or within the collision "
                                "margin of it"));
+  showThickness_ = view->addAction(tr("Show &Thickness"), QKeySequence(tr("T")), this, redrawMarkers);
+  showThickness_->setCheckable(true);
+  showThickness_->setToolTip(tr("Colour every vertex by its structure's medial radius there (half the local "
+                                "thickness): red 1 mm or less, through yellow and green, to blue 6 mm or more"));
 
   QToolBar* bar = addToolBar(tr("Main"));
   bar->setObjectName("main");
@@ -465,11 +474,26 @@ std::vector<std::pair<Vec3, Vec3>> MainWindow::landmarkPairs() {
   return out;
 }
 
+// The thickness colour map (docs/workstation.md): hue from red (medial radius 1 mm or less) to blue
+// (6 mm or more), so that thin parts stand out as in paper 001's Fig. 3b.
+std::array<unsigned char, 3> thicknessColour(float radiusMm) {
+  const float t = std::clamp((radiusMm - 1.0f) / 5.0f, 0.0f, 1.0f);
+  const QColor c = QColor::fromHsvF(t * 240.0f / 360.0f, 1.0f, 1.0f);
+  return {static_cast<unsigned char>(c.red()), static_cast<unsigned char>(c.green()), static_cast<unsigned char>(c.blue())};
+}
+
 std::vector<Marker> MainWindow::markers(Index s) {
   std::vector<Marker> out;
   if (!session_.isOpen()) return out;
   for (const ConstraintPoint& c : session_.constraintPoints(s))
     out.push_back({c.at, c.include ? std::array<unsigned char, 3>{60, 220, 90} : std::array<unsigned char, 3>{240, 60, 60}});
+  if (showThickness_ && showThickness_->isChecked()) {
+    const std::vector<float>& radius = session_.medialRadius();
+    MeshStore& store = session_.simulation().store();
+    const MeshRange& r = store.range(s);
+    for (Index v = r.vertexBegin; v < r.vertexEnd && v < Index(radius.size()); ++v)
+      out.push_back({store.positions()[v], thicknessColour(radius[v])});
+  }
   if (showContacts_ && showContacts_->isChecked()) {
     const std::vector<unsigned char>& mask = session_.contactMask();
     MeshStore& store = session_.simulation().store();

@@ -46,6 +46,10 @@ struct WorkstationOptions {
   std::function<void(const std::string& plugin)> requirePlugin;
 };
 
+// The 3D view's thickness colours (View > Show Thickness): hue from red (medial radius 1 mm or
+// less) through yellow and green to blue (6 mm or more).
+std::array<unsigned char, 3> thicknessColour(float radiusMm);
+
 class MainWindow : public QMainWindow {
   Q_OBJECT
 public:
@@ -115,8 +119,9 @@ private:
   void startAutosave();
   void autosave();
   std::vector<std::pair<Vec3, Vec3>> landmarkPairs();
-  // What the views draw in colours of their own: include (green) and exclude (red) points, and with
-  // View > Show Contacts the vertices in contact regions (orange).
+  // What the views draw in colours of their own: include (green) and exclude (red) points, with
+  // View > Show Thickness every vertex in its thickness colour, and with View > Show Contacts the
+  // vertices in contact regions (orange).
   std::vector<Marker> markers(Index structure);
   SessionOpenOptions sessionOptions(QProgressDialog& progress);
   ToolContext toolContext();
@@ -155,6 +160,7 @@ private:
   QAction *openScene_, *openImage_, *saveScene_, *saveSceneAs_, *saveMeshes_, *exportLabels_, *quit_;
   QAction *undo_, *redo_, *deletePoint_, *run_, *step_, *nextLevel_, *initialiseLandmarks_, *resetViews_, *maximise_;
   QAction* showContacts_ = nullptr;
+  QAction* showThickness_ = nullptr;
   QMenu* recentMenu_ = nullptr;
   QActionGroup* toolGroup_ = nullptr;
 };
