@@ -94,6 +94,10 @@ void checkMetaImageHeader(const fs::path& path) {
       if (!(n >> dims) || dims < 1 || dims > 10) bad("NDims is not a dimension count between 1 and 10");
     }
     if (key == "ElementDataFile") {
+      // Without a name MetaIO reads compressed data from a failed stream and asks for 2^63 bytes
+      // (found by fuzz_image).
+      while (!value.empty() && value.back() == ' ') value.pop_back();
+      if (value.empty()) bad("ElementDataFile names no data file (LOCAL or a file name)");
       if (value.find('%') != std::string::npos || value.rfind("LIST", 0) == 0)
         bad("the data are split over several files (a '%' pattern or a LIST), which Sinew does not read");
       return;  // the header ends here
@@ -201,6 +205,8 @@ void checkDataFits(const fs::path& path, const std::string& extension, itk::Imag
   const DataFile data = dataFileOf(path, extension);
   std::error_code ec;
   const auto size = data.path.empty() ? std::uintmax_t(0) : fs::file_size(data.path, ec);
+  if (!data.path.empty() && fs::exists(data.path) && !fs::is_regular_file(data.path))
+    fail(path, "its data file " + data.path.string() + " is not a regular file");
   if (data.path.empty() || ec) return;  // ITK reports a missing data file
   const double need = double(io.GetImageSizeInBytes());
   const double room = (data.compressed ? 1032.0 : 1.0) * double(size);

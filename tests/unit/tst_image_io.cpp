@@ -175,6 +175,12 @@ private slots:
     // A directory without DICOM files.
     fs::create_directories(path("empty_dir"));
     expectRefusal(io(), path("empty_dir"), "DICOM");
+    // MetaImage whose ElementDataFile names nothing, or a directory (found by fuzz_image).
+    const std::string header = "ObjectType = Image\nNDims = 3\nDimSize = 5 3 2\nElementType = MET_FLOAT\nCompressedData = True\n";
+    std::ofstream(path("nameless.mha")) << header << "ElementDataFile = \n" << std::string(64, '\x7f');
+    expectRefusal(io(), path("nameless.mha"), "ElementDataFile names no data file");
+    std::ofstream(path("folder.mhd")) << header << "ElementDataFile = empty_dir\n";
+    expectRefusal(io(), path("folder.mhd"), "is not a regular file");
   }
 
   void refusesHugeHeadersBeforeAllocating() {
