@@ -248,7 +248,8 @@ SceneDesc parseScene(const std::string& text, const fs::path& file) {
   }
   const Node root(json, "", file);
   root.expectObject({"version", "description", "images", "structures", "forces", "integrator", "schedule",
-                     "model", "initialise", "report", "outputs", "stability", "plugins", "contact_pairs"});
+                     "model", "initialise", "report", "outputs", "stability", "plugins", "contact_pairs",
+                     "attachments"});
   SceneDesc s;
   s.file = file;
   s.version = root.at("version").integer();
@@ -294,6 +295,36 @@ SceneDesc parseScene(const std::string& text, const fs::path& file) {
       s.contactPairs.push_back(p);
     }
   }
+  if (root.has("attachments"))
+    for (const Node& a : root.at("attachments").elements()) {
+      a.expectObject({"structure", "to", "merge", "fixed_within_mm", "distance_mm"});
+      SceneDesc::Attachment d;
+      d.structure = a.at("structure").string();
+      if (!names.count(d.structure)) a.at("structure").fail("no structure is named '" + d.structure + "'");
+      const int kinds = int(a.has("to")) + int(a.has("merge")) + int(a.has("fixed_within_mm"));
+      if (kinds != 1) a.fail("expected exactly one of \"to\" (a surface), \"merge\" (a structure) or \"fixed_within_mm\"");
+      if (a.has("fixed_within_mm")) {
+        const Node f = a.at("fixed_within_mm");
+        f.expectObject({"centre", "radius"});
+        d.kind = "fixed";
+        d.centreMm = f.at("centre").numbers<3>();
+        for (double v : d.centreMm)
+          if (!std::isfinite(v)) f.at("centre").fail("coordinates must be finite");
+        d.radiusMm = f.at("radius").number();
+        if (!(d.radiusMm > 0.0 && d.radiusMm <= 1000.0)) f.at("radius").fail("must be in (0, 1000] mm");
+        if (a.has("distance_mm")) a.at("distance_mm").fail("a fixed region has no distance (its sphere says which vertices)");
+      } else {
+        const char* key = a.has("to") ? "to" : "merge";
+        d.kind = a.has("to") ? "surface" : "merge";
+        d.other = a.at(key).string();
+        if (!names.count(d.other)) a.at(key).fail("no structure is named '" + d.other + "'");
+        if (d.other == d.structure) a.at(key).fail("a structure cannot be attached to itself");
+        d.distanceMm = d.kind == "surface" ? 1.0 : 0.5;
+        if (a.has("distance_mm")) d.distanceMm = a.at("distance_mm").number();
+        if (!(d.distanceMm > 0.0 && d.distanceMm <= 20.0)) a.at("distance_mm").fail("must be in (0, 20] mm");
+      }
+      s.attachments.push_back(d);
+    }
   for (size_t i = 0; i < s.structures.size(); ++i)
     for (const auto& [force, params] : s.structures[i].forces) {
       bool known = false;
@@ -443,6 +474,15 @@ std::string sceneToJson(const SceneDesc& s) {
   j["structures"] = structures;
   if (!s.plugins.empty()) j["plugins"] = s.plugins;
   if (!s.contactPairs.empty()) j["contact_pairs"] = s.contactPairs;
+  for (const SceneDesc::Attachment& a : s.attachments) {
+    Json o = {{"structure", a.structure}};
+    if (a.kind == "fixed") o["fixed_within_mm"] = {{"centre", a.centreMm}, {"radius", a.radiusMm}};
+    else {
+      o[a.kind == "surface" ? "to" : "merge"] = a.other;
+      o["distance_mm"] = a.distanceMm;
+    }
+    j["attachments"].push_back(o);
+  }
   j["forces"] = forcesJson(s.forces);
   j["integrator"]["name"] = s.integrator;
   for (const auto& [name, value] : s.integratorParams) j["integrator"][name] = value;

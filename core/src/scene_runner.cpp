@@ -142,6 +142,23 @@ void SceneRunner::load() {
     }
     L.sim->scene().contactPairs().push_back(pair);  // the parser checked both names
   }
+  const auto indexOf = [&](const std::string& name) {
+    for (size_t i = 0; i < scene_.structures.size(); ++i)
+      if (scene_.structures[i].name == name) return Index(i);
+    return Index(-1);  // not for a name the parser checked
+  };
+  std::vector<AttachmentSpec> attachments;
+  for (const SceneDesc::Attachment& a : scene_.attachments) {
+    AttachmentSpec spec;
+    spec.kind = a.kind == "fixed" ? AttachmentSpec::Kind::Fixed : a.kind == "merge" ? AttachmentSpec::Kind::Merge : AttachmentSpec::Kind::Surface;
+    spec.structure = indexOf(a.structure);
+    spec.other = a.kind == "fixed" ? -1 : indexOf(a.other);
+    spec.distanceMm = float(a.distanceMm);
+    spec.centre = Vec3(float(a.centreMm[0]), float(a.centreMm[1]), float(a.centreMm[2]));
+    spec.radiusMm = float(a.radiusMm);
+    attachments.push_back(spec);
+  }
+  L.sim->setAttachments(std::move(attachments));
   // The reference shapes from label maps and the ground-truth surfaces, every structure at once:
   // each one's iso-surface, decimation and relaxation are independent of the others', and one after
   // the other they were the longest stages of a run on the GPU. The first failure in the scene's

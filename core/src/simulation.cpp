@@ -119,6 +119,10 @@ void Simulation::initialize() {
   IntegratorContext ictx{store_, integratorParams_, executor_};
   integrator_->start(ictx);
   prepareForces();
+  if (!attachments_.empty()) {
+    store_.require(Attribute::Mass);  // merged pairs share their force by mass
+    attachments_.build(store_, executor_);
+  }
   initialized_ = true;
 }
 
@@ -300,9 +304,15 @@ std::string Simulation::checkStep(std::span<const Vec3> before) {
 void Simulation::step() {
   if (!initialized_) throw std::logic_error("Simulation::step before initialize");
   IntegratorContext ictx{store_, integratorParams_, executor_, &jacobian_};
-  if (!guard_.enabled) {
+  // Forces, the attachments' share of them, the integrator, then the attachments' positions.
+  const auto advance = [&] {
     computeForces();
+    if (!attachments_.empty()) attachments_.shareForces(store_);
     integrator_->step(ictx);
+    if (!attachments_.empty()) attachments_.project(store_);
+  };
+  if (!guard_.enabled) {
+    advance();
     ++iteration_;
     return;
   }
@@ -314,8 +324,7 @@ void Simulation::step() {
     goodPrevious_.assign(prev.begin(), prev.end());
   }
   for (int attempt = 0;; ++attempt) {
-    computeForces();
-    integrator_->step(ictx);
+    advance();
     const std::string problem = checkStep(goodPositions_);
     if (problem.empty()) break;
     recover(goodPositions_, goodPrevious_, problem, attempt);
@@ -386,6 +395,7 @@ bool Simulation::advanceLevel() {
   }
   applyDensities();
   prepareForces();
+  if (!attachments_.empty()) attachments_.build(store_, executor_);
   return true;
 }
 

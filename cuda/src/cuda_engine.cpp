@@ -430,6 +430,8 @@ CudaEngine::CudaEngine(Simulation& simulation) : impl_(std::make_unique<Impl>(si
   const DeviceStatus st = probeDevice();
   if (!st.usable) throw std::runtime_error(st.reason);
   impl_->device = st.description;
+  if (!simulation.attachments().empty())
+    throw std::runtime_error("attachments have no CUDA implementation yet (docs/attachments.md)");
   if (simulation.integratorName() != "damped_verlet" && simulation.integratorName() != "implicit_euler")
     throw std::runtime_error("integrator '" + simulation.integratorName() + "' has no CUDA implementation");
   static const std::map<std::string, Kind> kinds = {{"smoothing", Kind::Smoothing},

@@ -88,6 +88,19 @@ private slots:
                                           << "/contact_pairs/0/1: no structure is named 'b'";
     QTest::newRow("contact pair self") << R"("attraction_points": {}})" << R"("attraction_points": {}, "contacts": {}}, "contact_pairs": [["a", "a"]])"
                                        << "/contact_pairs/0: a structure cannot be in contact with itself";
+    QTest::newRow("attachment unknown") << R"("version": 1,)" << R"("version": 1, "attachments": [{"structure": "a", "to": "b"}],)"
+                                        << "/attachments/0/to: no structure is named 'b'";
+    QTest::newRow("attachment to itself") << R"("version": 1,)" << R"("version": 1, "attachments": [{"structure": "a", "merge": "a"}],)"
+                                          << "/attachments/0/merge: a structure cannot be attached to itself";
+    QTest::newRow("attachment two kinds") << R"("version": 1,)"
+                                          << R"("version": 1, "attachments": [{"structure": "a", "to": "a", "fixed_within_mm": {"centre": [0, 0, 0], "radius": 2}}],)"
+                                          << "/attachments/0: expected exactly one of";
+    QTest::newRow("fixed with a distance") << R"("version": 1,)"
+                                           << R"("version": 1, "attachments": [{"structure": "a", "fixed_within_mm": {"centre": [0, 0, 0], "radius": 2}, "distance_mm": 1}],)"
+                                           << "/attachments/0/distance_mm: a fixed region has no distance";
+    QTest::newRow("fixed radius") << R"("version": 1,)"
+                                  << R"("version": 1, "attachments": [{"structure": "a", "fixed_within_mm": {"centre": [0, 0, 0], "radius": -1}}],)"
+                                  << "/attachments/0/fixed_within_mm/radius: must be in (0, 1000] mm";
     QTest::newRow("shape limit") << R"("version": 1,)" << R"("version": 1, "stability": {"min_volume_ratio": 1.5},)"
                                  << "/stability/min_volume_ratio: must be in [0, 1)";
     QTest::newRow("not json") << R"("version": 1,)" << R"("version": 1,,)" << "/data/scene.json: not valid JSON";

@@ -91,6 +91,15 @@ struct SceneDesc {
   // Deforming contacts (paper 001 section 2.2): structure pairs whose reference proximity the
   // force `contacts` keeps as springs.
   std::vector<std::array<std::string, 2>> contactPairs;
+  // Attachments (paper 001 section 2.2; docs/attachments.md), by structure name.
+  struct Attachment {
+    std::string kind;  // "surface" ("to"), "merge", "fixed" ("fixed_within_mm")
+    std::string structure, other;
+    double distanceMm = 1.0;
+    std::array<double, 3> centreMm{0, 0, 0};
+    double radiusMm = 0.0;
+  };
+  std::vector<Attachment> attachments;
   ForceSettings forces;  // the scene's forces in evaluation order, with scene-wide values
   std::string integrator = "damped_verlet";
   std::vector<std::pair<std::string, double>> integratorParams;

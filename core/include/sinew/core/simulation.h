@@ -2,6 +2,7 @@
 // the integrator moves vertices; coarse-to-fine through the levels of detail.
 #pragma once
 
+#include "sinew/core/attachments.h"
 #include "sinew/core/registry.h"
 #include "sinew/core/stability.h"
 
@@ -34,6 +35,10 @@ public:
   ParamTable& addForce(std::string_view name);
   ParamTable& setIntegrator(std::string_view name);
   SceneData& scene() { return scene_; }
+  // Attachments between structures (docs/attachments.md), before initialize(); built at the start
+  // of every level.
+  void setAttachments(std::vector<AttachmentSpec> specs) { attachments_ = Attachments(std::move(specs)); }
+  const Attachments& attachments() const { return attachments_; }
 
   // Builds the level-0 store, allocates what the forces and the integrator declared, prepares them.
   void initialize();
@@ -106,6 +111,7 @@ private:
   const Registry& registry_;
   Executor executor_;
   SceneData scene_;
+  Attachments attachments_;
   std::vector<StructureSpec> structures_;
   std::vector<std::unique_ptr<ForceSlot>> forces_;
   std::unique_ptr<Integrator> integrator_;

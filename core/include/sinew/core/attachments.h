@@ -1,0 +1,66 @@
+// Attachments (paper 001 section 2.2): topological constraints between structures, applied by the
+// simulation around each integration step (docs/attachments.md).
+//   - surface: a structure's vertices near another structure's surface follow that surface
+//     (barycentric coordinates on its tessellation; mass modification, M^-1 = 0: their own forces
+//     are ignored);
+//   - merge: vertex pairs of two structures move together (forces and masses summed);
+//   - fixed: a structure's vertices inside a sphere do not move (M^-1 = 0).
+// Built at the start of every level from the positions then (after the initialisation at level 0).
+#pragma once
+
+#include "sinew/core/executor.h"
+#include "sinew/core/mesh_store.h"
+
+#include <string>
+#include <vector>
+
+namespace sinew {
+
+struct AttachmentSpec {
+  enum class Kind { Surface, Merge, Fixed };
+  Kind kind = Kind::Surface;
+  Index structure = -1;
+  Index other = -1;          // surface, merge: the other structure
+  float distanceMm = 1.0f;   // surface, merge: vertices this close (at the level's start) are attached
+  Vec3 centre = Vec3::Zero();  // fixed: the sphere, world mm
+  float radiusMm = 0.0f;
+};
+
+class Attachments {
+public:
+  Attachments() = default;
+  explicit Attachments(std::vector<AttachmentSpec> specs) : specs_(std::move(specs)) {}
+  bool empty() const { return specs_.empty(); }
+  const std::vector<AttachmentSpec>& specs() const { return specs_; }
+
+  // At the start of each level: which vertices are attached, to what, with their offsets.
+  void build(MeshStore& store, const Executor& executor);
+  // Before the integrator: merged pairs share their summed force in proportion to their masses
+  // (one acceleration), attached and fixed vertices get none.
+  void shareForces(MeshStore& store) const;
+  // After the integrator: fixed vertices back where they were, attached ones onto their surface
+  // (previous positions too, so that they carry the surface's velocity).
+  void project(MeshStore& store) const;
+
+  // Counts at this level, for reports and tests.
+  Index attachedCount() const { return Index(attached_.size()); }
+  Index mergedCount() const { return Index(merged_.size()); }
+  Index fixedCount() const { return Index(fixed_.size()); }
+
+private:
+  struct Attached {
+    Index vertex = -1;
+    std::vector<std::pair<Index, float>> weights;  // the other structure's vertices
+    Vec3 offset = Vec3::Zero();
+  };
+  struct Fixed {
+    Index vertex = -1;
+    Vec3 at = Vec3::Zero();
+  };
+  std::vector<AttachmentSpec> specs_;
+  std::vector<Attached> attached_;
+  std::vector<std::pair<Index, Index>> merged_;
+  std::vector<Fixed> fixed_;
+};
+
+}  // namespace sinew

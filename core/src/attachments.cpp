@@ -1,0 +1,149 @@
+#include "sinew/core/attachments.h"
+
+#include "sinew/core/collision_bvh.h"
+#include "sinew/core/simplex_mesh.h"
+#include "sinew/core/surface_distance.h"
+
+#include <algorithm>
+#include <map>
+
+namespace sinew {
+
+namespace {
+// Barycentric coordinates of q (on the triangle a b c) by least squares, clamped and renormalised.
+std::array<float, 3> barycentric(const Vec3& q, const Vec3& a, const Vec3& b, const Vec3& c) {
+  const Vec3 e0 = b - a, e1 = c - a, d = q - a;
+  const float d00 = e0.dot(e0), d01 = e0.dot(e1), d11 = e1.dot(e1), d20 = d.dot(e0), d21 = d.dot(e1);
+  const float det = d00 * d11 - d01 * d01;
+  if (!(std::abs(det) > 0.0f)) return {1.0f, 0.0f, 0.0f};
+  float v = (d11 * d20 - d01 * d21) / det, w = (d00 * d21 - d01 * d20) / det;
+  v = std::clamp(v, 0.0f, 1.0f), w = std::clamp(w, 0.0f, 1.0f);
+  if (v + w > 1.0f) {
+    const float s = v + w;
+    v /= s, w /= s;
+  }
+  return {1.0f - v - w, v, w};
+}
+
+// A point of structure m's tessellation as weights over its vertices (global indices): a vertex
+// itself, or a cell centre (the mean of the cell's vertices).
+void addPointWeights(const MeshStore& store, Index m, Index point, float weight, std::map<Index, float>& out) {
+  const MeshRange& r = store.range(m);
+  const Index vertices = r.vertexCount();
+  if (point < vertices) {
+    out[r.vertexBegin + point] += weight;
+    return;
+  }
+  const Index cell = r.cellBegin + (point - vertices);
+  const auto offsets = store.cellOffsets();
+  const auto members = store.cellVertices();
+  const float share = weight / float(offsets[cell + 1] - offsets[cell]);
+  for (Index k = offsets[cell]; k < offsets[cell + 1]; ++k) out[members[k]] += share;
+}
+}  // namespace
+
+void Attachments::build(MeshStore& store, const Executor& executor) {
+  attached_.clear();
+  merged_.clear();
+  fixed_.clear();
+  const auto x = store.positions();
+  std::vector<char> taken(store.vertexCount(), 0);  // a vertex is attached, merged or fixed once
+  for (const AttachmentSpec& spec : specs_) {
+    const MeshRange& own = store.range(spec.structure);
+    if (spec.kind == AttachmentSpec::Kind::Fixed) {
+      for (Index v = own.vertexBegin; v < own.vertexEnd; ++v)
+        if (!taken[v] && (x[v] - spec.centre).norm() <= spec.radiusMm) {
+          taken[v] = 1;
+          fixed_.push_back({v, x[v]});
+        }
+      continue;
+    }
+    const auto otherPoints = store.mesh(x, spec.other);
+    const TriangleMesh surface = tessellate(store.topologyOf(spec.other), {otherPoints.begin(), otherPoints.end()});
+    if (spec.kind == AttachmentSpec::Kind::Merge) {
+      // Each vertex pairs with the nearest free vertex of the other structure within the distance.
+      const MeshRange& other = store.range(spec.other);
+      for (Index v = own.vertexBegin; v < own.vertexEnd; ++v) {
+        if (taken[v]) continue;
+        Index best = -1;
+        float bestD = spec.distanceMm;
+        for (Index u = other.vertexBegin; u < other.vertexEnd; ++u)
+          if (!taken[u] && (x[u] - x[v]).norm() <= bestD) best = u, bestD = (x[u] - x[v]).norm();
+        if (best < 0) continue;
+        taken[v] = taken[best] = 1;
+        merged_.emplace_back(v, best);
+      }
+      continue;
+    }
+    // Surface: the closest point of the other tessellation, as weights over its vertices.
+    const SurfaceDistanceQuery query(surface);
+    std::vector<Index> near;
+    for (Index v = own.vertexBegin; v < own.vertexEnd; ++v)
+      if (!taken[v] && query.distance(x[v]) <= spec.distanceMm) near.push_back(v);
+    std::vector<Attached> found(near.size());
+    executor.forEach(Index(near.size()), [&](Index k) {
+      const Vec3 p = x[near[k]];
+      float bestD2 = INFINITY;
+      std::size_t bestT = 0;
+      Vec3 bestQ = p;
+      for (std::size_t t = 0; t < surface.triangles.size(); ++t) {
+        const auto& tri = surface.triangles[t];
+        const Vec3 q = asVec3(collision::closestOnTriangle(asP3(p), asP3(surface.points[tri[0]]), asP3(surface.points[tri[1]]),
+                                                           asP3(surface.points[tri[2]])));
+        const float d2 = (q - p).squaredNorm();
+        if (d2 < bestD2) bestD2 = d2, bestT = t, bestQ = q;
+      }
+      const auto& tri = surface.triangles[bestT];
+      const auto b = barycentric(bestQ, surface.points[tri[0]], surface.points[tri[1]], surface.points[tri[2]]);
+      std::map<Index, float> weights;
+      for (int c = 0; c < 3; ++c) addPointWeights(store, spec.other, tri[c], b[c], weights);
+      Attached a{near[k], {weights.begin(), weights.end()}, Vec3::Zero()};
+      Vec3 on = Vec3::Zero();
+      for (const auto& [u, w] : a.weights) on += w * x[u];
+      a.offset = p - on;
+      found[k] = std::move(a);
+    });
+    for (Attached& a : found) {
+      taken[a.vertex] = 1;
+      attached_.push_back(std::move(a));
+    }
+  }
+}
+
+void Attachments::shareForces(MeshStore& store) const {
+  const auto f = store.forces();
+  const auto m = store.masses();
+  for (const auto& [a, b] : merged_) {
+    const Vec3 total = f[a] + f[b];
+    const float mass = m[a] + m[b];
+    if (!(mass > 0.0f)) continue;
+    f[a] = (m[a] / mass) * total;
+    f[b] = (m[b] / mass) * total;
+  }
+  for (const Fixed& v : fixed_) f[v.vertex] = Vec3::Zero();
+  for (const Attached& v : attached_) f[v.vertex] = Vec3::Zero();
+}
+
+void Attachments::project(MeshStore& store) const {
+  if (fixed_.empty() && attached_.empty()) return;
+  const bool hasPrevious = store.has(Attribute::PreviousPosition);
+  auto x = store.positionsForWrite();
+  std::span<Vec3> prev = hasPrevious ? store.previousPositions() : std::span<Vec3>{};
+  for (const Fixed& v : fixed_) {
+    x[v.vertex] = v.at;
+    if (hasPrevious) prev[v.vertex] = v.at;
+  }
+  // A vertex is attached once; a surface vertex that is itself attached elsewhere is moved in the
+  // scene's order of the attachments.
+  for (const Attached& v : attached_) {
+    Vec3 on = v.offset, before = v.offset;
+    for (const auto& [u, w] : v.weights) {
+      on += w * x[u];
+      if (hasPrevious) before += w * prev[u];
+    }
+    x[v.vertex] = on;
+    if (hasPrevious) prev[v.vertex] = before;
+  }
+}
+
+}  // namespace sinew
