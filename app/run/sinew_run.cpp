@@ -255,15 +255,15 @@ int main(int argc, char** argv) {
     runner.load();
     RunReport report = runner.run();
     report.stageSeconds.insert(report.stageSeconds.begin(), {"startup", startup});
+    const auto outputsStart = std::chrono::steady_clock::now();
+    for (const auto& s : report.structures)
+      for (const Vec3& p : s.surface.points)
+        if (!p.allFinite()) throw NumericalError("structure '" + s.name + "' has a non-finite vertex; nothing was written");
     if (scene.thickness) {
       const auto thicknessStart = std::chrono::steady_clock::now();
       addThickness(report, Executor(threads));
       report.stageSeconds.emplace_back("thickness", since(thicknessStart));
     }
-    const auto outputsStart = std::chrono::steady_clock::now();
-    for (const auto& s : report.structures)
-      for (const Vec3& p : s.surface.points)
-        if (!p.allFinite()) throw NumericalError("structure '" + s.name + "' has a non-finite vertex; nothing was written");
     Staging out(outDir);
     // The outputs are independent files: written at once (one after the other with -j 1); the
     // first failure, in this order, is the one reported.

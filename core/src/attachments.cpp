@@ -3,9 +3,12 @@
 #include "sinew/core/collision_bvh.h"
 #include "sinew/core/simplex_mesh.h"
 #include "sinew/core/surface_distance.h"
+#include "point_tree.h"
 
 #include <algorithm>
+#include <cstdint>
 #include <map>
+#include <string>
 
 namespace sinew {
 
@@ -61,17 +64,25 @@ void Attachments::build(MeshStore& store, const Executor& executor) {
     const auto otherPoints = store.mesh(x, spec.other);
     const TriangleMesh surface = tessellate(store.topologyOf(spec.other), {otherPoints.begin(), otherPoints.end()});
     if (spec.kind == AttachmentSpec::Kind::Merge) {
-      // Each vertex pairs with the nearest free vertex of the other structure within the distance.
+      // Each vertex pairs with the nearest free vertex of the other structure within the distance
+      // (the candidates from a k-d tree, in the vertices' order: deterministic).
       const MeshRange& other = store.range(spec.other);
+      const PointCloud cloud{store.mesh(x, spec.other)};
+      const PointTree tree(3, cloud, nanoflann::KDTreeSingleIndexAdaptorParams(10));
+      nanoflann::SearchParams params;
+      params.sorted = true;
+      std::vector<std::pair<std::uint32_t, float>> found;
       for (Index v = own.vertexBegin; v < own.vertexEnd; ++v) {
         if (taken[v]) continue;
-        Index best = -1;
-        float bestD = spec.distanceMm;
-        for (Index u = other.vertexBegin; u < other.vertexEnd; ++u)
-          if (!taken[u] && (x[u] - x[v]).norm() <= bestD) best = u, bestD = (x[u] - x[v]).norm();
-        if (best < 0) continue;
-        taken[v] = taken[best] = 1;
-        merged_.emplace_back(v, best);
+        found.clear();
+        tree.radiusSearch(x[v].data(), spec.distanceMm * spec.distanceMm, found, params);
+        for (const auto& [local, d2] : found) {
+          const Index u = other.vertexBegin + Index(local);
+          if (taken[u]) continue;
+          taken[v] = taken[u] = 1;
+          merged_.push_back({v, u, x[u] - x[v]});
+          break;
+        }
       }
       continue;
     }
@@ -110,10 +121,26 @@ void Attachments::build(MeshStore& store, const Executor& executor) {
   }
 }
 
+void Attachments::validate(const MeshStore& store) const {
+  for (std::size_t k = 0; k < specs_.size(); ++k) {
+    const AttachmentSpec& a = specs_[k];
+    const auto bad = [&](const std::string& why) { throw InputError("attachment " + std::to_string(k) + ": " + why); };
+    if (a.structure < 0 || a.structure >= store.meshCount()) bad("no structure " + std::to_string(a.structure));
+    if (a.kind == AttachmentSpec::Kind::Fixed) {
+      if (!(a.radiusMm > 0.0f) || !a.centre.allFinite()) bad("the fixed sphere needs a finite centre and a positive radius");
+      continue;
+    }
+    if (a.other < 0 || a.other >= store.meshCount()) bad("no structure " + std::to_string(a.other));
+    if (a.other == a.structure) bad("a structure cannot be attached to itself");
+    if (!(a.distanceMm > 0.0f)) bad("the distance must be positive");
+  }
+}
+
 void Attachments::shareForces(MeshStore& store) const {
   const auto f = store.forces();
   const auto m = store.masses();
-  for (const auto& [a, b] : merged_) {
+  for (const Merged& p : merged_) {
+    const Index a = p.a, b = p.b;
     const Vec3 total = f[a] + f[b];
     const float mass = m[a] + m[b];
     if (!(mass > 0.0f)) continue;
@@ -125,10 +152,25 @@ void Attachments::shareForces(MeshStore& store) const {
 }
 
 void Attachments::project(MeshStore& store) const {
-  if (fixed_.empty() && attached_.empty()) return;
+  if (fixed_.empty() && attached_.empty() && merged_.empty()) return;
   const bool hasPrevious = store.has(Attribute::PreviousPosition);
+  const std::vector<float> mass(store.masses().begin(), store.masses().end());  // before positions are written
   auto x = store.positionsForWrite();
   std::span<Vec3> prev = hasPrevious ? store.previousPositions() : std::span<Vec3>{};
+  // A merged pair at its offset about its centre of mass (which the step moved), so that the two
+  // never drift apart (different velocities carried from a coarser level, implicit Euler's blocks).
+  for (const Merged& p : merged_) {
+    const float total = mass[p.a] + mass[p.b];
+    if (!(total > 0.0f)) continue;
+    const float wa = mass[p.a] / total, wb = mass[p.b] / total;
+    const auto place = [&](std::span<Vec3> at) {
+      const Vec3 centre = wa * at[p.a] + wb * at[p.b];
+      at[p.a] = centre - wb * p.offset;
+      at[p.b] = centre + wa * p.offset;
+    };
+    place(x);
+    if (hasPrevious) place(prev);
+  }
   for (const Fixed& v : fixed_) {
     x[v.vertex] = v.at;
     if (hasPrevious) prev[v.vertex] = v.at;

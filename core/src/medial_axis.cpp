@@ -4,22 +4,18 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <map>
+#include <vector>
 
-#include <nanoflann.hpp>
+#include "point_tree.h"
+
+#include <atomic>
 
 namespace sinew {
 
 namespace {
-// The samples for nanoflann's k-d tree.
-struct Samples {
-  std::span<const Vec3> points;
-  std::size_t kdtree_get_point_count() const { return points.size(); }
-  float kdtree_get_pt(std::size_t i, std::size_t dim) const { return points[i][Eigen::Index(dim)]; }
-  template <class Box>
-  bool kdtree_get_bbox(Box&) const { return false; }
-};
-using SampleTree = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<float, Samples>, Samples, 3>;
+using SampleTree = PointTree;
 
 float boundingRadius(std::span<const Vec3> points) {
   Vec3 lo = Vec3::Constant(INFINITY), hi = Vec3::Constant(-INFINITY);
@@ -35,9 +31,13 @@ constexpr float kInsideTolerance = 0.02f;  // of the radius
 // The ball at sample i (point p, outward normal n) of radius r shrinks to the one through p and the
 // nearest other sample q to its centre, tangent at p: |p - r n - q| = r gives
 // r = |p - q|^2 / (2 n.(p - q)), smaller than r whenever q lies inside (and then n.(p - q) > 0).
+// A sample without a usable normal (collapsed cells), or whose ball never shrank below the samples'
+// extent or did not settle, gets no ball (radius 0): such a ball would claim the whole structure.
 InscribedBall shrinkBall(const SampleTree& tree, std::span<const Vec3> samples, std::size_t i, const Vec3& n, float maxRadius) {
   const Vec3& p = samples[i];
+  if (!n.allFinite() || std::abs(n.squaredNorm() - 1.0f) > 1e-3f || !p.allFinite()) return {p, 0.0f};
   float r = maxRadius;
+  bool settled = false;
   for (int iteration = 0; iteration < 100; ++iteration) {
     const Vec3 c = p - r * n;
     std::uint32_t index[2];
@@ -48,50 +48,66 @@ InscribedBall shrinkBall(const SampleTree& tree, std::span<const Vec3> samples, 
     // No other sample inside, or one barely inside: a polygonal surface's normals are a degree or so
     // off, and a ball along a tilted normal sticks out of a sphere by about r times the tilt, so
     // an exact test would shrink it far below the shape's thickness.
-    if (k == found || std::sqrt(distance2[k]) >= r * (1.0f - kInsideTolerance)) break;
+    if (k == found || std::sqrt(distance2[k]) >= r * (1.0f - kInsideTolerance)) {
+      settled = true;
+      break;
+    }
     const Vec3 pq = p - samples[index[k]];
     const float below = n.dot(pq);
-    if (!(below > 0.0f)) break;
-    const float next = pq.squaredNorm() / (2.0f * below);
-    if (!(next < r)) break;
+    const float next = below > 0.0f ? pq.squaredNorm() / (2.0f * below) : r;
+    if (!(next < r)) {
+      settled = true;  // cannot shrink further: the ball through p and q tangent at p
+      break;
+    }
     r = next;
   }
+  if (!settled || !(r < maxRadius)) return {p, 0.0f};
   return {p - r * n, r};
 }
+
+// How many of the samples nearest a ball's centre may take that ball (the touching pass): bounded,
+// so that a sphere, whose every ball touches every sample, costs N K and not N^2.
+constexpr std::size_t kTouchingCandidates = 128;
 }  // namespace
 
 std::vector<InscribedBall> inscribedBalls(std::span<const Vec3> samples, std::span<const Vec3> outwardNormals,
                                           const Executor& executor) {
   std::vector<InscribedBall> balls(samples.size());
   if (samples.empty()) return balls;
-  const Samples cloud{samples};
+  const PointCloud cloud{samples};
   const SampleTree tree(3, cloud, nanoflann::KDTreeSingleIndexAdaptorParams(10));
   const float maxRadius = boundingRadius(samples);
   executor.forEach(Index(samples.size()), [&](Index i) { balls[i] = shrinkBall(tree, samples, std::size_t(i), outwardNormals[i], maxRadius); }, 64);
   // Each sample takes the largest of the balls that touch it (Hildebrand's local thickness over
-  // this set of inscribed balls): its own ball may be small where its normal is tilted.
-  std::vector<std::vector<std::pair<std::uint32_t, float>>> touching(samples.size());
+  // this set of inscribed balls): its own ball may be small where its normal is tilted. The choice
+  // is a maximum of (radius, -ball index), so it does not depend on the threads' order.
+  std::vector<std::atomic<std::uint64_t>> best(samples.size());
+  for (auto& b : best) b.store(0, std::memory_order_relaxed);
+  const auto keyOf = [](float radius, std::size_t ball) {
+    std::uint32_t bits = 0;
+    std::memcpy(&bits, &radius, sizeof bits);  // positive floats order as their bits
+    return (std::uint64_t(bits) << 32) | std::uint64_t(~std::uint32_t(ball));
+  };
   executor.forEach(Index(samples.size()), [&](Index j) {
+    if (!(balls[j].radius > 0.0f)) return;
     const float reach = balls[j].radius * (1.0f + kInsideTolerance);
-    std::vector<std::pair<std::uint32_t, float>> found;
-    nanoflann::SearchParams params;
-    params.sorted = false;
-    tree.radiusSearch(balls[j].centre.data(), reach * reach, found, params);
-    touching[j] = std::move(found);
-  }, 64);
-  std::vector<Index> order(samples.size());
-  for (std::size_t j = 0; j < order.size(); ++j) order[j] = Index(j);
-  std::stable_sort(order.begin(), order.end(), [&](Index a, Index b) { return balls[a].radius > balls[b].radius; });
-  std::vector<InscribedBall> largest(samples.size());
-  std::vector<char> assigned(samples.size(), 0);
-  for (Index j : order)
-    for (const auto& [i, d2] : touching[j])
-      if (!assigned[i]) {
-        assigned[i] = 1;
-        largest[i] = balls[j];
+    std::uint32_t index[kTouchingCandidates];
+    float distance2[kTouchingCandidates];
+    const std::size_t found = tree.knnSearch(balls[j].centre.data(), kTouchingCandidates, index, distance2);
+    const std::uint64_t key = keyOf(balls[j].radius, std::size_t(j));
+    for (std::size_t k = 0; k < found; ++k) {
+      if (distance2[k] > reach * reach) break;  // sorted nearest first
+      std::atomic<std::uint64_t>& slot = best[index[k]];
+      std::uint64_t seen = slot.load(std::memory_order_relaxed);
+      while (seen < key && !slot.compare_exchange_weak(seen, key, std::memory_order_relaxed)) {
       }
-  for (std::size_t i = 0; i < samples.size(); ++i)
-    if (!assigned[i]) largest[i] = balls[i];
+    }
+  }, 64);
+  std::vector<InscribedBall> largest(samples.size());
+  for (std::size_t i = 0; i < samples.size(); ++i) {
+    const std::uint64_t key = best[i].load(std::memory_order_relaxed);
+    largest[i] = key == 0 ? balls[i] : balls[~std::uint32_t(key & 0xffffffffu)];
+  }
   return largest;
 }
 
@@ -155,42 +171,27 @@ MedialSurface buildMedialSurface(std::span<const Vec3> points, std::span<const V
   const float h = options.spacingMm;
   std::map<Cell, std::pair<Vec3, int>> clusters;
   for (const auto& b : balls) {
+    if (!(b.radius > 0.0f)) continue;  // no ball: no medial point
     auto [it, added] = clusters.try_emplace(cellOf(b.centre, h), Vec3::Zero(), 0);
     auto& c = it->second;
     c.first += b.centre;
     ++c.second;
   }
   MedialSurface m;
-  std::map<Cell, Index> indexOf;
-  for (const auto& [cell, c] : clusters) {
-    indexOf[cell] = Index(m.vertices.size());
-    m.vertices.push_back(c.first / float(c.second));
-  }
-
-  // Each surface vertex: the nearest medial vertices to its ball's centre, searched in growing
-  // shells of grid cells until enough are found, weighted by inverse squared distance.
+  for (const auto& [cell, c] : clusters) m.vertices.push_back(c.first / float(c.second));
+  if (m.vertices.empty()) throw InputError("medial surface: no inscribed ball could be found (are the normals outward and finite?)");
+  // Each surface vertex: the medial vertices nearest its ball's centre (its own point where it has
+  // no ball), weighted by inverse squared distance.
   const Index n = Index(points.size());
-  const int k = std::min<int>(options.neighbours, int(m.vertices.size()));
+  const std::size_t k = std::min<std::size_t>(std::size_t(options.neighbours), m.vertices.size());
+  const PointCloud medialCloud{m.vertices};
+  const PointTree medialTree(3, medialCloud, nanoflann::KDTreeSingleIndexAdaptorParams(10));
   std::vector<std::vector<std::pair<float, Index>>> nearest(n);
   executor.forEach(n, [&](Index i) {
-    const Vec3& c = balls[i].centre;
-    const Cell home = cellOf(c, h);
-    auto& found = nearest[i];
-    for (int ring = 1; ring < 1 << 20; ring *= 2) {
-      found.clear();
-      for (int dx = -ring; dx <= ring; ++dx)
-        for (int dy = -ring; dy <= ring; ++dy)
-          for (int dz = -ring; dz <= ring; ++dz) {
-            const auto it = indexOf.find({home[0] + dx, home[1] + dy, home[2] + dz});
-            if (it != indexOf.end()) found.emplace_back((m.vertices[it->second] - c).squaredNorm(), it->second);
-          }
-      // Enough, and the k-th nearest within the shell searched (nothing closer lies outside it).
-      if (int(found.size()) >= k) {
-        std::partial_sort(found.begin(), found.begin() + k, found.end());
-        if (std::sqrt(found[k - 1].first) <= float(ring) * h || ring * h > 1e6f) break;
-      }
-    }
-    found.resize(std::min<std::size_t>(found.size(), std::size_t(k)));
+    std::vector<std::uint32_t> index(k);
+    std::vector<float> distance2(k);
+    const std::size_t found = medialTree.knnSearch(balls[i].centre.data(), k, index.data(), distance2.data());
+    for (std::size_t q = 0; q < found; ++q) nearest[i].emplace_back(distance2[q], Index(index[q]));
   }, 64);
   for (Index i = 0; i < n; ++i) {
     float sum = 0.0f;

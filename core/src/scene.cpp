@@ -323,6 +323,10 @@ SceneDesc parseScene(const std::string& text, const fs::path& file) {
         if (a.has("distance_mm")) d.distanceMm = a.at("distance_mm").number();
         if (!(d.distanceMm > 0.0 && d.distanceMm <= 20.0)) a.at("distance_mm").fail("must be in (0, 20] mm");
       }
+      if (d.kind == "surface")
+        for (const SceneDesc::Attachment& e : s.attachments)
+          if (e.kind == "surface" && e.structure == d.other && e.other == d.structure)
+            a.fail("'" + d.other + "' is already attached to '" + d.structure + "': attaching both ways leaves the contact without forces");
       s.attachments.push_back(d);
     }
   for (size_t i = 0; i < s.structures.size(); ++i)

@@ -88,6 +88,10 @@ void Simulation::initialize() {
   store_.setExecutor(&executor_);
 
   store_.require(Attribute::Force);
+  if (!attachments_.empty()) {
+    attachments_.validate(store_);
+    store_.require(Attribute::Mass);  // merged pairs share their force by mass
+  }
   for (Attribute a : integrator_->requirements().attributes) store_.require(a);
   for (size_t f = 0; f < forces_.size(); ++f) {
     const Requirements req = forces_[f]->force->requirements();
@@ -119,10 +123,7 @@ void Simulation::initialize() {
   IntegratorContext ictx{store_, integratorParams_, executor_};
   integrator_->start(ictx);
   prepareForces();
-  if (!attachments_.empty()) {
-    store_.require(Attribute::Mass);  // merged pairs share their force by mass
-    attachments_.build(store_, executor_);
-  }
+  if (!attachments_.empty()) attachments_.build(store_, executor_);
   initialized_ = true;
 }
 

@@ -205,7 +205,8 @@ void checkDataFits(const fs::path& path, const std::string& extension, itk::Imag
   const DataFile data = dataFileOf(path, extension);
   std::error_code ec;
   const auto size = data.path.empty() ? std::uintmax_t(0) : fs::file_size(data.path, ec);
-  if (!data.path.empty() && fs::exists(data.path) && !fs::is_regular_file(data.path))
+  std::error_code kindError;
+  if (!data.path.empty() && fs::exists(data.path, kindError) && !fs::is_regular_file(data.path, kindError))
     fail(path, "its data file " + data.path.string() + " is not a regular file");
   if (data.path.empty() || ec) return;  // ITK reports a missing data file
   const double need = double(io.GetImageSizeInBytes());

@@ -2,6 +2,8 @@
 
 #include "itk_convert.h"
 
+#include <mutex>
+
 #include <itkAffineTransform.h>
 #include <itkBinShrinkImageFilter.h>
 #include <itkCenteredTransformInitializer.h>
@@ -141,9 +143,11 @@ namespace {
 // derivatives into a shared buffer in whatever order its mutex is taken, and capping the metric's
 // work units alone did not make it repeat), and the segmentation after it by up to 0.1 mm ASSD per
 // structure. Objects take the global default when they are made, so the others are not affected.
+// Registrations in one process run one at a time, so that each restores what it found. Other ITK
+// objects made meanwhile (a label map still being read) also get one thread: slower, not wrong.
 class SerialItk {
 public:
-  SerialItk() : before_(itk::MultiThreaderBase::GetGlobalDefaultNumberOfThreads()) {
+  SerialItk() : lock_(mutex()), before_(itk::MultiThreaderBase::GetGlobalDefaultNumberOfThreads()) {
     itk::MultiThreaderBase::SetGlobalDefaultNumberOfThreads(1);
   }
   ~SerialItk() { itk::MultiThreaderBase::SetGlobalDefaultNumberOfThreads(before_); }
@@ -151,6 +155,11 @@ public:
   SerialItk& operator=(const SerialItk&) = delete;
 
 private:
+  static std::mutex& mutex() {
+    static std::mutex m;
+    return m;
+  }
+  std::lock_guard<std::mutex> lock_;
   itk::ThreadIdType before_;
 };
 }  // namespace

@@ -136,6 +136,17 @@ private slots:
     QVERIFY(y.excludePointsMm == x.excludePointsMm);
     QVERIFY(b.forces == a.forces);
     QCOMPARE(b.integrator, a.integrator);
+    // Attachments and the thickness output too.
+    SceneDesc c = parseScene(replaced(kValid, R"("version": 1,)",
+                                      R"("version": 1, "outputs": {"thickness": true}, "attachments": [{"structure": "a", "fixed_within_mm": {"centre": [1, 2, 3], "radius": 4}}],)"),
+                             "/data/scene.json");
+    writeScene(c, file);
+    const SceneDesc d = readScene(file);
+    QVERIFY(d.thickness);
+    QCOMPARE(d.attachments.size(), std::size_t(1));
+    QCOMPARE(d.attachments[0].kind, std::string("fixed"));
+    QVERIFY((d.attachments[0].centreMm == std::array<double, 3>{1, 2, 3}));
+    QCOMPARE(d.attachments[0].radiusMm, 4.0);
     QVERIFY(b.integratorParams == a.integratorParams);
     QCOMPARE(b.schedule.size(), a.schedule.size());
     QVERIFY(b.schedule[1].forces == a.schedule[1].forces);

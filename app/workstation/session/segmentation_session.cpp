@@ -382,12 +382,15 @@ void SegmentationSession::removeAttractionPoint(Index structure, int index) {
   changed();
 }
 
+bool SegmentationSession::due(std::size_t size, std::uint64_t revision, std::chrono::steady_clock::time_point at,
+                              std::chrono::steady_clock::time_point now, double minIntervalSeconds) {
+  return size != std::size_t(simulation().store().vertexCount()) ||
+         (revision != revision_ && std::chrono::duration<double>(now - at).count() >= minIntervalSeconds);
+}
+
 const std::vector<unsigned char>& SegmentationSession::contactMask(double minIntervalSeconds) {
   const auto now = std::chrono::steady_clock::now();
-  const bool stale = contactMask_.size() != size_t(simulation().store().vertexCount()) ||
-                     (contactRevision_ != revision_ &&
-                      std::chrono::duration<double>(now - contactTime_).count() >= minIntervalSeconds);
-  if (!stale) return contactMask_;
+  if (!due(contactMask_.size(), contactRevision_, contactTime_, now, minIntervalSeconds)) return contactMask_;
   syncHost();
   Simulation& sim = simulation();
   const std::vector<std::string> forces = sim.forceNames();
@@ -401,10 +404,7 @@ const std::vector<unsigned char>& SegmentationSession::contactMask(double minInt
 
 const std::vector<float>& SegmentationSession::medialRadius(double minIntervalSeconds) {
   const auto now = std::chrono::steady_clock::now();
-  const bool stale = medialRadius_.size() != size_t(simulation().store().vertexCount()) ||
-                     (medialRevision_ != revision_ &&
-                      std::chrono::duration<double>(now - medialTime_).count() >= minIntervalSeconds);
-  if (!stale) return medialRadius_;
+  if (!due(medialRadius_.size(), medialRevision_, medialTime_, now, minIntervalSeconds)) return medialRadius_;
   syncHost();
   MeshStore& store = simulation().store();
   medialRadius_.assign(store.vertexCount(), 0.0f);

@@ -181,6 +181,10 @@ public:
   void exportLabelMap(const std::filesystem::path& file);
 
 private:
+  // Whether a view derived from the state (contact mask, medial radii) must be computed again: it
+  // does not fit the store, or the state moved and minIntervalSeconds have passed since `at`.
+  bool due(std::size_t size, std::uint64_t revision, std::chrono::steady_clock::time_point at,
+           std::chrono::steady_clock::time_point now, double minIntervalSeconds);
   std::vector<unsigned char> contactMask_;
   std::uint64_t contactRevision_ = 0;
   std::chrono::steady_clock::time_point contactTime_{};

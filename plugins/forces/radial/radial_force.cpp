@@ -23,6 +23,7 @@ struct StructureMedial {
   std::vector<Index> offsets{0}, vertex;
   std::vector<float> weight;
   std::vector<Vec3> q;  // the medial vertices now (empty until the level's first evaluation)
+  MedialOptions options;  // what it was built with
 };
 
 class RadialForce final : public Force {
@@ -32,21 +33,24 @@ public:
             .referenceShape = true};
   }
 
+  // At each level: nothing built yet. A structure's medial surface is built on its first evaluation
+  // with a positive weight, and again when spacing_mm or neighbours change.
   void prepare(ForceContext& ctx) override {
-    MeshStore& s = ctx.store;
+    structures_.assign(ctx.store.meshCount(), {});
+    builtFor_ = ctx.store.vertexCount();
+  }
+
+  void ensureBuilt(ForceContext& ctx, Index m) {
     const MedialOptions options{.spacingMm = ctx.params.getf(0, ctx.params.indexOf("spacing_mm")),
                                 .neighbours = int(ctx.params.get(0, ctx.params.indexOf("neighbours")))};
-    structures_.assign(s.meshCount(), {});
-    const auto reference = s.referencePositions();
-    const auto referenceNormals = s.referenceNormals();
-    for (Index m = 0; m < s.meshCount(); ++m) {
-      if (!(ctx.params.getf(m, 0) > 0.0f)) continue;
-      const auto points = s.mesh(reference, m);
-      StructureMedial& t = structures_[m];
-      t.medial = buildMedialSurface(points, s.mesh(referenceNormals, m), options, ctx.executor);
-      invert(t);
-    }
-    builtFor_ = s.vertexCount();
+    StructureMedial& t = structures_[m];
+    if (t.medial.surfaceVertexCount() > 0 && t.options.spacingMm == options.spacingMm && t.options.neighbours == options.neighbours)
+      return;
+    MeshStore& s = ctx.store;
+    t = {};
+    t.options = options;
+    t.medial = buildMedialSurface(s.mesh(s.referencePositions(), m), s.mesh(s.referenceNormals(), m), options, ctx.executor);
+    invert(t);
   }
 
   void accumulate(ForceContext& ctx, std::span<Vec3> forces) override {
@@ -56,12 +60,14 @@ public:
     direction_.assign(s.vertexCount(), Vec3::Zero());
     stiffness_.assign(s.vertexCount(), 0.0f);
     slack_.assign(s.vertexCount(), 0.0f);
+    for (Index m = 0; m < s.meshCount(); ++m)
+      if (ctx.params.getf(m, 0) > 0.0f) ensureBuilt(ctx, m);
     const auto x = s.positions();
     const auto normals = s.normals();
     const auto mass = s.masses();
     for (Index m = 0; m < s.meshCount(); ++m) {
       const float alpha = ctx.params.getf(m, 0);
-      if (!(alpha > 0.0f) || structures_[m].medial.surfaceVertexCount() == 0) continue;
+      if (!(alpha > 0.0f)) continue;
       StructureMedial& t = structures_[m];
       const MedialSurface& ms = t.medial;
       const Index begin = s.range(m).vertexBegin, n = ms.surfaceVertexCount();

@@ -3,7 +3,8 @@
 //   - surface: a structure's vertices near another structure's surface follow that surface
 //     (barycentric coordinates on its tessellation; mass modification, M^-1 = 0: their own forces
 //     are ignored);
-//   - merge: vertex pairs of two structures move together (forces and masses summed);
+//   - merge: vertex pairs of two structures move together (forces and masses summed, and the pair
+//     put back at its offset about its centre of mass after each step);
 //   - fixed: a structure's vertices inside a sphere do not move (M^-1 = 0).
 // Built at the start of every level from the positions then (after the initialisation at level 0).
 #pragma once
@@ -38,13 +39,23 @@ public:
   // Before the integrator: merged pairs share their summed force in proportion to their masses
   // (one acceleration), attached and fixed vertices get none.
   void shareForces(MeshStore& store) const;
-  // After the integrator: fixed vertices back where they were, attached ones onto their surface
-  // (previous positions too, so that they carry the surface's velocity).
+  // After the integrator: fixed vertices back where they were, merged pairs at their offset about
+  // their centre of mass, attached ones onto their surface (previous positions too, so that they
+  // keep one velocity).
   void project(MeshStore& store) const;
+
+  // Throws InputError naming the attachment when a spec does not fit the store (structure indices,
+  // distances, radii).
+  void validate(const MeshStore& store) const;
 
   // Counts at this level, for reports and tests.
   Index attachedCount() const { return Index(attached_.size()); }
   Index mergedCount() const { return Index(merged_.size()); }
+  std::vector<std::pair<Index, Index>> mergedPairs() const {
+    std::vector<std::pair<Index, Index>> out;
+    for (const Merged& p : merged_) out.emplace_back(p.a, p.b);
+    return out;
+  }
   Index fixedCount() const { return Index(fixed_.size()); }
 
 private:
@@ -59,7 +70,11 @@ private:
   };
   std::vector<AttachmentSpec> specs_;
   std::vector<Attached> attached_;
-  std::vector<std::pair<Index, Index>> merged_;
+  struct Merged {
+    Index a = -1, b = -1;
+    Vec3 offset = Vec3::Zero();  // x_b - x_a at the level's start, kept
+  };
+  std::vector<Merged> merged_;
   std::vector<Fixed> fixed_;
 };
 
