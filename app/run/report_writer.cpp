@@ -103,10 +103,6 @@ void writeReportJson(const std::filesystem::path& path, const RunReport& r, cons
                     {"events", events}};
   Json structures = Json::array();
   for (const StructureResult& s : r.structures) {
-    Json thickness = nullptr;
-    if (s.medialRadius)
-      thickness = {{"mean", s.medialRadius->mean}, {"p5", s.medialRadius->p5}, {"median", s.medialRadius->median},
-                   {"p95", s.medialRadius->p95}, {"max", s.medialRadius->max}};
     structures.push_back({{"name", s.name},
                           {"label", s.label},
                           {"vertices", s.vertices},
@@ -116,7 +112,8 @@ void writeReportJson(const std::filesystem::path& path, const RunReport& r, cons
                           {"dice_initial", number(s.diceInitial)},
                           {"dice_model", number(s.diceModel)},
                           {"seconds", s.seconds}});
-    if (s.medialRadius) structures.back()["medial_radius_mm"] = thickness;
+    if (const auto& r = s.medialRadius)
+      structures.back()["medial_radius_mm"] = {{"mean", r->mean}, {"p5", r->p5}, {"median", r->median}, {"p95", r->p95}, {"max", r->max}};
   }
   j["structures"] = structures;
   Json timeline = Json::array();

@@ -136,16 +136,16 @@ void Attachments::validate(const MeshStore& store) const {
   }
 }
 
-void Attachments::shareForces(MeshStore& store) const {
+void Attachments::shareForces(MeshStore& store) {
   const auto f = store.forces();
   const auto m = store.masses();
-  for (const Merged& p : merged_) {
+  for (Merged& p : merged_) {
     const Index a = p.a, b = p.b;
     const Vec3 total = f[a] + f[b];
     const float mass = m[a] + m[b];
-    if (!(mass > 0.0f)) continue;
-    f[a] = (m[a] / mass) * total;
-    f[b] = (m[b] / mass) * total;
+    p.shareA = mass > 0.0f ? m[a] / mass : 0.5f;
+    f[a] = p.shareA * total;
+    f[b] = (1.0f - p.shareA) * total;
   }
   for (const Fixed& v : fixed_) f[v.vertex] = Vec3::Zero();
   for (const Attached& v : attached_) f[v.vertex] = Vec3::Zero();
@@ -154,15 +154,14 @@ void Attachments::shareForces(MeshStore& store) const {
 void Attachments::project(MeshStore& store) const {
   if (fixed_.empty() && attached_.empty() && merged_.empty()) return;
   const bool hasPrevious = store.has(Attribute::PreviousPosition);
-  const std::vector<float> mass(store.masses().begin(), store.masses().end());  // before positions are written
   auto x = store.positionsForWrite();
   std::span<Vec3> prev = hasPrevious ? store.previousPositions() : std::span<Vec3>{};
   // A merged pair at its offset about its centre of mass (which the step moved), so that the two
   // never drift apart (different velocities carried from a coarser level, implicit Euler's blocks).
+  // The masses' shares are shareForces' (this step's geometry): asking the store for masses here
+  // would recompute every structure's geometry for the positions the integrator just wrote.
   for (const Merged& p : merged_) {
-    const float total = mass[p.a] + mass[p.b];
-    if (!(total > 0.0f)) continue;
-    const float wa = mass[p.a] / total, wb = mass[p.b] / total;
+    const float wa = p.shareA, wb = 1.0f - p.shareA;
     const auto place = [&](std::span<Vec3> at) {
       const Vec3 centre = wa * at[p.a] + wb * at[p.b];
       at[p.a] = centre - wb * p.offset;

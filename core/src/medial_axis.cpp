@@ -15,7 +15,6 @@
 namespace sinew {
 
 namespace {
-using SampleTree = PointTree;
 
 float boundingRadius(std::span<const Vec3> points) {
   Vec3 lo = Vec3::Constant(INFINITY), hi = Vec3::Constant(-INFINITY);
@@ -33,7 +32,7 @@ constexpr float kInsideTolerance = 0.02f;  // of the radius
 // r = |p - q|^2 / (2 n.(p - q)), smaller than r whenever q lies inside (and then n.(p - q) > 0).
 // A sample without a usable normal (collapsed cells), or whose ball never shrank below the samples'
 // extent or did not settle, gets no ball (radius 0): such a ball would claim the whole structure.
-InscribedBall shrinkBall(const SampleTree& tree, std::span<const Vec3> samples, std::size_t i, const Vec3& n, float maxRadius) {
+InscribedBall shrinkBall(const PointTree& tree, std::span<const Vec3> samples, std::size_t i, const Vec3& n, float maxRadius) {
   const Vec3& p = samples[i];
   if (!n.allFinite() || std::abs(n.squaredNorm() - 1.0f) > 1e-3f || !p.allFinite()) return {p, 0.0f};
   float r = maxRadius;
@@ -75,7 +74,7 @@ std::vector<InscribedBall> inscribedBalls(std::span<const Vec3> samples, std::sp
   std::vector<InscribedBall> balls(samples.size());
   if (samples.empty()) return balls;
   const PointCloud cloud{samples};
-  const SampleTree tree(3, cloud, nanoflann::KDTreeSingleIndexAdaptorParams(10));
+  const PointTree tree(3, cloud, nanoflann::KDTreeSingleIndexAdaptorParams(10));
   const float maxRadius = boundingRadius(samples);
   executor.forEach(Index(samples.size()), [&](Index i) { balls[i] = shrinkBall(tree, samples, std::size_t(i), outwardNormals[i], maxRadius); }, 64);
   // Each sample takes the largest of the balls that touch it (Hildebrand's local thickness over

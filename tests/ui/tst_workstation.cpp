@@ -7,6 +7,7 @@
 #include "main_window.h"
 #include "ui_test_setup.h"
 #include "slice_view.h"
+#include "structure_colour.h"
 #include "synthetic.h"
 #include "sinew/core/collision_tree.h"
 #include "sinew/core/medial_axis.h"

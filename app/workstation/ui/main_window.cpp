@@ -3,6 +3,7 @@
 #include "panels.h"
 #include "plot_widget.h"
 #include "slice_view.h"
+#include "structure_colour.h"
 #include "surface_drawing.h"
 #include "volume_view.h"
 #ifdef SINEW_WITH_CUDA
@@ -472,14 +473,6 @@ std::vector<std::pair<Vec3, Vec3>> MainWindow::landmarkPairs() {
   if (session_.isOpen())
     for (const PlacedLandmark& l : session_.landmarks()) out.emplace_back(l.from, l.to);
   return out;
-}
-
-// The thickness colour map (docs/workstation.md): hue from red (medial radius 1 mm or less) to blue
-// (6 mm or more), so that thin parts stand out as in paper 001's Fig. 3b.
-std::array<unsigned char, 3> thicknessColour(float radiusMm) {
-  const float t = std::clamp((radiusMm - 1.0f) / 5.0f, 0.0f, 1.0f);
-  const QColor c = QColor::fromHsvF(t * 240.0f / 360.0f, 1.0f, 1.0f);
-  return {static_cast<unsigned char>(c.red()), static_cast<unsigned char>(c.green()), static_cast<unsigned char>(c.blue())};
 }
 
 std::vector<Marker> MainWindow::markers(Index s) {

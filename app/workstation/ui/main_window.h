@@ -46,10 +46,6 @@ struct WorkstationOptions {
   std::function<void(const std::string& plugin)> requirePlugin;
 };
 
-// The 3D view's thickness colours (View > Show Thickness): hue from red (medial radius 1 mm or
-// less) through yellow and green to blue (6 mm or more).
-std::array<unsigned char, 3> thicknessColour(float radiusMm);
-
 class MainWindow : public QMainWindow {
   Q_OBJECT
 public:

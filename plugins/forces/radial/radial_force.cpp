@@ -88,7 +88,8 @@ public:
         });
       }
       // g_i = P_i_perp - (x_i + r_i u_i), u_i the unit vector toward P_i_perp: the force per stiffness.
-      std::vector<Vec3> g(n);
+      std::vector<Vec3>& g = springs_;  // reused from step to step
+      g.resize(std::size_t(n));
       const auto springs = [&] {
         ctx.executor.forEach(n, [&](Index i) {
           const Vec3 v = ms.foot(i, q) - x[begin + i];
@@ -158,6 +159,7 @@ private:
   Index builtFor_ = -1;
   std::vector<Vec3> direction_;
   std::vector<float> stiffness_, slack_;
+  std::vector<Vec3> springs_;  // g_i of the structure being evaluated
 };
 }  // namespace
 

@@ -37,8 +37,8 @@ public:
   // At the start of each level: which vertices are attached, to what, with their offsets.
   void build(MeshStore& store, const Executor& executor);
   // Before the integrator: merged pairs share their summed force in proportion to their masses
-  // (one acceleration), attached and fixed vertices get none.
-  void shareForces(MeshStore& store) const;
+  // (one acceleration; the shares are kept for project()), attached and fixed vertices get none.
+  void shareForces(MeshStore& store);
   // After the integrator: fixed vertices back where they were, merged pairs at their offset about
   // their centre of mass, attached ones onto their surface (previous positions too, so that they
   // keep one velocity).
@@ -73,6 +73,7 @@ private:
   struct Merged {
     Index a = -1, b = -1;
     Vec3 offset = Vec3::Zero();  // x_b - x_a at the level's start, kept
+    float shareA = 0.5f;         // a's share of the pair's mass, at the last shareForces()
   };
   std::vector<Merged> merged_;
   std::vector<Fixed> fixed_;
