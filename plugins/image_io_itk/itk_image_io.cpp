@@ -98,7 +98,7 @@ void checkMetaImageHeader(const fs::path& path) {
       // (found by fuzz_image).
       while (!value.empty() && value.back() == ' ') value.pop_back();
       if (value.empty()) bad("ElementDataFile names no data file (LOCAL or a file name)");
-      if (value.find('%') != std::string::npos || value.rfind("LIST", 0) == 0)
+      if (value.find_first_of("% \t") != std::string::npos || value.rfind("LIST", 0) == 0)
         bad("the data are split over several files (a '%' pattern or a LIST), which Sinew does not read");
       return;  // the header ends here
     }
