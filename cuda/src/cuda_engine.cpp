@@ -6,6 +6,7 @@
 #include "device_collision.h"
 #include "device_error.h"
 #include "device_placed.h"
+#include "device_radial.h"
 #include "device_store.h"
 #include "kernels.h"
 
@@ -31,7 +32,7 @@ VolumeView viewOf(const ImageGeometry& g) {
 }
 
 // Built-in forces have kernels here; a plugin's force brings its own (DeviceForce).
-enum class Kind { Smoothing, ShapePrior, Gradient, Profile, Attraction, Collision, Contacts, Plugin };
+enum class Kind { Smoothing, ShapePrior, Gradient, Profile, Attraction, Collision, Contacts, Radial, Plugin };
 }  // namespace
 
 struct CudaEngine::Impl {
@@ -74,6 +75,7 @@ struct CudaEngine::Impl {
   DevicePlacedPoints placedPoints;  // attraction, include and exclude points
   DeviceCollision collision;        // built while the collision force is active, per level
   DeviceContactLinks contactLinks;  // built while the contacts force is active, per level
+  DeviceRadial radial;              // medial surfaces of the structures the radial force acts on
   DeviceSampledError sampledError;  // used when a run samples its error on the device
   // Drawing: contour segments and their count.
   DeviceArray<float3> contourOut;
@@ -137,6 +139,14 @@ struct CudaEngine::Impl {
         contactLinks.build(sim.store(), sim.scene(), t.getf(0, t.indexOf("distance_mm")), implicit(), stream);
         invalidateGraph();
       }
+  }
+
+  // The radial force's medial surfaces, for every structure it acts on now (before any capture).
+  void prepareRadial() {
+    for (const ForceSlot& f : forces)
+      if (f.kind == Kind::Radial && sim.forceParams(f.name).anyPositive(0) &&
+          radial.update(sim, sim.forceParams(f.name), view, stream))
+        invalidateGraph();
   }
 
   // As the CPU forces' addJacobian: smoothing and the shape prior pull toward the neighbours, the
@@ -356,7 +366,7 @@ struct CudaEngine::Impl {
       const ForceSlot& f = forces[next];
       const ParamTable& t = sim.forceParams(f.name);
       if (f.kind == Kind::Profile || f.kind == Kind::Attraction || f.kind == Kind::Collision ||
-          f.kind == Kind::Contacts || f.kind == Kind::Plugin)
+          f.kind == Kind::Contacts || f.kind == Kind::Radial || f.kind == Kind::Plugin)
         break;
       if (regularise && f.kind == Kind::Gradient) break;
       if (!t.anyPositive(0)) continue;
@@ -404,6 +414,7 @@ struct CudaEngine::Impl {
         case Kind::Contacts:
           contactLinks.launch(view, p, stream);
           break;
+        case Kind::Radial: radial.launch(view, p, int(t.get(0, t.indexOf("medial_iterations"))), stream); break;
         case Kind::Plugin: checkPlugin(f, f.device->enqueue(pluginContext(f)), "enqueue"); break;
       }
     }
@@ -440,13 +451,17 @@ CudaEngine::CudaEngine(Simulation& simulation) : impl_(std::make_unique<Impl>(si
                                                     {"intensity_profile", Kind::Profile},
                                                     {"attraction_points", Kind::Attraction},
                                                     {"collision", Kind::Collision},
-                                                    {"contacts", Kind::Contacts}};
+                                                    {"contacts", Kind::Contacts},
+                                                    {"radial", Kind::Radial}};
   for (const std::string& name : simulation.forceNames()) {
     auto it = kinds.find(name);
     DeviceForce* device = it == kinds.end() ? simulation.force(name).deviceForce() : nullptr;
     if (it == kinds.end() && !device)
       throw std::runtime_error("force '" + name + "' has no CUDA implementation (its Force::deviceForce() gives none)");
     impl_->forces.push_back({name, device ? Kind::Plugin : it->second, {}, 0, device});
+    // Its Jacobian is anisotropic; the device's implicit Euler takes isotropic blocks only.
+    if (name == "radial" && simulation.integratorName() == "implicit_euler")
+      throw std::runtime_error("the radial force with implicit_euler has no CUDA implementation yet (damped_verlet has)");
   }
   SINEW_CUDA(cudaStreamCreateWithFlags(&impl_->stream, cudaStreamNonBlocking));
   impl_->upload();
@@ -484,6 +499,7 @@ void CudaEngine::run(int iterations) {
   I.uploadParams();
   I.prepareCollision();
   I.prepareContacts();
+  I.prepareRadial();
   // Per-structure values are read from device memory, but which kernels run (a force weighted 0
   // everywhere is skipped) and the values passed by value are baked into the captured graph: it is
   // captured again when any of them changed.
@@ -647,7 +663,7 @@ std::size_t CudaEngine::deviceBytes() const {
          I.image.bytes() + I.profiles.bytes() + I.gradient.bytes() + I.contourOut.bytes() + I.implicitA.bytes() +
          I.implicitB.bytes() + I.implicitOff.bytes() + I.implicitVel.bytes() + I.implicitRhs.bytes() +
          I.implicitR.bytes() + I.implicitZ.bytes() + I.implicitP.bytes() + I.implicitAp.bytes() + I.collision.bytes() + I.sampledError.bytes() +
-         I.contactLinks.bytes();
+         I.contactLinks.bytes() + I.radial.bytes();
 }
 
 }  // namespace sinew::cuda

@@ -132,6 +132,33 @@ void launchContactSprings(const MeshView& m, ParamView p, const int* partner, co
 void launchCollision(const MeshView& m, ParamView p, const CollisionDevice& c, float margin, float damping, float reach,
                      int every, cudaStream_t s);
 
+// The radial force (radial_kernels.cu; device_radial.h): the medial surfaces of the structures
+// laid out globally. Surface vertex v: its medial points surfaceMedial[surfaceOffsets[v] ..
+// surfaceOffsets[v + 1]) with surfaceWeight, and its radius r_v. Medial vertex j: its structure and
+// its surface vertices medialVertex[medialOffsets[j] .. medialOffsets[j + 1]) with medialWeight.
+struct RadialDevice {
+  const int* surfaceOffsets = nullptr;
+  const int* surfaceMedial = nullptr;
+  const float* surfaceWeight = nullptr;
+  const float* radius = nullptr;
+  const int* medialMesh = nullptr;
+  const int* medialOffsets = nullptr;
+  const int* medialVertex = nullptr;
+  const float* medialWeight = nullptr;
+  int medialCount = 0;
+};
+// q[j] = the weighted mean of x_i - r_i n_i over its surface vertices, for the medial vertices of
+// the structures with fresh[structure] != 0 (others untouched; needs m.normal).
+void launchRadialVotes(const MeshView& m, const RadialDevice& r, const int* fresh, float3* q, cudaStream_t s);
+// One Jacobi relaxation of the medial vertices of structures whose alpha is positive, from qIn to
+// qOut (the others copied).
+void launchRadialRelax(const MeshView& m, ParamView p, const RadialDevice& r, const float3* qIn, float3* qOut,
+                       cudaStream_t s);
+// Adds alpha m_i (1 - r_i / |P_i P_i_perp|) P_i P_i_perp to m.force, the medial points from q; copies
+// q into home when home is not null.
+void launchRadialApply(const MeshView& m, ParamView p, const RadialDevice& r, const float3* q, float3* home,
+                       cudaStream_t s);
+
 // The timeline's sampled error (error_kernels.cu; core/sampled_error.h): device copies of its
 // hierarchies and samples, and where the distances go.
 struct SampledErrorDevice {

@@ -3,7 +3,8 @@
 // Cases: (a) the seed's full set (smoothing, shape prior, intensity profile, damped Verlet);
 // (b) smoothing, shape prior, damped Verlet; (c) (a) with what subject scenes add: the affine
 // regularisation of the image forces (share 0.6) and, from level 1, the coarser levels' shape
-// forces (weight 0.5). Plain program (no Google Benchmark) so it runs on a
+// forces (weight 0.5); (d) (a) with the radial force (paper 001; its cost against (a) is issue 18's
+// target). Plain program (no Google Benchmark) so it runs on a
 // GPU machine with nothing but the CUDA driver.   bench_cuda [max_level=6] [cpu_max_level=3] [min_level=0]
 #include "sinew/core/scene_runner.h"
 #include "sinew/cuda/cuda_engine.h"
@@ -23,7 +24,7 @@ namespace {
 
 std::string integrator = "damped_verlet";
 
-enum class Case { Seed, ShapeOnly, Subject };
+enum class Case { Seed, ShapeOnly, Subject, Radial };
 
 std::unique_ptr<Simulation> seedScene(const std::vector<StructureSpec>& specs, Case c, int level) {
   const bool profile = c != Case::ShapeOnly;
@@ -32,6 +33,7 @@ std::unique_ptr<Simulation> seedScene(const std::vector<StructureSpec>& specs, C
   sim->addForce("smoothing");
   sim->addForce("shape_prior");
   if (profile) sim->addForce("intensity_profile");
+  if (c == Case::Radial) sim->addForce("radial");
   sim->setIntegrator(integrator);
   sim->scene().setTargetImage(seedImage());
   sim->initialize();
@@ -76,7 +78,7 @@ int main(int argc, char** argv) {
   std::printf("| case | vertices | CUDA us/iter | CUDA G vertex-iter/s | CPU ms/iter | CPU M vertex-iter/s | CUDA/CPU |\n");
   std::printf("| --- | ---: | ---: | ---: | ---: | ---: | ---: |\n");
   const auto specs = seedStructures(maxLevel + 1).structures;
-  for (Case c : {Case::Seed, Case::ShapeOnly, Case::Subject}) {
+  for (Case c : {Case::Seed, Case::ShapeOnly, Case::Subject, Case::Radial}) {
     for (int level = minLevel; level <= maxLevel; ++level) {
       auto sim = seedScene(specs, c, level);
       const Index n = sim->store().vertexCount();
@@ -101,7 +103,10 @@ int main(int argc, char** argv) {
         iters *= 4;
       }
       const double us = 1e6 * seconds / iters;
-      const char* name = c == Case::Seed ? "(a) seed set" : c == Case::ShapeOnly ? "(b) smooth+prior" : "(c) seed set + affine + coarse";
+      const char* name = c == Case::Seed        ? "(a) seed set"
+                         : c == Case::ShapeOnly ? "(b) smooth+prior"
+                         : c == Case::Subject   ? "(c) seed set + affine + coarse"
+                                                : "(d) seed set + radial";
       std::printf("| %s | %d | %.2f | %.2f | ", name, n, us, n / us * 1e-3);
       if (cpuMs > 0)
         std::printf("%.2f | %.2f | %.0fx |\n", cpuMs, n / cpuMs * 1e-3, cpuMs * 1e3 / us);

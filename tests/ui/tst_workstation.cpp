@@ -303,10 +303,19 @@ private Q_SLOTS:
     QVERIFY(session.contactMask(0.0) == now);
   }
 
-  // View > Show Thickness: every vertex in the colour of its structure's medial radius.
+  // View > Show Thickness: every vertex in the colour of its structure's medial radius, computed on
+  // a background thread.
   void thicknessColoursTheSurfaces() {
     SegmentationSession& session = window_->session();
-    const std::vector<float> radius = session.medialRadius(0.0);
+    const std::vector<float> before = session.medialRadius(0.0, true);
+    QVERIFY(!session.medialRadiusPending());
+    session.step(1);
+    // The state moved: the call starts a job and returns at once with the last radii.
+    QVERIFY(session.medialRadius(0.0) == before);
+    QVERIFY(session.medialRadiusPending());
+    const std::vector<float> radius = session.medialRadius(0.0, true);
+    QVERIFY(!session.medialRadiusPending());
+    QVERIFY(radius != before);
     MeshStore& store = session.simulation().store();
     QCOMPARE(radius.size(), std::size_t(store.vertexCount()));
     for (Index m = 0; m < store.meshCount(); ++m) {
@@ -317,19 +326,29 @@ private Q_SLOTS:
       const RadiusSummary r = summariseRadii(std::span<const float>(radius.data() + begin, x.size()));
       QVERIFY2(r.median > 1.0 && r.median < 10.0, qPrintable(QString("structure %1: median %2 mm").arg(m).arg(r.median)));
     }
-    const QImage plain = window_->volumeView()->grabFramebuffer();
     QAction* thickness = nullptr;
     for (QAction* a : window_->findChildren<QAction*>())
       if (a->text() == "Show &Thickness") thickness = a;
     QVERIFY(thickness);
+    // The state moves again and the radii are due: the first draw starts the job, and the window
+    // draws again once it has ended.
+    session.step(1);
+    QTest::qWait(1100);
+    const QImage moved = window_->volumeView()->grabFramebuffer();
+    std::vector<float> expected;
+    for (Index m = 0; m < store.meshCount(); ++m) {
+      const auto x = store.mesh(store.positions(), m);
+      const std::vector<float> core = medialRadii(tessellate(store.topologyOf(m), {x.begin(), x.end()}));
+      expected.insert(expected.end(), core.begin(), core.begin() + x.size());
+    }
     thickness->trigger();
-    QApplication::processEvents();
-    QTest::qWait(200);
+    QTRY_VERIFY_WITH_TIMEOUT(session.medialRadius(1e9) == expected, 10000);
+    QTest::qWait(300);
     const QImage coloured = window_->volumeView()->grabFramebuffer();
-    QCOMPARE(coloured.size(), plain.size());
+    QCOMPARE(coloured.size(), moved.size());
     long changed = 0;
-    for (int y = 0; y < plain.height(); ++y)
-      for (int x = 0; x < plain.width(); ++x) changed += plain.pixel(x, y) != coloured.pixel(x, y);
+    for (int y = 0; y < moved.height(); ++y)
+      for (int x = 0; x < moved.width(); ++x) changed += moved.pixel(x, y) != coloured.pixel(x, y);
     // The vertices are drawn as points over the surfaces: about a thousand pixels here, none before.
     QVERIFY2(changed > 300, qPrintable(QString("%1 pixels changed").arg(changed)));
     // The colour map's ends.

@@ -402,22 +402,41 @@ const std::vector<unsigned char>& SegmentationSession::contactMask(double minInt
   return contactMask_;
 }
 
-const std::vector<float>& SegmentationSession::medialRadius(double minIntervalSeconds) {
+const std::vector<float>& SegmentationSession::medialRadius(double minIntervalSeconds, bool wait) {
+  static const std::vector<float> none;
+  const auto finish = [&] {
+    medialRadius_ = medialJob_.get();
+    medialRevision_ = medialJobRevision_;
+    medialTime_ = medialJobTime_;
+  };
+  if (medialJob_.valid() && medialJob_.wait_for(std::chrono::seconds(0)) == std::future_status::ready) finish();
   const auto now = std::chrono::steady_clock::now();
-  if (!due(medialRadius_.size(), medialRevision_, medialTime_, now, minIntervalSeconds)) return medialRadius_;
-  syncHost();
-  MeshStore& store = simulation().store();
-  medialRadius_.assign(store.vertexCount(), 0.0f);
-  const Executor executor;
-  for (Index m = 0; m < store.meshCount(); ++m) {
-    const auto x = store.mesh(store.positions(), m);
-    // The tessellation's points are the structure's vertices, then its cell centres.
-    const std::vector<float> radii = medialRadii(tessellate(store.topologyOf(m), {x.begin(), x.end()}), executor);
-    std::copy_n(radii.begin(), x.size(), medialRadius_.begin() + store.range(m).vertexBegin);
+  if (!medialJob_.valid() && due(medialRadius_.size(), medialRevision_, medialTime_, now, minIntervalSeconds)) {
+    // The surfaces are copied here; the job touches nothing of the session's.
+    syncHost();
+    MeshStore& store = simulation().store();
+    std::vector<TriangleMesh> surfaces;
+    for (Index m = 0; m < store.meshCount(); ++m) {
+      const auto x = store.mesh(store.positions(), m);
+      surfaces.push_back(tessellate(store.topologyOf(m), {x.begin(), x.end()}));
+    }
+    std::vector<Index> counts;
+    for (Index m = 0; m < store.meshCount(); ++m) counts.push_back(store.range(m).vertexCount());
+    medialJobRevision_ = revision_;
+    medialJobTime_ = now;
+    medialJob_ = std::async(std::launch::async, [surfaces = std::move(surfaces), counts = std::move(counts)] {
+      const Executor executor;
+      std::vector<float> out;
+      for (std::size_t m = 0; m < surfaces.size(); ++m) {
+        // The tessellation's points are the structure's vertices, then its cell centres.
+        const std::vector<float> radii = medialRadii(surfaces[m], executor);
+        out.insert(out.end(), radii.begin(), radii.begin() + counts[m]);
+      }
+      return out;
+    });
   }
-  medialRevision_ = revision_;
-  medialTime_ = now;
-  return medialRadius_;
+  if (wait && medialJob_.valid()) finish();
+  return medialRadius_.size() == std::size_t(simulation().store().vertexCount()) ? medialRadius_ : none;
 }
 
 const std::vector<ConstraintPoint>& SegmentationSession::constraintPoints(Index structure) {

@@ -9,6 +9,7 @@
 #include <deque>
 #include <filesystem>
 #include <functional>
+#include <future>
 #include <memory>
 #include <string>
 #include <vector>
@@ -121,8 +122,12 @@ public:
   // Per vertex, its structure's medial radius there in mm (the radius of the largest ball inside
   // the structure touching it: core medialRadii on the structure's tessellation), for the 3D view's
   // thickness colours (docs/medial.md). Recomputed like contactMask, at most every
-  // minIntervalSeconds while the state keeps changing.
-  const std::vector<float>& medialRadius(double minIntervalSeconds = 1.0);
+  // minIntervalSeconds while the state keeps changing, but on a background thread (about 0.25 s
+  // for 12 structures on 2 cores): the call starts the job on a copy of the surfaces and returns the
+  // last radii that fit the store, empty until the first are ready; `wait` blocks for the job.
+  const std::vector<float>& medialRadius(double minIntervalSeconds = 1.0, bool wait = false);
+  // A medial-radius job is running (the view draws again when it ends).
+  bool medialRadiusPending() const { return medialJob_.valid(); }
 
   // Edits. Each is undoable; its snapshot holds the mesh state too, so undo restores exactly the
   // state before the edit, however far the simulation moved since. A continuing edit (a drag, a
@@ -191,6 +196,9 @@ private:
   std::vector<float> medialRadius_;
   std::uint64_t medialRevision_ = 0;
   std::chrono::steady_clock::time_point medialTime_{};
+  std::future<std::vector<float>> medialJob_;
+  std::uint64_t medialJobRevision_ = 0;
+  std::chrono::steady_clock::time_point medialJobTime_{};
 
   using Snapshot = SessionSnapshot;
   using SnapshotPtr = std::shared_ptr<const SessionSnapshot>;

@@ -482,6 +482,15 @@ std::vector<Marker> MainWindow::markers(Index s) {
     out.push_back({c.at, c.include ? std::array<unsigned char, 3>{60, 220, 90} : std::array<unsigned char, 3>{240, 60, 60}});
   if (showThickness_ && showThickness_->isChecked()) {
     const std::vector<float>& radius = session_.medialRadius();
+    // The radii come from a background job: look again shortly while it runs.
+    if (session_.medialRadiusPending() && !thicknessPoll_) {
+      thicknessPoll_ = true;
+      QTimer::singleShot(100, this, [this] {
+        thicknessPoll_ = false;
+        for (auto* v : slices_) v->invalidate();
+        volume_->invalidate();
+      });
+    }
     MeshStore& store = session_.simulation().store();
     const MeshRange& r = store.range(s);
     for (Index v = r.vertexBegin; v < r.vertexEnd && v < Index(radius.size()); ++v)

@@ -157,6 +157,7 @@ private:
   QAction *undo_, *redo_, *deletePoint_, *run_, *step_, *nextLevel_, *initialiseLandmarks_, *resetViews_, *maximise_;
   QAction* showContacts_ = nullptr;
   QAction* showThickness_ = nullptr;
+  bool thicknessPoll_ = false;  // a redraw is due once the thickness job may have ended
   QMenu* recentMenu_ = nullptr;
   QActionGroup* toolGroup_ = nullptr;
 };

@@ -1,0 +1,111 @@
+#include "device_radial.h"
+
+#include <algorithm>
+
+namespace sinew::cuda {
+
+bool DeviceRadial::update(Simulation& sim, const ParamTable& params, const MeshView& view, cudaStream_t stream) {
+  MeshStore& s = sim.store();
+  const MedialOptions options{.spacingMm = params.getf(0, params.indexOf("spacing_mm")),
+                              .neighbours = int(params.get(0, params.indexOf("neighbours")))};
+  if (builtFor_ != s.vertexCount() || options.spacingMm != options_.spacingMm || options.neighbours != options_.neighbours) {
+    medial_.assign(s.meshCount(), {});
+    options_ = options;
+    builtFor_ = s.vertexCount();
+  }
+  std::vector<int> fresh(s.meshCount(), 0);
+  bool any = false;
+  for (Index m = 0; m < s.meshCount(); ++m)
+    if (params.getf(m, 0) > 0.0f && medial_[m].surfaceVertexCount() <= 0) {
+      medial_[m] = buildMedialSurface(s.mesh(s.referencePositions(), m), s.mesh(s.referenceNormals(), m), options_,
+                                      sim.executor());
+      fresh[m] = 1;
+      any = true;
+    }
+  if (any) upload(s, fresh, view, stream);
+  return any;
+}
+
+void DeviceRadial::upload(const MeshStore& s, const std::vector<int>& fresh, const MeshView& view, cudaStream_t stream) {
+  // The medial vertices kept from before, in the old layout (structures in order).
+  std::vector<float3> kept(static_cast<std::size_t>(medialCount_));
+  q_.download(kept.data(), kept.size(), stream);
+  SINEW_CUDA(cudaStreamSynchronize(stream));
+  std::vector<int> surfaceOffsets{0}, surfaceMedial, medialMesh, medialOffsets{0}, medialVertex;
+  std::vector<float> surfaceWeight, radius(std::size_t(s.vertexCount()), 0.0f), medialWeight;
+  std::vector<float3> q;
+  std::size_t keptAt = 0;
+  for (Index m = 0; m < s.meshCount(); ++m) {
+    const MedialSurface& ms = medial_[m];
+    const Index begin = s.range(m).vertexBegin, n = s.range(m).vertexCount();
+    const int medialBegin = int(q.size());
+    const bool built = ms.surfaceVertexCount() > 0;
+    for (Index i = 0; i < n; ++i) {
+      if (built) {
+        for (Index k = ms.offsets[i]; k < ms.offsets[i + 1]; ++k) {
+          surfaceMedial.push_back(medialBegin + int(ms.medial[k]));
+          surfaceWeight.push_back(ms.weights[k]);
+        }
+        radius[begin + i] = ms.vertexRadius[i];
+      }
+      surfaceOffsets.push_back(int(surfaceMedial.size()));
+    }
+    if (!built) continue;
+    // Inverse of the weights, per medial vertex, in vertex order (as the CPU force's).
+    std::vector<std::vector<std::pair<int, float>>> voters(ms.vertices.size());
+    for (Index i = 0; i < n; ++i)
+      for (Index k = ms.offsets[i]; k < ms.offsets[i + 1]; ++k) voters[ms.medial[k]].push_back({int(begin + i), ms.weights[k]});
+    for (std::size_t j = 0; j < ms.vertices.size(); ++j) {
+      for (const auto& [v, w] : voters[j]) {
+        medialVertex.push_back(v);
+        medialWeight.push_back(w);
+      }
+      medialOffsets.push_back(int(medialVertex.size()));
+      medialMesh.push_back(int(m));
+      const Vec3& reference = ms.vertices[j];
+      q.push_back(fresh[m] ? make_float3(reference.x(), reference.y(), reference.z()) : kept[keptAt++]);
+    }
+  }
+  surfaceOffsets_.upload(surfaceOffsets, stream);
+  surfaceMedial_.upload(surfaceMedial, stream);
+  surfaceWeight_.upload(surfaceWeight, stream);
+  radius_.upload(radius, stream);
+  medialMesh_.upload(medialMesh, stream);
+  medialOffsets_.upload(medialOffsets, stream);
+  medialVertex_.upload(medialVertex, stream);
+  medialWeight_.upload(medialWeight, stream);
+  q_.upload(q, stream);
+  scratch_.resize(q.size());
+  medialCount_ = int(q.size());
+  // The fresh structures' medial vertices start from the votes of the surface as it is now.
+  DeviceArray<int> freshOnDevice;
+  freshOnDevice.upload(fresh, stream);
+  launchGeometry(view, stream);
+  const RadialDevice r{surfaceOffsets_.get(), surfaceMedial_.get(), surfaceWeight_.get(), radius_.get(), medialMesh_.get(),
+                       medialOffsets_.get(), medialVertex_.get(), medialWeight_.get(), medialCount_};
+  launchRadialVotes(view, r, freshOnDevice.get(), q_.get(), stream);
+  SINEW_CUDA(cudaGetLastError());
+  SINEW_CUDA(cudaStreamSynchronize(stream));
+}
+
+void DeviceRadial::launch(const MeshView& view, ParamView p, int iterations, cudaStream_t stream) const {
+  if (medialCount_ == 0) return;
+  const RadialDevice r{surfaceOffsets_.get(), surfaceMedial_.get(), surfaceWeight_.get(), radius_.get(), medialMesh_.get(),
+                       medialOffsets_.get(), medialVertex_.get(), medialWeight_.get(), medialCount_};
+  float3* from = q_.get();
+  float3* to = scratch_.get();
+  for (int it = 0; it < iterations; ++it) {
+    launchRadialRelax(view, p, r, from, to, stream);
+    std::swap(from, to);
+  }
+  // An odd count leaves the result in the scratch buffer: copied home, so that every replay of a
+  // captured graph starts from q_.
+  launchRadialApply(view, p, r, from, from == q_.get() ? nullptr : q_.get(), stream);
+}
+
+std::size_t DeviceRadial::bytes() const {
+  return surfaceOffsets_.bytes() + surfaceMedial_.bytes() + surfaceWeight_.bytes() + radius_.bytes() + medialMesh_.bytes() +
+         medialOffsets_.bytes() + medialVertex_.bytes() + medialWeight_.bytes() + q_.bytes() + scratch_.bytes();
+}
+
+}  // namespace sinew::cuda
