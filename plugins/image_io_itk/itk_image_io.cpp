@@ -15,14 +15,19 @@
 #include <itkNrrdImageIO.h>
 #include <itkImageSeriesReader.h>
 
+#include <unistd.h>
 #include <zlib.h>
 
+#include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstring>
 #include <limits>
 #include <fstream>
 #include <future>
 #include <mutex>
+#include <optional>
+#include <set>
 #include <sstream>
 
 namespace sinew {
@@ -106,6 +111,53 @@ void checkMetaImageHeader(const fs::path& path) {
   fail(path, "MetaImage header: no ElementDataFile line");
 }
 
+// ITK's NRRD reader (teem) leaves the data file of a detached header open when it fails after
+// opening it (found by fuzz_image: one descriptor per bad file, until a long session had none
+// left), and teem reads field names case-insensitively. The header is checked here, strictly:
+// the magic, then known fields, "key:=value" pairs and comments, all plain text, and one data file.
+void checkNrrdHeader(const fs::path& path, bool detached) {
+  static const std::set<std::string> fields = {
+      "dimension", "type", "sizes", "encoding", "endian", "content", "block size", "blocksize", "min", "max", "old min",
+      "oldmin", "old max", "oldmax", "data file", "datafile", "line skip", "lineskip", "byte skip", "byteskip", "number",
+      "sample units", "sampleunits", "spacings", "thicknesses", "axis mins", "axismins", "axis maxs", "axismaxs",
+      "centers", "centerings", "labels", "units", "kinds", "space", "space dimension", "space units", "space origin",
+      "space directions", "measurement frame"};
+  std::ifstream in(path, std::ios::binary);
+  std::string line;
+  bool dataFile = false;
+  for (int lines = 1; std::getline(in, line); ++lines) {
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    const auto bad = [&](const std::string& problem) {
+      fail(path, "NRRD header line " + std::to_string(lines) + ": " + problem);
+    };
+    if (lines == 1) {
+      if (line.size() != 8 || line.rfind("NRRD000", 0) != 0 || line[7] < '1' || line[7] > '5') bad("not an NRRD magic (NRRD0001 to NRRD0005)");
+      continue;
+    }
+    if (line.empty()) break;  // the end of the header; the data follow (attached)
+    if (lines > 200) bad("no end of the header within 200 lines");
+    if (line.size() > 1024) bad("longer than 1024 characters");
+    for (const char c : line)
+      if (static_cast<unsigned char>(c) < 32 || static_cast<unsigned char>(c) > 126) bad("not plain text");
+    if (line.front() == '#') continue;
+    if (line.find(":=") != std::string::npos && line.find(":=") < line.find(": ")) continue;  // key:=value
+    const auto colon = line.find(": ");
+    if (colon == std::string::npos) bad("not a \"field: value\" line");
+    std::string field = line.substr(0, colon), value = line.substr(colon + 2);
+    std::transform(field.begin(), field.end(), field.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+    if (!fields.count(field)) bad("unknown field \"" + field + "\"");
+    if (field == "data file" || field == "datafile") {
+      while (!value.empty() && value.front() == ' ') value.erase(0, 1);
+      while (!value.empty() && value.back() == ' ') value.pop_back();
+      if (value.empty() || value.find_first_of(" %") != std::string::npos || value == "LIST")
+        bad("the data are split over several files (a pattern or a LIST), which Sinew does not read");
+      if (dataFile) bad("a second data file");
+      dataFile = true;
+    }
+  }
+  if (detached && !dataFile) fail(path, "NRRD header: a detached header (.nhdr) without a data file");
+}
+
 // ITK's NIfTI reader aborts the process (vnl's assert_finite, in the orientation's SVD) on a header
 // whose voxel size, quaternion or affine rows hold a NaN, an infinity, or values so large that the
 // orientation overflows (found by fuzz_image): they are checked here first, for NIfTI-1 (and
@@ -186,6 +238,8 @@ DataFile dataFileOf(const fs::path& path, const std::string& extension) {
     while (!key.empty() && key.back() == ' ') key.pop_back();
     while (!value.empty() && value.front() == ' ') value.erase(0, 1);
     while (!value.empty() && value.back() == ' ') value.pop_back();
+    // NRRD's field names are case-insensitive for teem ("Data file" is its data file).
+    if (!meta) std::transform(key.begin(), key.end(), key.begin(), [](unsigned char c) { return char(std::tolower(c)); });
     if (!meta && key == "encoding") found.compressed = value != "raw";
     if (meta && key == "CompressedData") found.compressed = value == "True" || value == "true";
     if ((meta && key == "ElementDataFile") || (!meta && (key == "data file" || key == "datafile"))) {
@@ -267,12 +321,54 @@ Volume<float> floatsFrom(const fs::path& path, const Volume<double>& values) {
 
 // A single-file image (not a DICOM series), its header checked, read straight into the volume's
 // buffer: no second full-size copy (the training image is 230 MB as floats).
+// teem (ITK's NRRD reader) leaves a detached header's data file open when it fails after opening
+// it: a corrupt compressed stream, a skip past the end, bad text (found by fuzz_image: one
+// descriptor per bad file, until a long session had none left). After a failed read this closes
+// the descriptors opened during it on that data file. Detached reads are serialised, so no other
+// read has that file open meanwhile; a read of an image nested in it (a conversion) shares the lock.
+class DetachedNrrdGuard {
+public:
+  explicit DetachedNrrdGuard(const fs::path& dataFile)
+      : lock_(mutex()), dataFile_(fs::weakly_canonical(dataFile)), before_(descriptorsOn(dataFile_)),
+        exceptions_(std::uncaught_exceptions()) {}
+  DetachedNrrdGuard(const DetachedNrrdGuard&) = delete;
+  DetachedNrrdGuard& operator=(const DetachedNrrdGuard&) = delete;
+  ~DetachedNrrdGuard() {
+    if (std::uncaught_exceptions() == exceptions_) return;  // a read that succeeded closed it
+    for (const int fd : descriptorsOn(dataFile_))
+      if (!before_.count(fd)) ::close(fd);
+  }
+
+private:
+  static std::recursive_mutex& mutex() {
+    static std::recursive_mutex m;
+    return m;
+  }
+  static std::set<int> descriptorsOn(const fs::path& file) {
+    std::set<int> out;
+    std::error_code ec;
+    for (auto it = fs::directory_iterator("/proc/self/fd", ec); !ec && it != fs::directory_iterator(); it.increment(ec)) {
+      std::error_code linkError;
+      const fs::path target = fs::read_symlink(it->path(), linkError);
+      if (!linkError && target == file) out.insert(std::stoi(it->path().filename().string()));
+    }
+    return out;
+  }
+  std::lock_guard<std::recursive_mutex> lock_;
+  fs::path dataFile_;
+  std::set<int> before_;
+  int exceptions_;
+};
+
 template <class Pixel>
 Volume<Pixel> readNonSeries(const fs::path& path) {
   using ImageType = itk::Image<Pixel, 3>;
   const std::string extension = ioExtension(path);
   if (extension == ".mha" || extension == ".mhd") checkMetaImageHeader(path);
   if (extension == ".nii" || extension == ".nii.gz") checkNiftiHeader(path);
+  if (extension == ".nrrd" || extension == ".nhdr") checkNrrdHeader(path, extension == ".nhdr");
+  std::optional<DetachedNrrdGuard> detachedGuard;
+  if (extension == ".nhdr") detachedGuard.emplace(dataFileOf(path, extension).path);
   itk::ImageIOBase::Pointer io;
   {
     // Images are read on several threads at once (scene_runner.cpp); ITK's object factory list is

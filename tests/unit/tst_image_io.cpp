@@ -183,6 +183,41 @@ private slots:
     expectRefusal(io(), path("folder.mhd"), "is not a regular file");
   }
 
+  // Detached NRRD headers (.nhdr): read with their data file, field names case-insensitive as teem
+  // reads them; a bad header is refused by name, and a read that fails after teem opened the data
+  // file (corrupt gzip, a skip past the end, bad text) leaves no descriptor open (found by
+  // fuzz_image: teem leaked one per bad file).
+  void detachedNrrdHeaders() {
+    const auto descriptors = [] {
+      int n = 0;
+      for (auto it = fs::directory_iterator("/proc/self/fd"); it != fs::directory_iterator(); ++it) ++n;
+      return n;
+    };
+    std::vector<float> voxels(24);
+    for (int i = 0; i < 24; ++i) voxels[i] = float(i);
+    { std::ofstream(path("data.raw"), std::ios::binary).write(reinterpret_cast<const char*>(voxels.data()), 96); }
+    const std::string head = "NRRD0004\n# a comment\ntype: float\ndimension: 3\nsizes: 4 3 2\nendian: little\n";
+    std::ofstream(path("good.nhdr")) << head << "encoding: raw\nData File: data.raw\n";
+    const Image3D image = io().readImage(path("good.nhdr"));
+    QCOMPARE(image.geometry().size[0], 4);
+    QCOMPARE(image.at(3, 2, 1), 23.0f);
+    const int before = descriptors();
+    std::ofstream(path("bad.gz"), std::ios::binary) << std::string("\x1f\x8b\x08\x00", 4) << std::string(60, 'x');
+    std::ofstream(path("gzip.nhdr")) << head << "encoding: gzip\ndata file: bad.gz\n";
+    expectRefusal(io(), path("gzip.nhdr"), "");
+    std::ofstream(path("skip.nhdr")) << head << "encoding: raw\nbyte skip: 50\ndata file: data.raw\n";
+    expectRefusal(io(), path("skip.nhdr"), "");
+    std::ofstream(path("text.nhdr")) << head << "encoding: ascii\ndata file: data.raw\n";
+    expectRefusal(io(), path("text.nhdr"), "");
+    QCOMPARE(descriptors(), before);
+    std::ofstream(path("unknown.nhdr")) << head << "encodng: raw\ndata file: data.raw\n";
+    expectRefusal(io(), path("unknown.nhdr"), "unknown field");
+    std::ofstream(path("list.nhdr")) << head << "encoding: raw\ndata file: LIST\ndata.raw\n";
+    expectRefusal(io(), path("list.nhdr"), "several files");
+    std::ofstream(path("none.nhdr")) << head << "encoding: raw\n";
+    expectRefusal(io(), path("none.nhdr"), "without a data file");
+  }
+
   void refusesHugeHeadersBeforeAllocating() {
     // A valid NIfTI header whose dimensions claim 64000^3 voxels: refused from the header alone.
     io().writeImage(path("small.nii"), obliqueImage());
