@@ -66,6 +66,23 @@ void DeviceRadial::upload(const MeshStore& s, const std::vector<int>& fresh, con
       q.push_back(fresh[m] ? make_float3(reference.x(), reference.y(), reference.z()) : kept[keptAt++]);
     }
   }
+  // Each medial vertex's voters in chunks of at most kRadialChunk (one, empty, where it has none).
+  std::vector<int> chunkBegin, chunkRow, rowChunks{0};
+  for (std::size_t j = 0; j + 1 < medialOffsets.size(); ++j) {
+    int e = medialOffsets[j];
+    do {
+      chunkBegin.push_back(e);
+      chunkRow.push_back(int(j));
+      e = std::min(e + kRadialChunk, medialOffsets[j + 1]);
+    } while (e < medialOffsets[j + 1]);
+    rowChunks.push_back(int(chunkRow.size()));
+  }
+  chunkBegin.push_back(int(medialVertex.size()));
+  chunkBegin_.upload(chunkBegin, stream);
+  chunkRow_.upload(chunkRow, stream);
+  rowChunks_.upload(rowChunks, stream);
+  partial_.resize(chunkRow.size());
+  arrivals_.upload(std::vector<unsigned>(q.size(), 0u), stream);
   surfaceOffsets_.upload(surfaceOffsets, stream);
   surfaceMedial_.upload(surfaceMedial, stream);
   surfaceWeight_.upload(surfaceWeight, stream);
@@ -81,17 +98,14 @@ void DeviceRadial::upload(const MeshStore& s, const std::vector<int>& fresh, con
   DeviceArray<int> freshOnDevice;
   freshOnDevice.upload(fresh, stream);
   launchGeometry(view, stream);
-  const RadialDevice r{surfaceOffsets_.get(), surfaceMedial_.get(), surfaceWeight_.get(), radius_.get(), medialMesh_.get(),
-                       medialOffsets_.get(), medialVertex_.get(), medialWeight_.get(), medialCount_};
-  launchRadialVotes(view, r, freshOnDevice.get(), q_.get(), stream);
+  launchRadialVotes(view, device(), freshOnDevice.get(), q_.get(), stream);
   SINEW_CUDA(cudaGetLastError());
   SINEW_CUDA(cudaStreamSynchronize(stream));
 }
 
 void DeviceRadial::launch(const MeshView& view, ParamView p, int iterations, cudaStream_t stream) const {
   if (medialCount_ == 0) return;
-  const RadialDevice r{surfaceOffsets_.get(), surfaceMedial_.get(), surfaceWeight_.get(), radius_.get(), medialMesh_.get(),
-                       medialOffsets_.get(), medialVertex_.get(), medialWeight_.get(), medialCount_};
+  const RadialDevice r = device();
   float3* from = q_.get();
   float3* to = scratch_.get();
   for (int it = 0; it < iterations; ++it) {
@@ -103,9 +117,30 @@ void DeviceRadial::launch(const MeshView& view, ParamView p, int iterations, cud
   launchRadialApply(view, p, r, from, from == q_.get() ? nullptr : q_.get(), stream);
 }
 
+RadialDevice DeviceRadial::device() const {
+  RadialDevice r;
+  r.surfaceOffsets = surfaceOffsets_.get();
+  r.surfaceMedial = surfaceMedial_.get();
+  r.surfaceWeight = surfaceWeight_.get();
+  r.radius = radius_.get();
+  r.medialMesh = medialMesh_.get();
+  r.medialOffsets = medialOffsets_.get();
+  r.medialVertex = medialVertex_.get();
+  r.medialWeight = medialWeight_.get();
+  r.chunkBegin = chunkBegin_.get();
+  r.chunkRow = chunkRow_.get();
+  r.rowChunks = rowChunks_.get();
+  r.partial = partial_.get();
+  r.arrivals = arrivals_.get();
+  r.medialCount = medialCount_;
+  r.chunkCount = int(chunkRow_.size());
+  return r;
+}
+
 std::size_t DeviceRadial::bytes() const {
   return surfaceOffsets_.bytes() + surfaceMedial_.bytes() + surfaceWeight_.bytes() + radius_.bytes() + medialMesh_.bytes() +
-         medialOffsets_.bytes() + medialVertex_.bytes() + medialWeight_.bytes() + q_.bytes() + scratch_.bytes();
+         medialOffsets_.bytes() + medialVertex_.bytes() + medialWeight_.bytes() + chunkBegin_.bytes() + chunkRow_.bytes() +
+         rowChunks_.bytes() + partial_.bytes() + arrivals_.bytes() + q_.bytes() + scratch_.bytes();
 }
 
 }  // namespace sinew::cuda

@@ -25,6 +25,7 @@ public:
 
 private:
   void upload(const MeshStore& store, const std::vector<int>& fresh, const MeshView& view, cudaStream_t stream);
+  RadialDevice device() const;
 
   std::vector<MedialSurface> medial_;  // per structure; empty surface: not built
   MedialOptions options_;
@@ -35,6 +36,10 @@ private:
   // Medial side, per global medial vertex: its structure, its surface vertices (global) and weights.
   DeviceArray<int> medialMesh_, medialOffsets_, medialVertex_;
   DeviceArray<float> medialWeight_;
+  // The relaxation's chunks (kernels.h: RadialDevice) and its scratch.
+  DeviceArray<int> chunkBegin_, chunkRow_, rowChunks_;
+  DeviceArray<float4> partial_;
+  DeviceArray<unsigned> arrivals_;
   DeviceArray<float3> q_, scratch_;  // Q_j now, and the relaxation's other buffer
   int medialCount_ = 0;
 };

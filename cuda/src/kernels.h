@@ -135,7 +135,11 @@ void launchCollision(const MeshView& m, ParamView p, const CollisionDevice& c, f
 // The radial force (radial_kernels.cu; device_radial.h): the medial surfaces of the structures
 // laid out globally. Surface vertex v: its medial points surfaceMedial[surfaceOffsets[v] ..
 // surfaceOffsets[v + 1]) with surfaceWeight, and its radius r_v. Medial vertex j: its structure and
-// its surface vertices medialVertex[medialOffsets[j] .. medialOffsets[j + 1]) with medialWeight.
+// its surface vertices medialVertex[medialOffsets[j] .. medialOffsets[j + 1]) with medialWeight,
+// cut into chunks of at most kRadialChunk entries (at least one per medial vertex, empty where it
+// has none): chunk c holds entries chunkBegin[c] .. chunkBegin[c + 1] of medial vertex chunkRow[c],
+// whose chunks are rowChunks[j] .. rowChunks[j + 1].
+constexpr int kRadialChunk = 256;
 struct RadialDevice {
   const int* surfaceOffsets = nullptr;
   const int* surfaceMedial = nullptr;
@@ -145,7 +149,12 @@ struct RadialDevice {
   const int* medialOffsets = nullptr;
   const int* medialVertex = nullptr;
   const float* medialWeight = nullptr;
-  int medialCount = 0;
+  const int* chunkBegin = nullptr;
+  const int* chunkRow = nullptr;
+  const int* rowChunks = nullptr;
+  float4* partial = nullptr;      // per chunk: its reaction and stiffness
+  unsigned* arrivals = nullptr;   // per medial vertex: its chunks done in this relaxation (0 between)
+  int medialCount = 0, chunkCount = 0;
 };
 // q[j] = the weighted mean of x_i - r_i n_i over its surface vertices, for the medial vertices of
 // the structures with fresh[structure] != 0 (others untouched; needs m.normal).
