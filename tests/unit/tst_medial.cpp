@@ -186,7 +186,7 @@ private slots:
     for (const Vec3& p : sim->store().positions()) QVERIFY(p.allFinite());
   }
 
-  // Simulated with the surface (3 relaxations per step, the default), the medial vertices keep the
+  // Simulated with the surface (one relaxation per step, the default), the medial vertices keep the
   // forces on the surface summing to about 0: a bumped tube's centroid stays where it was (the
   // momentum is conserved). Medial vertices left where the votes put them are reported beside.
   void centroidStaysPut() {

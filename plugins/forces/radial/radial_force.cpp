@@ -6,7 +6,8 @@
 // The medial vertices are simulated with the surface as massless points: at the first evaluation of
 // a level they start where the surface puts them (each vertex votes for x_i - r_i n_i), and at every
 // evaluation they relax `medial_iterations` times under the paper's momentum-conserving reaction
-// f_ij = -w_ij f_i, averaged per medial vertex (weights w_ij m_i) and divided by the stiffness. Over
+// f_ij = -w_ij f_i, averaged per medial vertex (weights w_ij m_i) and divided by the stiffness
+// (once per step by default: the paper moves them once per step with the surface). Over
 // the steps they follow their equilibrium, where the forces on the surface sum to 0. They are not
 // rolled back with the surface after a guard's rollback: they relax back to it.
 #include "sinew/core/medial_axis.h"
@@ -169,7 +170,7 @@ void registerRadialForce(Registry& registry) {
                      "(tubular and sheet-like structures; paper 001 section 2.3)",
                      {{"spacing_mm", 2.0, 0.5, 20.0, "mm", "the medial surface's resolution: one medial vertex per cube of this edge", false},
                       {"neighbours", 4, 1, 16, "", "medial vertices each surface vertex is interpolated from", false},
-                      {"medial_iterations", 3, 0, 100, "",
+                      {"medial_iterations", 1, 0, 100, "",
                        "relaxations of the medial vertices under the surface's reaction per evaluation (0: they stay where the surface's votes put them at the level's start)",
                        false}},
                      [] { return std::make_unique<RadialForce>(); }});
