@@ -121,6 +121,35 @@ void Attachments::build(MeshStore& store, const Executor& executor) {
   }
 }
 
+AttachmentArrays Attachments::arrays() const {
+  AttachmentArrays a;
+  for (const Merged& p : merged_) {
+    a.mergedA.push_back(int(p.a));
+    a.mergedB.push_back(int(p.b));
+    a.mergedOffset.push_back(p.offset);
+  }
+  for (const Fixed& f : fixed_) {
+    a.fixedVertex.push_back(int(f.vertex));
+    a.fixedAt.push_back(f.at);
+  }
+  std::vector<char> attached;
+  for (const Attached& v : attached_) {
+    if (std::size_t(v.vertex) >= attached.size()) attached.resize(std::size_t(v.vertex) + 1, 0);
+    attached[std::size_t(v.vertex)] = 1;
+  }
+  for (const Attached& v : attached_) {
+    a.attachedVertex.push_back(int(v.vertex));
+    for (const auto& [u, w] : v.weights) {
+      a.attachedSource.push_back(int(u));
+      a.attachedWeight.push_back(w);
+      a.attachedInOrder = a.attachedInOrder || (std::size_t(u) < attached.size() && attached[std::size_t(u)]);
+    }
+    a.attachedOffsets.push_back(int(a.attachedSource.size()));
+    a.attachedOffset.push_back(v.offset);
+  }
+  return a;
+}
+
 void Attachments::validate(const MeshStore& store) const {
   for (std::size_t k = 0; k < specs_.size(); ++k) {
     const AttachmentSpec& a = specs_[k];

@@ -3,6 +3,7 @@
 #include "sinew/cuda/cuda_engine.h"
 
 #include "cuda_check.h"
+#include "device_attachments.h"
 #include "device_collision.h"
 #include "device_error.h"
 #include "device_placed.h"
@@ -76,6 +77,7 @@ struct CudaEngine::Impl {
   DeviceCollision collision;        // built while the collision force is active, per level
   DeviceContactLinks contactLinks;  // built while the contacts force is active, per level
   DeviceRadial radial;              // medial surfaces of the structures the radial force acts on
+  DeviceAttachments attachments;    // the level's attachments (Simulation builds them per level)
   DeviceSampledError sampledError;  // used when a run samples its error on the device
   // Drawing: contour segments and their count.
   DeviceArray<float3> contourOut;
@@ -288,6 +290,7 @@ struct CudaEngine::Impl {
     if (s.has(Attribute::Elevation)) elevation.resize(s.vertexCount());
     if (s.has(Attribute::Area)) area.resize(s.vertexCount());
     if (s.has(Attribute::CellCentre)) centre.resize(s.cellCount());
+    attachments.upload(sim.attachments().arrays(), stream);
     collision.clear();  // the level's topology: built again when the force runs
     contactLinks.clear();
     if (s.has(Attribute::Mass)) mass.resize(s.vertexCount());
@@ -422,6 +425,12 @@ struct CudaEngine::Impl {
       launchAffineRegularisation(view, imageForce.get(), meshBegin.get(), meshEnd.get(), sim.structureCount(),
                                  affineParts, affineMoments.get(), affineCoefficients.get(), share, stream);
     if (!coarseLevels.empty()) enqueueCoarseForces(sim.coarseForceWeight());
+    if (!attachments.empty()) launchAttachmentShare(view, attachments.view(), stream);
+    enqueueIntegrator();
+    if (!attachments.empty()) launchAttachmentProject(view, attachments.view(), stream);
+  }
+
+  void enqueueIntegrator() {
     const ParamTable& ip = sim.integratorParams();
     if (!implicit()) {
       launchVerlet(view, ip.getf(0, ip.indexOf("time_step")), 1.0f - ip.getf(0, ip.indexOf("damping")), stream);
@@ -441,8 +450,6 @@ CudaEngine::CudaEngine(Simulation& simulation) : impl_(std::make_unique<Impl>(si
   const DeviceStatus st = probeDevice();
   if (!st.usable) throw std::runtime_error(st.reason);
   impl_->device = st.description;
-  if (!simulation.attachments().empty())
-    throw std::runtime_error("attachments have no CUDA implementation yet (docs/attachments.md)");
   if (simulation.integratorName() != "damped_verlet" && simulation.integratorName() != "implicit_euler")
     throw std::runtime_error("integrator '" + simulation.integratorName() + "' has no CUDA implementation");
   static const std::map<std::string, Kind> kinds = {{"smoothing", Kind::Smoothing},
@@ -663,7 +670,7 @@ std::size_t CudaEngine::deviceBytes() const {
          I.image.bytes() + I.profiles.bytes() + I.gradient.bytes() + I.contourOut.bytes() + I.implicitA.bytes() +
          I.implicitB.bytes() + I.implicitOff.bytes() + I.implicitVel.bytes() + I.implicitRhs.bytes() +
          I.implicitR.bytes() + I.implicitZ.bytes() + I.implicitP.bytes() + I.implicitAp.bytes() + I.collision.bytes() + I.sampledError.bytes() +
-         I.contactLinks.bytes() + I.radial.bytes();
+         I.contactLinks.bytes() + I.radial.bytes() + I.attachments.bytes();
 }
 
 }  // namespace sinew::cuda

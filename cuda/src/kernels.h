@@ -168,6 +168,32 @@ void launchRadialRelax(const MeshView& m, ParamView p, const RadialDevice& r, co
 void launchRadialApply(const MeshView& m, ParamView p, const RadialDevice& r, const float3* q, float3* home,
                        cudaStream_t s);
 
+// Attachments (attachment_kernels.cu; core/attachments.h): the level's constraints, applied around
+// the integrator as Simulation::step does. Constrained vertices are distinct (a vertex is merged,
+// fixed or attached once); attachedInOrder: some attached vertex follows another, so they are
+// placed one after the other.
+struct AttachmentDevice {
+  const int* mergedA = nullptr;
+  const int* mergedB = nullptr;
+  const float3* mergedOffset = nullptr;
+  float* mergedShare = nullptr;  // a's share of the pair's mass, from the last share
+  const int* fixedVertex = nullptr;
+  const float3* fixedAt = nullptr;
+  const int* attachedVertex = nullptr;
+  const int* attachedOffsets = nullptr;
+  const int* attachedSource = nullptr;
+  const float* attachedWeight = nullptr;
+  const float3* attachedOffset = nullptr;
+  int mergedCount = 0, fixedCount = 0, attachedCount = 0;
+  bool attachedInOrder = false;
+};
+// Before the integrator: merged pairs share their summed force by mass, fixed and attached vertices
+// get none (needs m.mass).
+void launchAttachmentShare(const MeshView& m, const AttachmentDevice& a, cudaStream_t s);
+// After it: merged pairs at their offset about their centre of mass, fixed vertices back, attached
+// ones onto their surface (positions and previous positions).
+void launchAttachmentProject(const MeshView& m, const AttachmentDevice& a, cudaStream_t s);
+
 // The timeline's sampled error (error_kernels.cu; core/sampled_error.h): device copies of its
 // hierarchies and samples, and where the distances go.
 struct SampledErrorDevice {

@@ -17,6 +17,22 @@
 
 namespace sinew {
 
+// The level's constraints as plain arrays, for a backend that applies them on its device in the
+// order shareForces() and project() do. Attached vertex k is at sum_i weight[i] x[source[i]] +
+// offset[k] over i in [attachedOffsets[k], attachedOffsets[k + 1]).
+struct AttachmentArrays {
+  std::vector<int> mergedA, mergedB;
+  std::vector<Vec3> mergedOffset;
+  std::vector<int> fixedVertex;
+  std::vector<Vec3> fixedAt;
+  std::vector<int> attachedVertex, attachedOffsets{0}, attachedSource;
+  std::vector<float> attachedWeight;
+  std::vector<Vec3> attachedOffset;
+  // Some attached vertex follows another attached vertex: they must be placed one after the other.
+  bool attachedInOrder = false;
+  bool empty() const { return mergedA.empty() && fixedVertex.empty() && attachedVertex.empty(); }
+};
+
 struct AttachmentSpec {
   enum class Kind { Surface, Merge, Fixed };
   Kind kind = Kind::Surface;
@@ -43,6 +59,8 @@ public:
   // their centre of mass, attached ones onto their surface (previous positions too, so that they
   // keep one velocity).
   void project(MeshStore& store) const;
+
+  AttachmentArrays arrays() const;
 
   // Throws InputError naming the attachment when a spec does not fit the store (structure indices,
   // distances, radii).
