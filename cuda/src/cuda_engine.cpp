@@ -56,7 +56,7 @@ struct CudaEngine::Impl {
   DeviceArray<float3> x, prev, force, normal, centre;
   DeviceArray<float4> reference;
   // Implicit Euler: per-structure Jacobian weights and the solver's work arrays.
-  DeviceArray<float> meshPull, meshNormalPull, implicitA, implicitB, implicitOff;
+  DeviceArray<float> meshPull, meshNormalPull, implicitA, implicitB, implicitOff, implicitC;
   DeviceArray<float3> implicitVel, implicitRhs, implicitR, implicitZ, implicitP, implicitAp;
   DeviceArray<double> implicitScalars;
   // Image-derived data, only when a force needs it.
@@ -143,11 +143,16 @@ struct CudaEngine::Impl {
       }
   }
 
+  bool radialActive() const {
+    for (const ForceSlot& f : forces)
+      if (f.kind == Kind::Radial) return sim.forceParams(f.name).anyPositive(0);
+    return false;
+  }
   // The radial force's medial surfaces, for every structure it acts on now (before any capture).
   void prepareRadial() {
     for (const ForceSlot& f : forces)
       if (f.kind == Kind::Radial && sim.forceParams(f.name).anyPositive(0) &&
-          radial.update(sim, sim.forceParams(f.name), view, stream))
+          radial.update(sim, sim.forceParams(f.name), view, implicit(), stream))
         invalidateGraph();
   }
 
@@ -295,7 +300,7 @@ struct CudaEngine::Impl {
     contactLinks.clear();
     if (s.has(Attribute::Mass)) mass.resize(s.vertexCount());
     if (implicit()) {
-      for (auto* a : {&implicitA, &implicitB, &implicitOff}) a->resize(s.vertexCount());
+      for (auto* a : {&implicitA, &implicitB, &implicitOff, &implicitC}) a->resize(s.vertexCount());
       for (auto* a : {&implicitVel, &implicitRhs, &implicitR, &implicitZ, &implicitP, &implicitAp}) a->resize(s.vertexCount());
       implicitScalars.resize(kImplicitScalars);
     }
@@ -436,10 +441,12 @@ struct CudaEngine::Impl {
       launchVerlet(view, ip.getf(0, ip.indexOf("time_step")), 1.0f - ip.getf(0, ip.indexOf("damping")), stream);
       return;
     }
-    const ImplicitTerms terms{meshPull.get(), meshNormalPull.get(), collisionActive() ? collision.stiffness() : nullptr,
-                              contactsActive() ? contactLinks.stiffness() : nullptr};
-    const ImplicitWork work{implicitA.get(), implicitB.get(), implicitOff.get(), implicitVel.get(), implicitRhs.get(),
-                            implicitR.get(), implicitZ.get(), implicitP.get(), implicitAp.get(), implicitScalars.get()};
+    ImplicitTerms terms{meshPull.get(), meshNormalPull.get(), collisionActive() ? collision.stiffness() : nullptr,
+                        contactsActive() ? contactLinks.stiffness() : nullptr};
+    if (radialActive()) radial.addTerms(terms);
+    const ImplicitWork work{implicitA.get(), implicitB.get(), implicitOff.get(), implicitC.get(), implicitVel.get(),
+                            implicitRhs.get(), implicitR.get(), implicitZ.get(), implicitP.get(), implicitAp.get(),
+                            implicitScalars.get()};
     launchImplicitEuler(view, terms, work, ip.getf(0, ip.indexOf("time_step")), ip.getf(0, ip.indexOf("damping_rate")),
                         ip.get(0, ip.indexOf("cg_tolerance")), static_cast<int>(ip.get(0, ip.indexOf("cg_max_iterations"))),
                         stream);
@@ -466,9 +473,6 @@ CudaEngine::CudaEngine(Simulation& simulation) : impl_(std::make_unique<Impl>(si
     if (it == kinds.end() && !device)
       throw std::runtime_error("force '" + name + "' has no CUDA implementation (its Force::deviceForce() gives none)");
     impl_->forces.push_back({name, device ? Kind::Plugin : it->second, {}, 0, device});
-    // Its Jacobian is anisotropic; the device's implicit Euler takes isotropic blocks only.
-    if (name == "radial" && simulation.integratorName() == "implicit_euler")
-      throw std::runtime_error("the radial force with implicit_euler has no CUDA implementation yet (damped_verlet has)");
   }
   SINEW_CUDA(cudaStreamCreateWithFlags(&impl_->stream, cudaStreamNonBlocking));
   impl_->upload();
@@ -668,7 +672,7 @@ std::size_t CudaEngine::deviceBytes() const {
   return I.topology.bytes() + I.density.bytes() + I.elevation.bytes() + I.area.bytes() + I.mass.bytes() + I.x.bytes() +
          I.prev.bytes() + I.force.bytes() + I.normal.bytes() + I.centre.bytes() + I.reference.bytes() +
          I.image.bytes() + I.profiles.bytes() + I.gradient.bytes() + I.contourOut.bytes() + I.implicitA.bytes() +
-         I.implicitB.bytes() + I.implicitOff.bytes() + I.implicitVel.bytes() + I.implicitRhs.bytes() +
+         I.implicitB.bytes() + I.implicitOff.bytes() + I.implicitC.bytes() + I.implicitVel.bytes() + I.implicitRhs.bytes() +
          I.implicitR.bytes() + I.implicitZ.bytes() + I.implicitP.bytes() + I.implicitAp.bytes() + I.collision.bytes() + I.sampledError.bytes() +
          I.contactLinks.bytes() + I.radial.bytes() + I.attachments.bytes();
 }

@@ -4,7 +4,8 @@
 
 namespace sinew::cuda {
 
-bool DeviceRadial::update(Simulation& sim, const ParamTable& params, const MeshView& view, cudaStream_t stream) {
+bool DeviceRadial::update(Simulation& sim, const ParamTable& params, const MeshView& view, bool jacobian,
+                          cudaStream_t stream) {
   MeshStore& s = sim.store();
   const MedialOptions options{.spacingMm = params.getf(0, params.indexOf("spacing_mm")),
                               .neighbours = int(params.get(0, params.indexOf("neighbours")))};
@@ -23,6 +24,12 @@ bool DeviceRadial::update(Simulation& sim, const ParamTable& params, const MeshV
       any = true;
     }
   if (any) upload(s, fresh, view, stream);
+  if (jacobian && pull_.size() != std::size_t(view.vertices)) {
+    pull_.resize(std::size_t(view.vertices));
+    slack_.resize(std::size_t(view.vertices));
+    direction_.resize(std::size_t(view.vertices));
+    any = true;
+  }
   return any;
 }
 
@@ -105,6 +112,7 @@ void DeviceRadial::upload(const MeshStore& s, const std::vector<int>& fresh, con
 
 void DeviceRadial::launch(const MeshView& view, ParamView p, int iterations, cudaStream_t stream) const {
   if (medialCount_ == 0) return;
+  const bool jacobian = pull_.size() == std::size_t(view.vertices);
   const RadialDevice r = device();
   float3* from = q_.get();
   float3* to = scratch_.get();
@@ -114,7 +122,15 @@ void DeviceRadial::launch(const MeshView& view, ParamView p, int iterations, cud
   }
   // An odd count leaves the result in the scratch buffer: copied home, so that every replay of a
   // captured graph starts from q_.
-  launchRadialApply(view, p, r, from, from == q_.get() ? nullptr : q_.get(), stream);
+  launchRadialApply(view, p, r, from, from == q_.get() ? nullptr : q_.get(), jacobian ? pull_.get() : nullptr, slack_.get(),
+                    direction_.get(), stream);
+}
+
+void DeviceRadial::addTerms(ImplicitTerms& terms) const {
+  if (medialCount_ == 0 || !pull_.size()) return;  // the force does not act, or explicit steps
+  terms.radialPull = pull_.get();
+  terms.radialSlack = slack_.get();
+  terms.radialDirection = direction_.get();
 }
 
 RadialDevice DeviceRadial::device() const {
@@ -140,7 +156,8 @@ RadialDevice DeviceRadial::device() const {
 std::size_t DeviceRadial::bytes() const {
   return surfaceOffsets_.bytes() + surfaceMedial_.bytes() + surfaceWeight_.bytes() + radius_.bytes() + medialMesh_.bytes() +
          medialOffsets_.bytes() + medialVertex_.bytes() + medialWeight_.bytes() + chunkBegin_.bytes() + chunkRow_.bytes() +
-         rowChunks_.bytes() + partial_.bytes() + arrivals_.bytes() + q_.bytes() + scratch_.bytes();
+         rowChunks_.bytes() + partial_.bytes() + arrivals_.bytes() + q_.bytes() + scratch_.bytes() + pull_.bytes() +
+         slack_.bytes() + direction_.bytes();
 }
 
 }  // namespace sinew::cuda

@@ -16,11 +16,15 @@ public:
   // Before a capture: builds the medial surface of every structure whose weight is now positive and
   // that has none yet (all of them again at a new level, or when spacing_mm or neighbours changed),
   // and starts their medial vertices where the surface's votes put them (positions and normals of
-  // now, as the CPU force's first evaluation). `view` must be the engine's bound store. True when
-  // the device arrays changed (captured graphs are stale).
-  bool update(Simulation& sim, const ParamTable& params, const MeshView& view, cudaStream_t stream);
-  // Relaxes the medial vertices `iterations` times and adds the force (alpha from p).
+  // now, as the CPU force's first evaluation). `view` must be the engine's bound store; `jacobian`:
+  // implicit Euler will want the force's Jacobian terms. True when the device arrays changed
+  // (captured graphs are stale).
+  bool update(Simulation& sim, const ParamTable& params, const MeshView& view, bool jacobian, cudaStream_t stream);
+  // Relaxes the medial vertices `iterations` times and adds the force (alpha from p), writing the
+  // per-vertex Jacobian terms too when update() was asked for them.
   void launch(const MeshView& view, ParamView p, int iterations, cudaStream_t stream) const;
+  // The Jacobian terms of the last launch for implicit Euler's solve.
+  void addTerms(ImplicitTerms& terms) const;
   std::size_t bytes() const;
 
 private:
@@ -41,6 +45,8 @@ private:
   DeviceArray<float4> partial_;
   DeviceArray<unsigned> arrivals_;
   DeviceArray<float3> q_, scratch_;  // Q_j now, and the relaxation's other buffer
+  DeviceArray<float> pull_, slack_;   // implicit Euler: per vertex (ImplicitTerms)
+  DeviceArray<float3> direction_;
   int medialCount_ = 0;
 };
 

@@ -2,7 +2,8 @@
 //   (M (1 + dt kappa) - dt^2 K) v' = M v + dt f,   x' = x + dt v',
 // for the built-in forces' Jacobians: per vertex K's self block is -pull I - normalPull n n^T and
 // each neighbour block pull/3 I (pull: the structure's smoothing + shape prior weights; normalPull:
-// its gradient + profile weights). Conjugate gradients with the 3x3 diagonal blocks inverted in
+// its gradient + profile weights), with the collisions', contacts' and radial force's per-vertex
+// terms added to the self block. Conjugate gradients with the 3x3 diagonal blocks inverted in
 // closed form; the iteration count is fixed in the captured graph, and once converged the
 // remaining iterations return at once (a device flag), so no step waits for the host.
 #include "device_math.cuh"
@@ -31,11 +32,13 @@ __device__ void addToSlot(double value, double* slot) {
 }
 
 struct System {
-  const float* a;      // diagonal block a I + b n n^T
+  const float* a;      // diagonal block a I + b n n^T (+ c u u^T)
   const float* b;
   const float* off;    // neighbour blocks -off I
   const float3* n;
   const int3* nb;
+  const float* c;      // the radial force's term, or null
+  const float3* u;
 };
 
 __device__ float3 multiply(const System& s, const float3* u, int v) {
@@ -43,18 +46,28 @@ __device__ float3 multiply(const System& s, const float3* u, int v) {
   const int3 k = s.nb[v];
   float3 y = s.a[v] * uv - s.off[v] * (u[k.x] + u[k.y] + u[k.z]);
   if (s.n) y = y + (s.b[v] * dot(s.n[v], uv)) * s.n[v];
+  if (s.c) y = y + (s.c[v] * dot(s.u[v], uv)) * s.u[v];
   return y;
 }
 
 // (a I + b n n^T)^-1 r = (r - b / (a + b) (n . r) n) / a, n of unit length.
-__device__ float3 precondition(const System& s, float3 r, int v) {
+__device__ float3 solveNormalBlock(const System& s, float3 r, int v) {
   if (!s.n) return (1.0f / s.a[v]) * r;
   const float3 n = s.n[v];
   return (1.0f / s.a[v]) * (r - (s.b[v] / (s.a[v] + s.b[v]) * dot(n, r)) * n);
 }
 
-__global__ void setup(MeshView m, ImplicitTerms t, float h, float kappa, float* a, float* b, float* off, float3* vel,
-                      float3* rhs) {
+// The diagonal block's inverse; with the radial term by Sherman-Morrison:
+// (A + c u u^T)^-1 r = A^-1 r - c (u . A^-1 r) / (1 + c u . A^-1 u) A^-1 u.
+__device__ float3 precondition(const System& s, float3 r, int v) {
+  const float3 ar = solveNormalBlock(s, r, v);
+  if (!s.c || !(s.c[v] > 0.0f)) return ar;
+  const float3 u = s.u[v], au = solveNormalBlock(s, u, v);
+  return ar - (s.c[v] * dot(u, ar) / (1.0f + s.c[v] * dot(u, au))) * au;
+}
+
+__global__ void setup(MeshView m, ImplicitTerms t, float h, float kappa, float* a, float* b, float* off, float* c,
+                      float3* vel, float3* rhs) {
   const int v = blockIdx.x * blockDim.x + threadIdx.x;
   if (v >= m.vertices) return;
   const int mesh = m.meshOf[v];
@@ -62,6 +75,11 @@ __global__ void setup(MeshView m, ImplicitTerms t, float h, float kappa, float* 
   a[v] = m.mass[v] * (1.0f + h * kappa) + h * h * pull;
   if (t.contactPull) a[v] += h * h * t.contactPull[v];
   if (t.springPull) a[v] += h * h * t.springPull[v];
+  if (t.radialPull) {
+    const float k = t.radialPull[v], slack = t.radialSlack[v];
+    a[v] += h * h * (k * slack);
+    c[v] = h * h * (k * (1.0f - slack));
+  }
   b[v] = h * h * normalPull;
   off[v] = h * h * pull / 3.0f;
   const float3 velocity = (m.x[v] - m.prev[v]) / h;
@@ -154,8 +172,8 @@ void launchImplicitEuler(const MeshView& m, const ImplicitTerms& t, const Implic
                          double tolerance, int maxIterations, cudaStream_t s) {
   const int n = m.vertices;
   cudaMemsetAsync(w.scalars, 0, kSlots * sizeof(double), s);
-  setup<<<blocks(n), kThreads, 0, s>>>(m, t, dt, kappa, w.a, w.b, w.off, w.vel, w.rhs);
-  const System sys{w.a, w.b, w.off, m.normal, m.neighbours};
+  setup<<<blocks(n), kThreads, 0, s>>>(m, t, dt, kappa, w.a, w.b, w.off, w.c, w.vel, w.rhs);
+  const System sys{w.a, w.b, w.off, m.normal, m.neighbours, t.radialPull ? w.c : nullptr, t.radialDirection};
   residual<<<blocks(n), kThreads, 0, s>>>(n, sys, w.vel, w.rhs, w.r, w.z, w.p, w.scalars);
   start<<<1, 1, 0, s>>>(w.scalars, tolerance);
   for (int it = 0; it < maxIterations; ++it) {

@@ -77,11 +77,16 @@ struct ImplicitTerms {
   const float* meshNormalPull = nullptr;
   const float* contactPull = nullptr;  // per vertex (collisions: self block -contactPull I), or null
   const float* springPull = nullptr;   // per vertex (deforming contacts: self block -springPull I), or null
+  // Per vertex (the radial force), or null: self block -radialPull [s (I - u u^T) + u u^T], s the
+  // radialSlack, u the radialDirection.
+  const float* radialPull = nullptr;
+  const float* radialSlack = nullptr;
+  const float3* radialDirection = nullptr;
 };
 // Work arrays, one entry per vertex, and the solve's scalars.
 constexpr int kImplicitScalars = 8;
 struct ImplicitWork {
-  float *a = nullptr, *b = nullptr, *off = nullptr;
+  float *a = nullptr, *b = nullptr, *off = nullptr, *c = nullptr;  // c: the radial force's u u^T weight
   float3 *vel = nullptr, *rhs = nullptr, *r = nullptr, *z = nullptr, *p = nullptr, *ap = nullptr;
   double* scalars = nullptr;
 };
@@ -164,9 +169,10 @@ void launchRadialVotes(const MeshView& m, const RadialDevice& r, const int* fres
 void launchRadialRelax(const MeshView& m, ParamView p, const RadialDevice& r, const float3* qIn, float3* qOut,
                        cudaStream_t s);
 // Adds alpha m_i (1 - r_i / |P_i P_i_perp|) P_i P_i_perp to m.force, the medial points from q; copies
-// q into home when home is not null.
+// q into home when home is not null. With pull not null (implicit Euler), also writes each vertex's
+// Jacobian terms (ImplicitTerms' radial arrays; pull 0 where the force does not act).
 void launchRadialApply(const MeshView& m, ParamView p, const RadialDevice& r, const float3* q, float3* home,
-                       cudaStream_t s);
+                       float* pull, float* slack, float3* direction, cudaStream_t s);
 
 // Attachments (attachment_kernels.cu; core/attachments.h): the level's constraints, applied around
 // the integrator as Simulation::step does. Constrained vertices are distinct (a vertex is merged,

@@ -88,15 +88,24 @@ __global__ void relax(MeshView m, ParamView p, RadialDevice r, const float3* __r
   qOut[j] = active && s.w > 0.0f ? qIn[j] + reaction / s.w : qIn[j];
 }
 
-__global__ void apply(MeshView m, ParamView p, RadialDevice r, const float3* __restrict__ q, float3* __restrict__ home) {
+__global__ void apply(MeshView m, ParamView p, RadialDevice r, const float3* __restrict__ q, float3* __restrict__ home,
+                      float* pull, float* slack, float3* direction) {
   const int t = blockIdx.x * blockDim.x + threadIdx.x;
   if (home && t < r.medialCount) home[t] = q[t];
   if (t >= m.vertices) return;
+  if (pull) pull[t] = 0.0f;
   const float alpha = param(p, m.meshOf[t], 0);
   if (!(alpha > 0.0f)) return;
   const float3 toFoot = foot(r, q, t) - m.x[t];
-  if (!(norm(toFoot) > 1e-6f)) return;
-  m.force[t] = m.force[t] + (alpha * m.mass[t]) * spring(toFoot, r.radius[t]);
+  const float d = norm(toFoot);
+  if (!(d > 1e-6f)) return;
+  const float k = alpha * m.mass[t];
+  m.force[t] = m.force[t] + k * spring(toFoot, r.radius[t]);
+  if (!pull) return;
+  // The CPU force's Jacobian block, with the medial points held over the step.
+  pull[t] = k;
+  slack[t] = fmaxf(0.0f, 1.0f - r.radius[t] / d);
+  direction[t] = toFoot / d;
 }
 }  // namespace
 
@@ -108,9 +117,9 @@ void launchRadialRelax(const MeshView& m, ParamView p, const RadialDevice& r, co
   if (r.chunkCount > 0) relax<<<r.chunkCount, kThreads, 0, s>>>(m, p, r, qIn, qOut);
 }
 void launchRadialApply(const MeshView& m, ParamView p, const RadialDevice& r, const float3* q, float3* home,
-                       cudaStream_t s) {
+                       float* pull, float* slack, float3* direction, cudaStream_t s) {
   const int n = home && r.medialCount > m.vertices ? r.medialCount : m.vertices;
-  apply<<<(n + kThreads - 1) / kThreads, kThreads, 0, s>>>(m, p, r, q, home);
+  apply<<<(n + kThreads - 1) / kThreads, kThreads, 0, s>>>(m, p, r, q, home, pull, slack, direction);
 }
 
 }  // namespace sinew::cuda
