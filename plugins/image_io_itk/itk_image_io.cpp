@@ -367,8 +367,9 @@ Volume<Pixel> readNonSeries(const fs::path& path) {
   if (extension == ".mha" || extension == ".mhd") checkMetaImageHeader(path);
   if (extension == ".nii" || extension == ".nii.gz") checkNiftiHeader(path);
   if (extension == ".nrrd" || extension == ".nhdr") checkNrrdHeader(path, extension == ".nhdr");
-  std::optional<DetachedNrrdGuard> detachedGuard;
-  if (extension == ".nhdr") detachedGuard.emplace(dataFileOf(path, extension).path);
+  std::optional<DetachedNrrdGuard> detachedGuard;  // also a .nrrd whose header names a data file
+  if (extension == ".nrrd" || extension == ".nhdr")
+    if (const fs::path data = dataFileOf(path, extension).path; !data.empty() && data != path) detachedGuard.emplace(data);
   itk::ImageIOBase::Pointer io;
   {
     // Images are read on several threads at once (scene_runner.cpp); ITK's object factory list is

@@ -209,6 +209,8 @@ private slots:
     expectRefusal(io(), path("skip.nhdr"), "");
     std::ofstream(path("text.nhdr")) << head << "encoding: ascii\ndata file: data.raw\n";
     expectRefusal(io(), path("text.nhdr"), "");
+    std::ofstream(path("named.nrrd")) << head << "encoding: raw\nbyte skip: 50\ndata file: data.raw\n";  // .nrrd, detached
+    expectRefusal(io(), path("named.nrrd"), "");
     QCOMPARE(descriptors(), before);
     std::ofstream(path("unknown.nhdr")) << head << "encodng: raw\ndata file: data.raw\n";
     expectRefusal(io(), path("unknown.nhdr"), "unknown field");
