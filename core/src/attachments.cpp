@@ -1,6 +1,5 @@
 #include "sinew/core/attachments.h"
 
-#include "sinew/core/collision_bvh.h"
 #include "sinew/core/simplex_mesh.h"
 #include "sinew/core/surface_distance.h"
 #include "point_tree.h"
@@ -8,6 +7,7 @@
 #include <algorithm>
 #include <cstdint>
 #include <map>
+#include <optional>
 #include <string>
 
 namespace sinew {
@@ -86,38 +86,31 @@ void Attachments::build(MeshStore& store, const Executor& executor) {
       }
       continue;
     }
-    // Surface: the closest point of the other tessellation, as weights over its vertices.
+    // Surface: the closest point of the other tessellation (its hierarchy's search), as weights
+    // over its vertices.
     const SurfaceDistanceQuery query(surface);
-    std::vector<Index> near;
-    for (Index v = own.vertexBegin; v < own.vertexEnd; ++v)
-      if (!taken[v] && query.distance(x[v]) <= spec.distanceMm) near.push_back(v);
-    std::vector<Attached> found(near.size());
-    executor.forEach(Index(near.size()), [&](Index k) {
-      const Vec3 p = x[near[k]];
-      float bestD2 = INFINITY;
-      std::size_t bestT = 0;
-      Vec3 bestQ = p;
-      for (std::size_t t = 0; t < surface.triangles.size(); ++t) {
-        const auto& tri = surface.triangles[t];
-        const Vec3 q = asVec3(collision::closestOnTriangle(asP3(p), asP3(surface.points[tri[0]]), asP3(surface.points[tri[1]]),
-                                                           asP3(surface.points[tri[2]])));
-        const float d2 = (q - p).squaredNorm();
-        if (d2 < bestD2) bestD2 = d2, bestT = t, bestQ = q;
-      }
-      const auto& tri = surface.triangles[bestT];
-      const auto b = barycentric(bestQ, surface.points[tri[0]], surface.points[tri[1]], surface.points[tri[2]]);
+    const Index count = own.vertexCount();
+    std::vector<std::optional<Attached>> found(static_cast<std::size_t>(count));
+    executor.forEach(count, [&](Index k) {
+      const Index v = own.vertexBegin + k;
+      if (taken[v]) return;
+      const SurfaceDistanceQuery::Closest c = query.closest(x[v]);
+      if (!(c.distance <= spec.distanceMm)) return;
+      const auto& tri = c.triangle;
+      const auto b = barycentric(c.point, surface.points[tri[0]], surface.points[tri[1]], surface.points[tri[2]]);
       std::map<Index, float> weights;
-      for (int c = 0; c < 3; ++c) addPointWeights(store, spec.other, tri[c], b[c], weights);
-      Attached a{near[k], {weights.begin(), weights.end()}, Vec3::Zero()};
+      for (int corner = 0; corner < 3; ++corner) addPointWeights(store, spec.other, tri[corner], b[corner], weights);
+      Attached a{v, {weights.begin(), weights.end()}, Vec3::Zero()};
       Vec3 on = Vec3::Zero();
       for (const auto& [u, w] : a.weights) on += w * x[u];
-      a.offset = p - on;
-      found[k] = std::move(a);
+      a.offset = x[v] - on;
+      found[std::size_t(k)] = std::move(a);
     });
-    for (Attached& a : found) {
-      taken[a.vertex] = 1;
-      attached_.push_back(std::move(a));
-    }
+    for (std::optional<Attached>& a : found)
+      if (a) {
+        taken[a->vertex] = 1;
+        attached_.push_back(std::move(*a));
+      }
   }
 }
 

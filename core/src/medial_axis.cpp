@@ -1,16 +1,15 @@
 #include "sinew/core/medial_axis.h"
 
+#include "point_tree.h"
+
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
 #include <map>
 #include <vector>
-
-#include "point_tree.h"
-
-#include <atomic>
 
 namespace sinew {
 

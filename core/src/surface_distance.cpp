@@ -87,6 +87,12 @@ void TriangleBvh::refit(std::span<const Vec3> points, const Executor& executor) 
 float SurfaceDistanceQuery::distance(const Vec3& p) const {
   return std::sqrt(trianglebvh::closestSquaredDistance(bvh_.view(), 0, asP3(p), 3.0e38f));
 }
+SurfaceDistanceQuery::Closest SurfaceDistanceQuery::closest(const Vec3& p) const {
+  collision::P3 q = asP3(p);
+  int t = 0;
+  const float d2 = trianglebvh::closestSquaredDistance(bvh_.view(), 0, asP3(p), 3.0e38f, &q, &t);
+  return {asVec3(q), std::sqrt(d2), bvh_.triangles[std::size_t(t)]};
+}
 Vec3 SurfaceDistanceQuery::closestPoint(const Vec3& p) const {
   collision::P3 q = asP3(p);
   trianglebvh::closestSquaredDistance(bvh_.view(), 0, asP3(p), 3.0e38f, &q);

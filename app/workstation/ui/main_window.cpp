@@ -131,10 +131,7 @@ void MainWindow::buildViews() {
       tool_->release(ctx, e);
       afterEdit();
     });
-    connect(view, &SliceView::cursorMoved, this, [this] {
-      for (auto* v : slices_) v->invalidate();
-      volume_->invalidate();
-    });
+    connect(view, &SliceView::cursorMoved, this, [this] { invalidateViews(); });
     connect(view, &SliceView::windowLevelChanged, this, [this] {
       for (auto* v : slices_) v->update();
       volume_->update();
@@ -175,10 +172,7 @@ void MainWindow::buildPanels() {
   dock(paramsPanel_, tr("Forces"), "forces", Qt::RightDockWidgetArea);
   dock(plot_, tr("Error against time"), "plot", Qt::RightDockWidgetArea);
   connect(scenePanel_, &ScenePanel::selectionChanged, this, [this] { paramsPanel_->refresh(); });
-  connect(scenePanel_, &ScenePanel::lookChanged, this, [this] {
-    for (auto* v : slices_) v->invalidate();
-    volume_->invalidate();
-  });
+  connect(scenePanel_, &ScenePanel::lookChanged, this, [this] { invalidateViews(); });
   connect(paramsPanel_, &ParametersPanel::edited, this, &MainWindow::afterEdit);
   connect(paramsPanel_, &ParametersPanel::failed, this, [this](const QString& m) { showError(tr("Parameter"), m); });
 }
@@ -243,10 +237,7 @@ void MainWindow::buildActions() {
     maximiseView(maximised_ >= 0 ? -1 : std::max(focused, 2));
   });
   // The markers are drawn anew when the views are invalidated, not only when the state moves.
-  const auto redrawMarkers = [this] {
-    for (auto* v : slices_) v->invalidate();
-    volume_->invalidate();
-  };
+  const auto redrawMarkers = [this] { invalidateViews(); };
   showContacts_ = view->addAction(tr("Show &Contacts"), QKeySequence(tr("C")), this, redrawMarkers);
   showContacts_->setCheckable(true);
   showContacts_->setToolTip(tr("Mark, in orange, the vertices inside another structure or within the collision "
@@ -487,8 +478,7 @@ std::vector<Marker> MainWindow::markers(Index s) {
       thicknessPoll_ = true;
       QTimer::singleShot(100, this, [this] {
         thicknessPoll_ = false;
-        for (auto* v : slices_) v->invalidate();
-        volume_->invalidate();
+        invalidateViews();
       });
     }
     MeshStore& store = session_.simulation().store();
@@ -598,15 +588,13 @@ void MainWindow::tick() {
 
 void MainWindow::refreshViews() {
   if (!session_.isOpen()) {
-    for (auto* v : slices_) v->invalidate();
-    volume_->invalidate();
+    invalidateViews();
     return;
   }
   if (session_.revision() != shownRevision_) {
     drawing_->updateSurfaces(session_, display_);
     shownRevision_ = session_.revision();
-    for (auto* v : slices_) v->invalidate();
-    volume_->invalidate();
+    invalidateViews();
     scenePanel_->refresh();
     schedulePanel_->refresh();
     if (session_.timeline().size() != plottedSamples_) {
@@ -627,11 +615,13 @@ void MainWindow::afterEdit() {
   updateActions();
 }
 
+void MainWindow::invalidateViews() {
+  for (auto* v : slices_) v->invalidate();
+  volume_->invalidate();
+}
+
 ToolContext MainWindow::toolContext() {
-  return {session_, display_, [this] {
-            for (auto* v : slices_) v->invalidate();
-            volume_->invalidate();
-          }};
+  return {session_, display_, [this] { invalidateViews(); }};
 }
 
 void MainWindow::selectTool(const std::string& name) {

@@ -121,6 +121,7 @@ private:
   std::vector<Marker> markers(Index structure);
   SessionOpenOptions sessionOptions(QProgressDialog& progress);
   ToolContext toolContext();
+  void invalidateViews();  // every view draws again (surfaces and markers)
 
   const Registry& registry_;
   const ToolRegistry& tools_;

@@ -37,6 +37,13 @@ public:
   explicit SurfaceDistanceQuery(const TriangleMesh& mesh) : bvh_(TriangleBvh::build(mesh)) {}
   float distance(const Vec3& p) const;
   Vec3 closestPoint(const Vec3& p) const;
+  // The closest point, its distance and the mesh's triangle (point indices) it lies on.
+  struct Closest {
+    Vec3 point;
+    float distance;
+    std::array<Index, 3> triangle;
+  };
+  Closest closest(const Vec3& p) const;
   const TriangleBvh& bvh() const { return bvh_; }
 
 private:

@@ -27,8 +27,10 @@ struct View {
 };
 
 // The squared distance from p to the closest point of the mesh under `root`, or maxD2 when it is
-// farther (branch and bound, nearer child first). `closest` receives the point when not null.
-SINEW_HD float closestSquaredDistance(const View& v, int root, P3 p, float maxD2, P3* closest = nullptr) {
+// farther (branch and bound, nearer child first). `closest` receives the point and `triangle` its
+// triangle (in leaf order) when not null.
+SINEW_HD float closestSquaredDistance(const View& v, int root, P3 p, float maxD2, P3* closest = nullptr,
+                                      int* triangle = nullptr) {
   float best = maxD2;
   int stack[kStackDepth];
   int top = 0;
@@ -44,6 +46,7 @@ SINEW_HD float closestSquaredDistance(const View& v, int root, P3 p, float maxD2
         if (d2 < best) {
           best = d2;
           if (closest) *closest = q;
+          if (triangle) *triangle = t;
         }
       }
       continue;
