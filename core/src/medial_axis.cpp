@@ -146,6 +146,23 @@ RadiusSummary summariseRadii(std::span<const float> radii) {
   return s;
 }
 
+MedialVoters votersOf(const MedialSurface& ms) {
+  MedialVoters t;
+  std::vector<Index> count(ms.vertices.size() + 1, 0);
+  for (Index j : ms.medial) ++count[j + 1];
+  for (std::size_t j = 1; j < count.size(); ++j) count[j] += count[j - 1];
+  t.offsets = count;
+  t.vertex.assign(ms.medial.size(), 0);
+  t.weight.assign(ms.medial.size(), 0.0f);
+  for (Index i = 0; i < ms.surfaceVertexCount(); ++i)
+    for (Index k = ms.offsets[i]; k < ms.offsets[i + 1]; ++k) {
+      const Index at = count[ms.medial[k]]++;
+      t.vertex[at] = i;
+      t.weight[at] = ms.weights[k];
+    }
+  return t;
+}
+
 Vec3 MedialSurface::foot(Index i, std::span<const Vec3> medialVertices) const {
   Vec3 f = Vec3::Zero();
   for (Index k = offsets[i]; k < offsets[i + 1]; ++k) f += weights[k] * medialVertices[medial[k]];

@@ -9,7 +9,7 @@ bool DeviceRadial::update(Simulation& sim, const ParamTable& params, const MeshV
   MeshStore& s = sim.store();
   const MedialOptions options{.spacingMm = params.getf(0, params.indexOf("spacing_mm")),
                               .neighbours = int(params.get(0, params.indexOf("neighbours")))};
-  if (builtFor_ != s.vertexCount() || options.spacingMm != options_.spacingMm || options.neighbours != options_.neighbours) {
+  if (builtFor_ != s.vertexCount() || !(options == options_)) {
     medial_.assign(s.meshCount(), {});
     options_ = options;
     builtFor_ = s.vertexCount();
@@ -58,14 +58,11 @@ void DeviceRadial::upload(const MeshStore& s, const std::vector<int>& fresh, con
       surfaceOffsets.push_back(int(surfaceMedial.size()));
     }
     if (!built) continue;
-    // Inverse of the weights, per medial vertex, in vertex order (as the CPU force's).
-    std::vector<std::vector<std::pair<int, float>>> voters(ms.vertices.size());
-    for (Index i = 0; i < n; ++i)
-      for (Index k = ms.offsets[i]; k < ms.offsets[i + 1]; ++k) voters[ms.medial[k]].push_back({int(begin + i), ms.weights[k]});
+    const MedialVoters voters = votersOf(ms);  // in vertex order, as the CPU force's
     for (std::size_t j = 0; j < ms.vertices.size(); ++j) {
-      for (const auto& [v, w] : voters[j]) {
-        medialVertex.push_back(v);
-        medialWeight.push_back(w);
+      for (Index k = voters.offsets[j]; k < voters.offsets[j + 1]; ++k) {
+        medialVertex.push_back(int(begin + voters.vertex[k]));
+        medialWeight.push_back(voters.weight[k]);
       }
       medialOffsets.push_back(int(medialVertex.size()));
       medialMesh.push_back(int(m));

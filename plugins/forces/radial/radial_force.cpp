@@ -20,9 +20,7 @@ namespace sinew {
 namespace {
 struct StructureMedial {
   MedialSurface medial;
-  // The inverse of medial's weights, per medial vertex: its surface vertices (local) and weights.
-  std::vector<Index> offsets{0}, vertex;
-  std::vector<float> weight;
+  MedialVoters voters;  // the inverse of medial's weights (local surface vertices)
   std::vector<Vec3> q;  // the medial vertices now (empty until the level's first evaluation)
   MedialOptions options;  // what it was built with
 };
@@ -45,13 +43,12 @@ public:
     const MedialOptions options{.spacingMm = ctx.params.getf(0, ctx.params.indexOf("spacing_mm")),
                                 .neighbours = int(ctx.params.get(0, ctx.params.indexOf("neighbours")))};
     StructureMedial& t = structures_[m];
-    if (t.medial.surfaceVertexCount() > 0 && t.options.spacingMm == options.spacingMm && t.options.neighbours == options.neighbours)
-      return;
+    if (t.medial.surfaceVertexCount() > 0 && t.options == options) return;
     MeshStore& s = ctx.store;
     t = {};
     t.options = options;
     t.medial = buildMedialSurface(s.mesh(s.referencePositions(), m), s.mesh(s.referenceNormals(), m), options, ctx.executor);
-    invert(t);
+    t.voters = votersOf(t.medial);
   }
 
   void accumulate(ForceContext& ctx, std::span<Vec3> forces) override {
@@ -80,10 +77,10 @@ public:
         ctx.executor.forEach(medialCount, [&](Index j) {
           Vec3 sum = Vec3::Zero();
           float weights = 0.0f;
-          for (Index k = t.offsets[j]; k < t.offsets[j + 1]; ++k) {
-            const Index i = t.vertex[k];
-            sum += t.weight[k] * (x[begin + i] - ms.vertexRadius[i] * normals[begin + i]);
-            weights += t.weight[k];
+          for (Index k = t.voters.offsets[j]; k < t.voters.offsets[j + 1]; ++k) {
+            const Index i = t.voters.vertex[k];
+            sum += t.voters.weight[k] * (x[begin + i] - ms.vertexRadius[i] * normals[begin + i]);
+            weights += t.voters.weight[k];
           }
           q[j] = weights > 0.0f ? Vec3(sum / weights) : ms.vertices[j];
         });
@@ -103,10 +100,10 @@ public:
         ctx.executor.forEach(medialCount, [&](Index j) {
           Vec3 reaction = Vec3::Zero();
           float stiffness = 0.0f;
-          for (Index k = t.offsets[j]; k < t.offsets[j + 1]; ++k) {
-            const Index i = t.vertex[k];
-            reaction -= t.weight[k] * mass[begin + i] * g[i];
-            stiffness += t.weight[k] * mass[begin + i];
+          for (Index k = t.voters.offsets[j]; k < t.voters.offsets[j + 1]; ++k) {
+            const Index i = t.voters.vertex[k];
+            reaction -= t.voters.weight[k] * mass[begin + i] * g[i];
+            stiffness += t.voters.weight[k] * mass[begin + i];
           }
           if (stiffness > 0.0f) q[j] += reaction / stiffness;
         });
@@ -140,22 +137,6 @@ public:
   }
 
 private:
-  static void invert(StructureMedial& t) {
-    const MedialSurface& ms = t.medial;
-    std::vector<Index> count(ms.vertices.size() + 1, 0);
-    for (Index j : ms.medial) ++count[j + 1];
-    for (std::size_t j = 1; j < count.size(); ++j) count[j] += count[j - 1];
-    t.offsets = count;
-    t.vertex.assign(ms.medial.size(), 0);
-    t.weight.assign(ms.medial.size(), 0.0f);
-    for (Index i = 0; i < ms.surfaceVertexCount(); ++i)  // in vertex order: the sums are deterministic
-      for (Index k = ms.offsets[i]; k < ms.offsets[i + 1]; ++k) {
-        const Index at = count[ms.medial[k]]++;
-        t.vertex[at] = i;
-        t.weight[at] = ms.weights[k];
-      }
-  }
-
   std::vector<StructureMedial> structures_;
   Index builtFor_ = -1;
   std::vector<Vec3> direction_;

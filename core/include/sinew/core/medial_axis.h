@@ -46,6 +46,7 @@ RadiusSummary summariseRadii(std::span<const float> radii);
 struct MedialOptions {
   float spacingMm = 2.0f;  // the medial surface's resolution: one medial vertex per cube of this edge
   int neighbours = 4;      // medial vertices each surface vertex is interpolated from
+  bool operator==(const MedialOptions&) const = default;
 };
 
 // A structure's medial surface (paper 001 section 2.3): medial vertices Q_j with radii R_j, and for
@@ -66,6 +67,15 @@ struct MedialSurface {
   Index surfaceVertexCount() const { return Index(offsets.size()) - 1; }
   Vec3 foot(Index i, std::span<const Vec3> medialVertices) const;  // P_i_perp
 };
+
+// The inverse of a medial surface's weights: per medial vertex j, the surface vertices interpolated
+// from it and their weights w_ij in [offsets[j], offsets[j + 1]), in surface-vertex order (so sums
+// over them are deterministic). What the reaction on the medial vertices gathers.
+struct MedialVoters {
+  std::vector<Index> offsets{0}, vertex;
+  std::vector<float> weight;
+};
+MedialVoters votersOf(const MedialSurface& medial);
 
 // `points` are one structure's vertices (the samples of its closed surface), `normals` their
 // outward unit normals. Throws InputError for an empty structure or bad options.
