@@ -319,8 +319,6 @@ Volume<float> floatsFrom(const fs::path& path, const Volume<double>& values) {
   return image;
 }
 
-// A single-file image (not a DICOM series), its header checked, read straight into the volume's
-// buffer: no second full-size copy (the training image is 230 MB as floats).
 // teem (ITK's NRRD reader) leaves a detached header's data file open when it fails after opening
 // it: a corrupt compressed stream, a skip past the end, bad text (found by fuzz_image: one
 // descriptor per bad file, until a long session had none left). After a failed read this closes
@@ -360,6 +358,8 @@ private:
   int exceptions_;
 };
 
+// A single-file image (not a DICOM series), its header checked, read straight into the volume's
+// buffer: no second full-size copy (the training image is 230 MB as floats).
 template <class Pixel>
 Volume<Pixel> readNonSeries(const fs::path& path) {
   using ImageType = itk::Image<Pixel, 3>;
