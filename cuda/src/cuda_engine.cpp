@@ -32,6 +32,15 @@ VolumeView viewOf(const ImageGeometry& g) {
   return v;
 }
 
+// The profile force's largest reach in samples (the kernel's floor(search_depth / spacing), in float).
+int maxProfileReach(const ParamTable& t) {
+  const int kDepth = t.indexOf("search_depth");
+  const float spacing = t.getf(0, t.indexOf("spacing"));
+  int reach = 0;
+  for (Index r = 0; r < t.rows(); ++r) reach = std::max(reach, static_cast<int>(std::floor(t.getf(r, kDepth) / spacing)));
+  return reach;
+}
+
 // Built-in forces have kernels here; a plugin's force brings its own (DeviceForce).
 enum class Kind { Smoothing, ShapePrior, Gradient, Profile, Attraction, Collision, Contacts, Radial, Plugin };
 }  // namespace
@@ -60,7 +69,8 @@ struct CudaEngine::Impl {
   DeviceArray<float3> implicitVel, implicitRhs, implicitR, implicitZ, implicitP, implicitAp;
   DeviceArray<double> implicitScalars;
   // Image-derived data, only when a force needs it.
-  DeviceArray<float> image, profiles;
+  DeviceArray<float4> imageQuads;  // the profile force's target image (launchVolumeQuads)
+  DeviceArray<float> profiles;
   DeviceArray<float3> gradient;
   DeviceArray<float3> imageForce;  // the image forces alone, while the affine regularisation is on
   DeviceArray<double> affineMoments, affineCoefficients;
@@ -313,8 +323,11 @@ struct CudaEngine::Impl {
     for (const ForceSlot& f : forces) {
       if (f.kind == Kind::Profile) {
         const Image3D& im = sim.scene().targetImage();
-        image.upload(im.voxels(), stream);
         imageView = viewOf(im.geometry());
+        DeviceArray<float> voxels;  // freed once the quads are built (cudaFree waits for the device)
+        voxels.upload(im.voxels(), stream);
+        imageQuads.resize(im.voxels().size());
+        launchVolumeQuads(voxels.get(), imageView, imageQuads.get(), stream);
         const auto ch = s.channel("intensity_profile.reference");
         profiles.upload(ch.data(), ch.size(), stream);
         const ParamTable& t = sim.forceParams(f.name);
@@ -407,8 +420,8 @@ struct CudaEngine::Impl {
                          gradientView, gradient.get(), stream);
           break;
         case Kind::Profile:
-          launchProfile(imageTarget, p, t.indexOf("search_depth"), imageView, image.get(), profiles.get(), profileInside,
-                        profileOutside, profileSpacing, stream);
+          launchProfile(imageTarget, p, t.indexOf("search_depth"), imageView, imageQuads.get(), profiles.get(), profileInside,
+                        profileOutside, profileSpacing, maxProfileReach(t), stream);
           break;
         case Kind::Attraction:
           placedPoints.launch(view, p, t.indexOf("ring"), t.indexOf("margin_mm"), meshBegin.get(), meshEnd.get(), stream);
@@ -671,7 +684,7 @@ std::size_t CudaEngine::deviceBytes() const {
   const Impl& I = *impl_;
   return I.topology.bytes() + I.density.bytes() + I.elevation.bytes() + I.area.bytes() + I.mass.bytes() + I.x.bytes() +
          I.prev.bytes() + I.force.bytes() + I.normal.bytes() + I.centre.bytes() + I.reference.bytes() +
-         I.image.bytes() + I.profiles.bytes() + I.gradient.bytes() + I.contourOut.bytes() + I.implicitA.bytes() +
+         I.imageQuads.bytes() + I.profiles.bytes() + I.gradient.bytes() + I.contourOut.bytes() + I.implicitA.bytes() +
          I.implicitB.bytes() + I.implicitOff.bytes() + I.implicitC.bytes() + I.implicitVel.bytes() + I.implicitRhs.bytes() +
          I.implicitR.bytes() + I.implicitZ.bytes() + I.implicitP.bytes() + I.implicitAp.bytes() + I.collision.bytes() + I.sampledError.bytes() +
          I.contactLinks.bytes() + I.radial.bytes() + I.attachments.bytes();

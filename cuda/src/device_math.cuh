@@ -60,21 +60,32 @@ __device__ __forceinline__ float param(const ParamView& p, int mesh, int k) { re
 __device__ __forceinline__ float lerp(float a, float b, float t) { return a + (b - a) * t; }
 __device__ __forceinline__ float3 lerp(float3 a, float3 b, float t) { return a + t * (b - a); }
 
-template <class T>
-__device__ __forceinline__ T sampleVolume(const VolumeView& v, const T* __restrict__ data, float3 p) {
+// The voxel cell around world point p: corner indices i0, i1 and fractions f per axis.
+struct VolumeCell {
+  int i0[3], i1[3];
+  float f[3];
+};
+__device__ __forceinline__ VolumeCell cellAt(const VolumeView& v, float3 p) {
   const float3 q = p - v.origin;
   const float idx[3] = {sum3(v.m[0] * q.x, v.m[1] * q.y, v.m[2] * q.z), sum3(v.m[3] * q.x, v.m[4] * q.y, v.m[5] * q.z),
                         sum3(v.m[6] * q.x, v.m[7] * q.y, v.m[8] * q.z)};
   const int size[3] = {v.sx, v.sy, v.sz};
-  int i0[3], i1[3];
-  float f[3];
+  VolumeCell c;
 #pragma unroll
   for (int a = 0; a < 3; ++a) {
-    const float c = fminf(fmaxf(idx[a], 0.0f), static_cast<float>(size[a] - 1));
-    i0[a] = min(static_cast<int>(c), max(size[a] - 2, 0));
-    f[a] = c - static_cast<float>(i0[a]);
-    i1[a] = min(i0[a] + 1, size[a] - 1);
+    const float x = fminf(fmaxf(idx[a], 0.0f), static_cast<float>(size[a] - 1));
+    c.i0[a] = min(static_cast<int>(x), max(size[a] - 2, 0));
+    c.f[a] = x - static_cast<float>(c.i0[a]);
+    c.i1[a] = min(c.i0[a] + 1, size[a] - 1);
   }
+  return c;
+}
+
+template <class T>
+__device__ __forceinline__ T sampleVolume(const VolumeView& v, const T* __restrict__ data, float3 p) {
+  const VolumeCell c = cellAt(v, p);
+  const int *i0 = c.i0, *i1 = c.i1;
+  const float* f = c.f;
   auto at = [&](int i, int j, int k) { return data[(static_cast<size_t>(k) * v.sy + j) * v.sx + i]; };
   const T c00 = lerp(at(i0[0], i0[1], i0[2]), at(i1[0], i0[1], i0[2]), f[0]);
   const T c10 = lerp(at(i0[0], i1[1], i0[2]), at(i1[0], i1[1], i0[2]), f[0]);

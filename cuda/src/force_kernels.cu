@@ -100,6 +100,28 @@ __global__ void fusedForces(MeshView m, FusedTerms t) {
   m.force[v] = f;
 }
 
+// The target image as quads for the profile force: quad (i, j, k) holds the voxels (i, j), (i+1, j),
+// (i, j+1) and (i+1, j+1) of slice k, border voxels repeated (as Volume::sample extends them), so a
+// trilinear sample takes two 16-byte loads instead of eight scattered ones, with the same values
+// interpolated in the same order as sampleVolume.
+__global__ void volumeQuads(const float* __restrict__ image, VolumeView v, float4* __restrict__ quads) {
+  const size_t index = static_cast<size_t>(blockIdx.x) * blockDim.x + threadIdx.x;
+  const size_t row = static_cast<size_t>(v.sx), slice = row * v.sy;
+  if (index >= slice * v.sz) return;
+  const int i = static_cast<int>(index % row), j = static_cast<int>((index / row) % v.sy);
+  const size_t dx = i + 1 < v.sx ? 1 : 0, dy = j + 1 < v.sy ? row : 0;
+  quads[index] = make_float4(image[index], image[index + dx], image[index + dy], image[index + dy + dx]);
+}
+
+__device__ __forceinline__ float sampleQuads(const VolumeView& v, const float4* __restrict__ quads, float3 p) {
+  const VolumeCell c = cellAt(v, p);
+  const float4 a = quads[(static_cast<size_t>(c.i0[2]) * v.sy + c.i0[1]) * v.sx + c.i0[0]];
+  const float4 b = quads[(static_cast<size_t>(c.i1[2]) * v.sy + c.i0[1]) * v.sx + c.i0[0]];
+  const float c00 = lerp(a.x, a.y, c.f[0]), c10 = lerp(a.z, a.w, c.f[0]);
+  const float c01 = lerp(b.x, b.y, c.f[0]), c11 = lerp(b.z, b.w, c.f[0]);
+  return lerp(lerp(c00, c10, c.f[1]), lerp(c01, c11, c.f[1]), c.f[2]);
+}
+
 // Intensity profiles, one warp per vertex (paper 000 section 6.2 suggests parallelising the m
 // search positions): the lanes sample the search line into shared memory together, then each lane
 // scores some offsets; a warp reduction keeps the CPU's choice (highest NCC, then smallest |j|, then
@@ -110,7 +132,7 @@ __device__ __forceinline__ bool better(float a, int ja, float b, int jb) {
   return a > b || (a == b && (abs(ja) < abs(jb) || (abs(ja) == abs(jb) && ja < jb)));
 }
 
-__global__ void profileWarp(MeshView m, ParamView p, int kDepth, VolumeView vol, const float* __restrict__ image,
+__global__ void profileWarp(MeshView m, ParamView p, int kDepth, VolumeView vol, const float4* __restrict__ image,
                             const float* __restrict__ profiles, int inside, int length, float spacing) {
   __shared__ float lines[8][kLineCapacity];
   const int warp = threadIdx.x / 32, lane = threadIdx.x % 32;
@@ -125,7 +147,7 @@ __global__ void profileWarp(MeshView m, ParamView p, int kDepth, VolumeView vol,
   const int lineLength = length + 2 * reach;
   auto sampleAt = [&](int q) {
     const float offset = (static_cast<float>(q - inside) + 0.5f) * spacing;
-    return sampleVolume(vol, image, x + (offset - static_cast<float>(reach) * spacing) * n);
+    return sampleQuads(vol, image, x + (offset - static_cast<float>(reach) * spacing) * n);
   };
   float* line = lines[warp];
   const bool cached = lineLength <= kLineCapacity;
@@ -161,6 +183,107 @@ __global__ void profileWarp(MeshView m, ParamView p, int kDepth, VolumeView vol,
   if (lane == 0) m.force[v] = m.force[v] + (alpha * (static_cast<float>(bestJ) * spacing)) * n;
 }
 
+// Intensity profiles for the default layout (kLength samples per profile, reach <= kMaxReach). A warp
+// takes 32 / kLanes vertices, kLanes lanes each. It first samples its vertices' search lines into
+// shared memory, every (vertex, slot) pair in turn on consecutive lanes, so that neighbouring lanes
+// read neighbouring voxels and several samples are in flight per lane. Then each lane scores every
+// kLanes-th window of its vertex from registers, and the vertex's lanes agree on the best by a
+// shuffle reduction (the CPU's choice: highest NCC, then smallest |j|, then the lower j). Slot s of a
+// line lies where the CPU's sample q = s - (kMaxReach - reach) does, so the window and slot indices
+// are compile-time constants whatever the vertex's reach. Same float operations in the same order as
+// the CPU plugin: bit-identical. kLanes trades parallelism (small scenes) for fewer shared-memory
+// reads (large ones).
+template <int kLength, int kMaxReach, int kLanes>
+__global__ void __launch_bounds__(128) profileLanes(MeshView m, ParamView p, int kDepth, VolumeView vol,
+                                                    const float4* __restrict__ image,
+                                                    const float* __restrict__ profiles, int inside, float spacing) {
+  constexpr int kLine = kLength + 2 * kMaxReach, kPerWarp = 32 / kLanes;
+  constexpr int kWindows = 2 * kMaxReach + 1, kTurns = (kWindows + kLanes - 1) / kLanes;
+  constexpr int kLocal = kLanes * (kTurns - 1) + kLength;  // the slots one lane's windows cover
+  __shared__ float lines[4][kLine * kPerWarp];
+  __shared__ float refs[4][kPerWarp * kLength];
+  __shared__ float3 starts[4][kPerWarp], normals[4][kPerWarp];
+  __shared__ int reaches[4][kPerWarp];
+  const int warp = threadIdx.x / 32, lane = threadIdx.x % 32, mine = lane / kLanes, part = lane % kLanes;
+  const int first = (blockIdx.x * 4 + warp) * kPerWarp, v = first + mine;
+  if (first >= m.vertices) return;  // the whole warp leaves together
+  const int count = min(kPerWarp, m.vertices - first);
+  // The warp's reference profiles, read once and coalesced.
+  for (int i = lane; i < count * kLength; i += 32) refs[warp][i] = profiles[static_cast<size_t>(first) * kLength + i];
+  int reach = -1;  // -1: nothing to do for this vertex
+  float3 n = make_float3(0, 0, 0);
+  if (v < m.vertices) {
+    const int mesh = m.meshOf[v];
+    if (param(p, mesh, 0) > 0.0f) {
+      reach = static_cast<int>(floorf(param(p, mesh, kDepth) / spacing));  // <= kMaxReach (the launch checks)
+      n = m.normal[v];
+    }
+  }
+  if (part == 0 && mine < count) {
+    reaches[warp][mine] = reach;
+    normals[warp][mine] = n;
+    if (reach >= 0) starts[warp][mine] = m.x[v];
+  }
+  __syncwarp();
+#pragma unroll 4
+  for (int item = lane; item < count * kLine; item += 32) {
+    const int i = item / kLine, slot = item - i * kLine, r = reaches[warp][i];
+    const int q = slot - (kMaxReach - r);  // the CPU's sample index
+    if (r < 0 || q < 0 || q >= kLength + 2 * r) continue;
+    const float offset = (static_cast<float>(q - inside) + 0.5f) * spacing;
+    lines[warp][slot * kPerWarp + i] =
+        sampleQuads(vol, image, starts[warp][i] + (offset - static_cast<float>(r) * spacing) * normals[warp][i]);
+  }
+  __syncwarp();
+  float best = -2.0f;
+  int bestJ = 0;
+  if (reach >= 0) {
+    float local[kLocal], ref[kLength];
+#pragma unroll
+    for (int u = 0; u < kLocal; ++u) local[u] = part + u < kLine ? lines[warp][(part + u) * kPerWarp + mine] : 0.0f;
+#pragma unroll
+    for (int k = 0; k < kLength; ++k) ref[k] = refs[warp][mine * kLength + k];
+#pragma unroll
+    for (int t = 0; t < kTurns; ++t) {
+      const int j = part + kLanes * t - kMaxReach;
+      if (j < -reach || j > reach) continue;
+      float sum = 0.0f, sum2 = 0.0f, dotp = 0.0f;
+#pragma unroll
+      for (int k = 0; k < kLength; ++k) {
+        const float w = local[kLanes * t + k];
+        sum += w;
+        sum2 += w * w;
+        dotp += w * ref[k];
+      }
+      const float var = sum2 - sum * sum / static_cast<float>(kLength);
+      const float ncc = var > 1e-12f ? dotp / sqrtf(var) : -1.0f;
+      if (better(ncc, j, best, bestJ)) {
+        best = ncc;
+        bestJ = j;
+      }
+    }
+  }
+#pragma unroll
+  for (int offset = kLanes / 2; offset > 0; offset /= 2) {
+    const float otherBest = __shfl_xor_sync(0xffffffffu, best, offset);
+    const int otherJ = __shfl_xor_sync(0xffffffffu, bestJ, offset);
+    if (better(otherBest, otherJ, best, bestJ)) {
+      best = otherBest;
+      bestJ = otherJ;
+    }
+  }
+  if (reach >= 0 && part == 0)
+    m.force[v] = m.force[v] + (param(p, m.meshOf[v], 0) * (static_cast<float>(bestJ) * spacing)) * n;
+}
+
+template <int kLanes>
+void launchProfileLanes(const MeshView& m, ParamView p, int kDepth, VolumeView vol, const float4* image,
+                        const float* profiles, int inside, float spacing, cudaStream_t s) {
+  constexpr int perBlock = 4 * (32 / kLanes);
+  profileLanes<30, 10, kLanes><<<(m.vertices + perBlock - 1) / perBlock, 128, 0, s>>>(m, p, kDepth, vol, image,
+                                                                                    profiles, inside, spacing);
+}
+
 __global__ void verlet(MeshView m, float dt, float keep) {
   const int v = blockIdx.x * blockDim.x + threadIdx.x;
   if (v >= m.vertices) return;
@@ -189,8 +312,21 @@ void launchGradient(const MeshView& m, ParamView p, int kEps, int kDepth, int kS
                     const float3* grad, cudaStream_t s) {
   gradient<<<blocks(m.vertices), kThreads, 0, s>>>(m, p, kEps, kDepth, kStep, vol, grad);
 }
-void launchProfile(const MeshView& m, ParamView p, int kDepth, VolumeView vol, const float* image,
-                   const float* profiles, int inside, int outside, float spacing, cudaStream_t s) {
+void launchVolumeQuads(const float* image, VolumeView v, float4* quads, cudaStream_t s) {
+  const size_t voxels = static_cast<size_t>(v.sx) * v.sy * v.sz;
+  volumeQuads<<<static_cast<unsigned>((voxels + kThreads - 1) / kThreads), kThreads, 0, s>>>(image, v, quads);
+}
+void launchProfile(const MeshView& m, ParamView p, int kDepth, VolumeView vol, const float4* image,
+                   const float* profiles, int inside, int outside, float spacing, int maxReach, cudaStream_t s) {
+  // The default layout (25 + 5 samples) searching up to 10 spacings each way: the register kernels.
+  if (inside + outside == 30 && maxReach <= 10) {
+    // Lanes per vertex by size, measured on an H100 (docs/benchmarks.md): parallelism for small
+    // scenes, fewer shared-memory reads for large ones.
+    if (m.vertices < 8192) launchProfileLanes<8>(m, p, kDepth, vol, image, profiles, inside, spacing, s);
+    else if (m.vertices < 131072) launchProfileLanes<4>(m, p, kDepth, vol, image, profiles, inside, spacing, s);
+    else launchProfileLanes<2>(m, p, kDepth, vol, image, profiles, inside, spacing, s);
+    return;
+  }
   constexpr int warps = 8;  // lines[8][...] in the kernel
   profileWarp<<<(m.vertices + warps - 1) / warps, warps * 32, 0, s>>>(m, p, kDepth, vol, image, profiles, inside,
                                                                      inside + outside, spacing);

@@ -52,8 +52,11 @@ void launchSmoothing(const MeshView& m, ParamView p, int elevationTerm, cudaStre
 void launchShapePrior(const MeshView& m, ParamView p, const float4* reference, cudaStream_t s);
 void launchGradient(const MeshView& m, ParamView p, int kEps, int kDepth, int kStep, VolumeView volume,
                     const float3* gradient, cudaStream_t s);
-void launchProfile(const MeshView& m, ParamView p, int kDepth, VolumeView volume, const float* image,
-                   const float* profiles, int inside, int outside, float spacing, cudaStream_t s);
+// The target image as one float4 per voxel for the profile force (force_kernels.cu says how).
+void launchVolumeQuads(const float* image, VolumeView volume, float4* quads, cudaStream_t s);
+// quads: from launchVolumeQuads; maxReach: the largest floor(search_depth / spacing) over the structures.
+void launchProfile(const MeshView& m, ParamView p, int kDepth, VolumeView volume, const float4* quads,
+                   const float* profiles, int inside, int outside, float spacing, int maxReach, cudaStream_t s);
 // The attraction_points force. points: every placed point; pointMesh: the structure of each;
 // pointKind: kAttractPoint, kIncludePoint or kExcludePoint; keys, windings: one of each per point;
 // constraints: whether any point is an include or exclude point (m.cellCentre is then required).

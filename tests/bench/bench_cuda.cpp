@@ -5,7 +5,8 @@
 // regularisation of the image forces (share 0.6) and, from level 1, the coarser levels' shape
 // forces (weight 0.5); (d) (a) with the radial force (paper 001; its cost against (a) is issue 18's
 // target), (e) the same with 3 medial relaxations per step instead of 1. Plain program (no Google Benchmark) so it runs on a
-// GPU machine with nothing but the CUDA driver.   bench_cuda [max_level=6] [cpu_max_level=3] [min_level=0]
+// GPU machine with nothing but the CUDA driver.
+//   bench_cuda [max_level=6] [cpu_max_level=3] [min_level=0] [integrator=damped_verlet] [cases=abcde]
 #include "sinew/core/scene_runner.h"
 #include "sinew/cuda/cuda_engine.h"
 #include "synthetic.h"
@@ -15,6 +16,7 @@
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
+#include <string>
 
 using namespace sinew;
 using namespace sinew::testing;
@@ -68,6 +70,7 @@ int main(int argc, char** argv) {
   const int cpuMaxLevel = argc > 2 ? std::atoi(argv[2]) : 3;
   const int minLevel = argc > 3 ? std::atoi(argv[3]) : 0;  // e.g. to profile only the large sizes
   if (argc > 4) integrator = argv[4];                       // damped_verlet (default) or implicit_euler
+  const std::string cases = argc > 5 ? argv[5] : "abcde";   // e.g. "ab" for the seed set and (b) only
   const cuda::DeviceStatus st = cuda::probeDevice();
   if (!st.usable) {
     std::printf("no CUDA device: %s\n", st.reason.c_str());
@@ -80,6 +83,7 @@ int main(int argc, char** argv) {
   std::printf("| --- | ---: | ---: | ---: | ---: | ---: | ---: |\n");
   const auto specs = seedStructures(maxLevel + 1).structures;
   for (Case c : {Case::Seed, Case::ShapeOnly, Case::Subject, Case::Radial, Case::Radial3}) {
+    if (cases.find(static_cast<char>('a' + static_cast<int>(c))) == std::string::npos) continue;
     for (int level = minLevel; level <= maxLevel; ++level) {
       auto sim = seedScene(specs, c, level);
       const Index n = sim->store().vertexCount();

@@ -24,8 +24,10 @@ using namespace sinew::testing;
 
 namespace {
 
+// configure: parameter changes before the scene starts (forces trained, layouts fixed).
 std::unique_ptr<Simulation> scene(const std::vector<std::string>& forces, int levels,
-                                  const std::string& integrator = "damped_verlet", double timeStep = 0.5) {
+                                  const std::string& integrator = "damped_verlet", double timeStep = 0.5,
+                                  const std::function<void(Simulation&)>& configure = {}) {
   static const auto image = std::make_shared<Image3D>(ellipsoidImage({}));
   EllipsoidImageSpec spec;
   auto sim = std::make_unique<Simulation>(forceRegistry(), 0);
@@ -44,6 +46,7 @@ std::unique_ptr<Simulation> scene(const std::vector<std::string>& forces, int le
   sim->scene().attractionPoints()[1].push_back(spec.centre + Vec3(-4, 2, 10));
   // An include point 1.5 mm outside the first structure and an exclude point 1 mm inside it.
   sim->scene().constraintPoints()[0] = {{spec.centre + Vec3(3, 0, 16.5f), true}, {spec.centre + Vec3(3, 0, -14), false}};
+  if (configure) configure(*sim);
   sim->initialize();
   return sim;
 }
@@ -256,6 +259,42 @@ private slots:
     const double diff = maxDifference(cpu->store(), gpu->store());
     qInfo("two levels: max CPU-CUDA difference %.3g mm over %d vertices", diff, cpu->store().vertexCount());
     QCOMPARE(diff, 0.0);
+  }
+
+  // The profile force's device kernels (force_kernels.cu): the default layout (25 + 5 samples,
+  // reach <= 10 samples) at the sizes that pick 8, 4 and 2 lanes per vertex, each structure with its
+  // own search depth, and another layout (the one-warp kernel). Bit-identical, like the CPU.
+  void profileKernelsMatchTheCpu_data() {
+    QTest::addColumn<int>("level");
+    QTest::addColumn<int>("inside");
+    QTest::addColumn<double>("depth");
+    QTest::newRow("8 lanes, 6,400 vertices") << 1 << 25 << 5.0;
+    QTest::newRow("4 lanes, 25,600 vertices") << 2 << 25 << 2.0;
+    QTest::newRow("2 lanes, 409,600 vertices") << 4 << 25 << 1.0;
+    QTest::newRow("one warp, 20 + 5 samples") << 0 << 20 << 5.0;
+    QTest::newRow("one warp, reach 12") << 0 << 25 << 6.0;
+  }
+  void profileKernelsMatchTheCpu() {
+    QFETCH(int, level);
+    QFETCH(int, inside);
+    QFETCH(double, depth);
+    const auto make = [&] {
+      auto sim = scene({"smoothing", "intensity_profile"}, level + 1, "damped_verlet", 0.5, [&](Simulation& s) {
+        ParamTable& t = s.forceParams("intensity_profile");
+        t.setAll("inside_samples", inside);
+        t.set(0, "search_depth", depth);
+        t.set(1, "search_depth", depth / 2);
+      });
+      for (int l = 0; l < level; ++l) sim->advanceLevel();
+      return sim;
+    };
+    const int steps = level >= 3 ? 10 : 40;
+    const ParityRun r = runOnBoth(make, steps);
+    qInfo("profile kernels: max CPU-CUDA difference %.3g mm after %d steps (vertices moved up to %.3g mm)", r.cpuCuda, steps,
+          r.moved);
+    QVERIFY(r.moved > 0.1);
+    QCOMPARE(r.cpuCuda, 0.0);
+    QCOMPARE(r.deviceRepeat, 0.0);
   }
 
   // The radial force (docs/medial.md): the medial surfaces are built on the host as the CPU force
