@@ -358,6 +358,18 @@ private:
   int exceptions_;
 };
 
+// The ITK reader / writer for a file name's extension (lower case, ioExtension), or null. ITK's
+// object factory list is not guarded for concurrent first use, and images are read and written on
+// several threads at once (scene_runner.cpp, sinew-run's outputs).
+itk::ImageIOBase::Pointer imageIOFor(const std::string& extension) {
+  static std::mutex factoryMutex;
+  const std::lock_guard lock(factoryMutex);
+  if (extension == ".nii" || extension == ".nii.gz") return itk::NiftiImageIO::New().GetPointer();
+  if (extension == ".nrrd" || extension == ".nhdr") return itk::NrrdImageIO::New().GetPointer();
+  if (extension == ".mha" || extension == ".mhd") return itk::MetaImageIO::New().GetPointer();
+  return nullptr;
+}
+
 // A single-file image (not a DICOM series), its header checked, read straight into the volume's
 // buffer: no second full-size copy (the training image is 230 MB as floats).
 template <class Pixel>
@@ -370,19 +382,10 @@ Volume<Pixel> readNonSeries(const fs::path& path) {
   std::optional<DetachedNrrdGuard> detachedGuard;  // also a .nrrd whose header names a data file
   if (extension == ".nrrd" || extension == ".nhdr")
     if (const fs::path data = dataFileOf(path, extension).path; !data.empty() && data != path) detachedGuard.emplace(data);
-  itk::ImageIOBase::Pointer io;
-  {
-    // Images are read on several threads at once (scene_runner.cpp); ITK's object factory list is
-    // not guarded for concurrent first use.
-    static std::mutex factoryMutex;
-    const std::lock_guard lock(factoryMutex);
-    // The reader the name says, not ITK's factory: the factory asks every reader it knows whether it
-    // can read the file, and GDCM's asserts (aborting the process) on a file that holds "DICM" where
-    // a DICOM preamble would end (found by fuzz_image).
-    if (extension == ".nii" || extension == ".nii.gz") io = itk::NiftiImageIO::New();
-    else if (extension == ".nrrd" || extension == ".nhdr") io = itk::NrrdImageIO::New();
-    else if (extension == ".mha" || extension == ".mhd") io = itk::MetaImageIO::New();
-  }
+  // The reader the name says, not ITK's factory: the factory asks every reader it knows whether it
+  // can read the file, and GDCM's asserts (aborting the process) on a file that holds "DICM" where
+  // a DICOM preamble would end (found by fuzz_image).
+  const itk::ImageIOBase::Pointer io = imageIOFor(extension);
   if (!io || !io->CanReadFile(path.c_str()))
     fail(path, "is not a " + (extension.empty() ? std::string("readable") : extension) +
                    " image of a format Sinew reads (NIfTI, NRRD, MetaImage; DICOM as a folder), or it is corrupt");
@@ -470,8 +473,13 @@ Volume<Pixel> readItk(const fs::path& path) {
 template <class ItkImage>
 void writeItk(const fs::path& path, ItkImage* image) {
   AtomicOutput out(path);
+  // The writer the name says, not ITK's factory: sinew-run writes its outputs on several threads at
+  // once, and a factory lookup there once found no NIfTI writer (H100 host, 2026-11-24).
+  const itk::ImageIOBase::Pointer io = imageIOFor(ioExtension(path));
+  if (!io) fail(path, "cannot be written: give it a .nii, .nii.gz, .nrrd, .nhdr, .mha or .mhd name");
   try {
     auto writer = itk::ImageFileWriter<ItkImage>::New();
+    writer->SetImageIO(io);
     writer->SetFileName(out.tempPath().string());
     writer->SetInput(image);
     writer->UseCompressionOn();
