@@ -80,7 +80,7 @@ __global__ void respondGroup(MeshView m, ParamView p, BvhView v, float margin, f
       const Hit h = closestPoint(v, other, point, x, centres, maxD2, lastHint);
       if (h.d2 < maxD2) {
         found = true;
-        touch = h.side < margin;
+        touch = !(h.side >= margin);  // respondTo's test (a NaN side counts as a contact there too)
         d2 = h.d2;
         leaf = h.leaf;
         pull = respondTo(h, point, previous, weight, margin, damping, deep, add);

@@ -533,6 +533,7 @@ void CudaEngine::run(int iterations) {
     signature.push_back(t.anyPositive(0) ? 1.0f : 0.0f);
     for (size_t p = 0; p < t.decls().size(); ++p)
       if (!t.decls()[p].perStructure) signature.push_back(t.getf(0, static_cast<int>(p)));
+    if (f.kind == Kind::Profile) signature.push_back(static_cast<float>(maxProfileReach(t)));  // picks the kernel
   }
   for (size_t p = 0; p < I.sim.integratorParams().decls().size(); ++p)
     signature.push_back(I.sim.integratorParams().getf(0, static_cast<int>(p)));

@@ -297,6 +297,34 @@ private slots:
     QCOMPARE(r.deviceRepeat, 0.0);
   }
 
+  // Parameters changed between runs of one engine: a structure's search depth raised past the
+  // register kernels' reach (the captured graph must switch kernels) and the other structure's
+  // profile weight set to 0.
+  void profileChangesBetweenRunsMatchTheCpu() {
+    const auto make = [] {
+      auto sim = scene({"smoothing", "intensity_profile"}, 2);
+      sim->advanceLevel();
+      return sim;
+    };
+    auto cpu = make(), gpu = make(), init = make();
+    cpu->setStabilityGuard(noGuard());
+    cuda::CudaEngine engine(*gpu);
+    cpu->run(20);
+    engine.run(20);
+    for (Simulation* s : {cpu.get(), gpu.get()}) {
+      s->forceParams("intensity_profile").set(0, "search_depth", 6.0);
+      s->forceParams("intensity_profile").set(1, "weight", 0.0);
+    }
+    cpu->run(20);
+    engine.run(20);
+    engine.download();
+    const double diff = maxDifference(cpu->store(), gpu->store()), moved = maxDifference(cpu->store(), init->store());
+    qInfo("profile parameters changed between runs: max CPU-CUDA difference %.3g mm (vertices moved up to %.3g mm)", diff,
+          moved);
+    QVERIFY(moved > 0.1);
+    QCOMPARE(diff, 0.0);
+  }
+
   // The radial force (docs/medial.md): the medial surfaces are built on the host as the CPU force
   // builds them, the medial vertices relaxed on the device, where a warp sums the reactions in
   // another order than the CPU: a tolerance, 1e-3 mm. The second structure's weight is 0 for the
