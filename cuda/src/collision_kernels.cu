@@ -36,11 +36,12 @@ __global__ void refit(BvhView v, const int* leaves, int leafCount, int* visits, 
 }
 
 // The contact response (collision::contactResponse) with kGroup lanes per vertex: in each round
-// the group's lanes search the next kGroup structures, then the group's first lane takes their
-// contacts in structure order exactly as contactResponse does, so the result is the CPU's to the
-// bit. With one thread per vertex, small scenes spent the step on a few vertices searching several
-// neighbours one after another (ncu at 20,352 vertices: 6 of 32 threads active per warp); large
-// ones fill the device anyway, and there the group's shared work only costs (docs/benchmarks.md).
+// the group's lanes search the next kGroup structures (contactWith), then the group's first lane
+// adds their contacts in structure order (addContact), as contactResponse does: the CPU's result to
+// the bit. With one thread per vertex, small scenes spent the step on a few vertices searching
+// several neighbours one after another (ncu at 20,352 vertices: 6 of 32 threads active per warp);
+// large ones fill the device anyway, and there the group's shared work only costs
+// (docs/benchmarks.md).
 template <int kGroup>
 __global__ void respondGroup(MeshView m, ParamView p, BvhView v, float margin, float damping, float reach,
                              const int* counter, int every, float* depth, int* hint, float* stiffness) {
@@ -48,74 +49,51 @@ __global__ void respondGroup(MeshView m, ParamView p, BvhView v, float margin, f
   const int i = t / kGroup, g = t % kGroup;
   const bool valid = i < m.vertices;  // every lane stays for the shuffles
   const int own = valid ? m.meshOf[i] : 0;
-  const float alpha = valid ? param(p, own, 0) : 0.0f;
-  const bool full = *counter % every == 0;
-  const bool active = valid && alpha > 0.0f;
+  const bool active = valid && param(p, own, 0) > 0.0f;
   const P3* x = reinterpret_cast<const P3*>(m.x);
   const P3* centres = reinterpret_cast<const P3*>(m.cellCentre);
   const P3 point = active ? x[i] : P3{0, 0, 0};
   const P3 previous = active ? reinterpret_cast<const P3*>(m.prev)[i] : P3{0, 0, 0};
-  const float lastDepth = active ? depth[i] : 0.0f;
-  const int lastHint = active ? hint[i] : -1;
-  const float weight = alpha * (active ? m.mass[i] : 0.0f);
+  const float alpha = active ? param(p, own, 0) * m.mass[i] : 0.0f;
+  float lastDepth = active ? depth[i] : 0.0f;
+  int lastHint = active ? hint[i] : -1;
   // Every lane runs every round (the shuffles need the whole warp); only a full search searches.
-  const bool search = active && (full || lastDepth >= kUnknownDepth);
-  const P3 moved = sub(point, previous);
-  const float radius = lastDepth + margin + reach + 2.0f * float(every) * sqrtf(dot3(moved, moved));
-  const float maxD2 = lastDepth >= kUnknownDepth ? 3.0e38f : radius * radius;
-  float deepest = 0.0f, k = 0.0f, nearest = 3.0e38f;
-  int nearestLeaf = -1;
-  P3 force{0, 0, 0};
+  const bool search = active && (*counter % every == 0 || lastDepth >= kUnknownDepth);
+  const float maxD2 = fullSearchBound(lastDepth, margin, reach, every, point, previous);
+  ContactSum sum;
   const unsigned mask = 0xffffffffu;
   const int leader = (threadIdx.x % 32) - g;
   for (int base = 0; base < v.meshes; base += kGroup) {
-    const int other = base + g;
-    // This lane's structure: whether it is in reach, and its contact's pull (respondTo from zero).
-    bool found = false, touch = false;
-    float d2 = 0.0f, deep = 0.0f, pull = 0.0f;
-    int leaf = -1;
-    P3 add{0, 0, 0};
-    if (search && other < v.meshes && other != own && !(v.exempt && v.exempt[own * v.meshes + other]) &&
-        !(squaredDistance(v.boxes[v.roots[other]], point) > margin * margin)) {
-      const Hit h = closestPoint(v, other, point, x, centres, maxD2, lastHint);
-      if (h.d2 < maxD2) {
-        found = true;
-        touch = !(h.side >= margin);  // respondTo's test (a NaN side counts as a contact there too)
-        d2 = h.d2;
-        leaf = h.leaf;
-        pull = respondTo(h, point, previous, weight, margin, damping, deep, add);
-      }
-    }
+    Hit h{};
+    const bool found = search && base + g < v.meshes &&
+                       contactWith(v, own, base + g, point, margin, maxD2, lastHint, x, centres, h);
     for (int q = 0; q < kGroup; ++q) {
       const int src = leader + q;
-      const bool f = __shfl_sync(mask, found, src), qtouch = __shfl_sync(mask, touch, src);
-      const float qd2 = __shfl_sync(mask, d2, src), qdeep = __shfl_sync(mask, deep, src);
-      const float qpull = __shfl_sync(mask, pull, src);
-      const int qleaf = __shfl_sync(mask, leaf, src);
-      const P3 qadd{__shfl_sync(mask, add.x, src), __shfl_sync(mask, add.y, src), __shfl_sync(mask, add.z, src)};
-      if (g != 0 || !f) continue;
-      if (qd2 < nearest) nearest = qd2, nearestLeaf = qleaf;
-      if (qtouch) {  // respondTo's contact: its pull added in structure order
-        deepest = fmax3(deepest, qdeep);
-        force = collision::add(force, qadd);
-      }
-      k += qpull;
+      Hit c;
+      c.d2 = __shfl_sync(mask, h.d2, src);
+      c.point = {__shfl_sync(mask, h.point.x, src), __shfl_sync(mask, h.point.y, src), __shfl_sync(mask, h.point.z, src)};
+      c.normal = {__shfl_sync(mask, h.normal.x, src), __shfl_sync(mask, h.normal.y, src),
+                  __shfl_sync(mask, h.normal.z, src)};
+      c.side = __shfl_sync(mask, h.side, src);
+      c.leaf = __shfl_sync(mask, h.leaf, src);
+      if (__shfl_sync(mask, found, src) && g == 0) addContact(c, point, previous, alpha, margin, damping, sum);
     }
   }
-  if (!valid || g != 0) return;
-  if (active && !search) {  // between full searches: the patch test, as contactResponse
-    float d = lastDepth;
-    int h = lastHint;
-    k = contactResponse(v, own, point, previous, weight, margin, damping, reach, false, every, d, h, x, centres, force);
-    deepest = d;
-    nearestLeaf = h;
+  if (!active || g != 0) {
+    if (valid && g == 0 && stiffness) stiffness[i] = 0.0f;
+    return;
   }
-  if (active) {
-    depth[i] = deepest;
-    hint[i] = nearestLeaf;
-    m.force[i] = m.force[i] + make_float3(force.x, force.y, force.z);
+  if (search) {
+    lastDepth = sum.deepest;
+    lastHint = sum.nearestLeaf;
+  } else {  // between full searches: the patch test
+    sum.stiffness = contactResponse(v, own, point, previous, alpha, margin, damping, reach, false, every, lastDepth,
+                                    lastHint, x, centres, sum.force);
   }
-  if (stiffness) stiffness[i] = k;
+  depth[i] = lastDepth;
+  hint[i] = lastHint;
+  m.force[i] = m.force[i] + make_float3(sum.force.x, sum.force.y, sum.force.z);
+  if (stiffness) stiffness[i] = sum.stiffness;
 }
 
 __global__ void contactSprings(MeshView m, ParamView p, const int* partner, const float3* offset, float* stiffness) {

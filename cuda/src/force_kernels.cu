@@ -131,8 +131,16 @@ constexpr int kLineCapacity = 128;
 __device__ __forceinline__ bool better(float a, int ja, float b, int jb) {
   return a > b || (a == b && (abs(ja) < abs(jb) || (abs(ja) == abs(jb) && ja < jb)));
 }
+// The CPU plugin's reach (samples searched each way) and window score, in its operation order.
+__device__ __forceinline__ int profileReach(const ParamView& p, int mesh, int kDepth, float spacing) {
+  return static_cast<int>(floorf(param(p, mesh, kDepth) / spacing));
+}
+__device__ __forceinline__ float windowNcc(float sum, float sum2, float dotp, int length) {
+  const float var = sum2 - sum * sum / static_cast<float>(length);
+  return var > 1e-12f ? dotp / sqrtf(var) : -1.0f;
+}
 
-__global__ void profileWarp(MeshView m, ParamView p, int kDepth, VolumeView vol, const float4* __restrict__ image,
+__global__ void profileWarp(MeshView m, ParamView p, int kDepth, VolumeView vol, const float4* __restrict__ quads,
                             const float* __restrict__ profiles, int inside, int length, float spacing) {
   __shared__ float lines[8][kLineCapacity];
   const int warp = threadIdx.x / 32, lane = threadIdx.x % 32;
@@ -142,12 +150,12 @@ __global__ void profileWarp(MeshView m, ParamView p, int kDepth, VolumeView vol,
   const float alpha = param(p, mesh, 0);
   if (!(alpha > 0.0f)) return;
   const float* ref = profiles + static_cast<size_t>(v) * length;
-  const int reach = static_cast<int>(floorf(param(p, mesh, kDepth) / spacing));
+  const int reach = profileReach(p, mesh, kDepth, spacing);
   const float3 n = m.normal[v], x = m.x[v];
   const int lineLength = length + 2 * reach;
   auto sampleAt = [&](int q) {
     const float offset = (static_cast<float>(q - inside) + 0.5f) * spacing;
-    return sampleQuads(vol, image, x + (offset - static_cast<float>(reach) * spacing) * n);
+    return sampleQuads(vol, quads, x + (offset - static_cast<float>(reach) * spacing) * n);
   };
   float* line = lines[warp];
   const bool cached = lineLength <= kLineCapacity;
@@ -164,8 +172,7 @@ __global__ void profileWarp(MeshView m, ParamView p, int kDepth, VolumeView vol,
       sum2 += w * w;
       dotp += w * ref[k];
     }
-    const float var = sum2 - sum * sum / static_cast<float>(length);
-    const float ncc = var > 1e-12f ? dotp / sqrtf(var) : -1.0f;
+    const float ncc = windowNcc(sum, sum2, dotp, length);
     const int j = jj - reach;
     if (better(ncc, j, best, bestJ)) {
       best = ncc;
@@ -195,7 +202,7 @@ __global__ void profileWarp(MeshView m, ParamView p, int kDepth, VolumeView vol,
 // reads (large ones).
 template <int kLength, int kMaxReach, int kLanes>
 __global__ void __launch_bounds__(128) profileLanes(MeshView m, ParamView p, int kDepth, VolumeView vol,
-                                                    const float4* __restrict__ image,
+                                                    const float4* __restrict__ quads,
                                                     const float* __restrict__ profiles, int inside, float spacing) {
   constexpr int kLine = kLength + 2 * kMaxReach, kPerWarp = 32 / kLanes;
   constexpr int kWindows = 2 * kMaxReach + 1, kTurns = (kWindows + kLanes - 1) / kLanes;
@@ -215,7 +222,7 @@ __global__ void __launch_bounds__(128) profileLanes(MeshView m, ParamView p, int
   if (v < m.vertices) {
     const int mesh = m.meshOf[v];
     if (param(p, mesh, 0) > 0.0f) {
-      reach = static_cast<int>(floorf(param(p, mesh, kDepth) / spacing));  // <= kMaxReach (the launch checks)
+      reach = profileReach(p, mesh, kDepth, spacing);  // <= kMaxReach (the launch checks)
       n = m.normal[v];
     }
   }
@@ -232,7 +239,7 @@ __global__ void __launch_bounds__(128) profileLanes(MeshView m, ParamView p, int
     if (r < 0 || q < 0 || q >= kLength + 2 * r) continue;
     const float offset = (static_cast<float>(q - inside) + 0.5f) * spacing;
     lines[warp][slot * kPerWarp + i] =
-        sampleQuads(vol, image, starts[warp][i] + (offset - static_cast<float>(r) * spacing) * normals[warp][i]);
+        sampleQuads(vol, quads, starts[warp][i] + (offset - static_cast<float>(r) * spacing) * normals[warp][i]);
   }
   __syncwarp();
   float best = -2.0f;
@@ -255,8 +262,7 @@ __global__ void __launch_bounds__(128) profileLanes(MeshView m, ParamView p, int
         sum2 += w * w;
         dotp += w * ref[k];
       }
-      const float var = sum2 - sum * sum / static_cast<float>(kLength);
-      const float ncc = var > 1e-12f ? dotp / sqrtf(var) : -1.0f;
+      const float ncc = windowNcc(sum, sum2, dotp, kLength);
       if (better(ncc, j, best, bestJ)) {
         best = ncc;
         bestJ = j;
@@ -276,11 +282,14 @@ __global__ void __launch_bounds__(128) profileLanes(MeshView m, ParamView p, int
     m.force[v] = m.force[v] + (param(p, m.meshOf[v], 0) * (static_cast<float>(bestJ) * spacing)) * n;
 }
 
+// The layout the register kernels are built for: the default 25 + 5 samples, up to 10 each way.
+constexpr int kRegisterLength = 30, kRegisterReach = 10;
+
 template <int kLanes>
-void launchProfileLanes(const MeshView& m, ParamView p, int kDepth, VolumeView vol, const float4* image,
+void launchProfileLanes(const MeshView& m, ParamView p, int kDepth, VolumeView vol, const float4* quads,
                         const float* profiles, int inside, float spacing, cudaStream_t s) {
   constexpr int perBlock = 4 * (32 / kLanes);
-  profileLanes<30, 10, kLanes><<<(m.vertices + perBlock - 1) / perBlock, 128, 0, s>>>(m, p, kDepth, vol, image,
+  profileLanes<kRegisterLength, kRegisterReach, kLanes><<<(m.vertices + perBlock - 1) / perBlock, 128, 0, s>>>(m, p, kDepth, vol, quads,
                                                                                     profiles, inside, spacing);
 }
 
@@ -316,19 +325,18 @@ void launchVolumeQuads(const float* image, VolumeView v, float4* quads, cudaStre
   const size_t voxels = static_cast<size_t>(v.sx) * v.sy * v.sz;
   volumeQuads<<<static_cast<unsigned>((voxels + kThreads - 1) / kThreads), kThreads, 0, s>>>(image, v, quads);
 }
-void launchProfile(const MeshView& m, ParamView p, int kDepth, VolumeView vol, const float4* image,
+void launchProfile(const MeshView& m, ParamView p, int kDepth, VolumeView vol, const float4* quads,
                    const float* profiles, int inside, int outside, float spacing, int maxReach, cudaStream_t s) {
-  // The default layout (25 + 5 samples) searching up to 10 spacings each way: the register kernels.
-  if (inside + outside == 30 && maxReach <= 10) {
+  if (inside + outside == kRegisterLength && maxReach <= kRegisterReach) {
     // Lanes per vertex by size, measured on an H100 (docs/benchmarks.md): parallelism for small
     // scenes, fewer shared-memory reads for large ones.
-    if (m.vertices < 8192) launchProfileLanes<8>(m, p, kDepth, vol, image, profiles, inside, spacing, s);
-    else if (m.vertices < 131072) launchProfileLanes<4>(m, p, kDepth, vol, image, profiles, inside, spacing, s);
-    else launchProfileLanes<2>(m, p, kDepth, vol, image, profiles, inside, spacing, s);
+    if (m.vertices < 8192) launchProfileLanes<8>(m, p, kDepth, vol, quads, profiles, inside, spacing, s);
+    else if (m.vertices < 131072) launchProfileLanes<4>(m, p, kDepth, vol, quads, profiles, inside, spacing, s);
+    else launchProfileLanes<2>(m, p, kDepth, vol, quads, profiles, inside, spacing, s);
     return;
   }
   constexpr int warps = 8;  // lines[8][...] in the kernel
-  profileWarp<<<(m.vertices + warps - 1) / warps, warps * 32, 0, s>>>(m, p, kDepth, vol, image, profiles, inside,
+  profileWarp<<<(m.vertices + warps - 1) / warps, warps * 32, 0, s>>>(m, p, kDepth, vol, quads, profiles, inside,
                                                                      inside + outside, spacing);
 }
 void launchFusedForces(const MeshView& m, const FusedTerms& t, cudaStream_t s) {

@@ -197,6 +197,37 @@ SINEW_HD float respondTo(const Hit& h, P3 p, P3 previous, float alpha, float mar
   return alpha;
 }
 
+// The full search's squared radius. Twice the vertex's own last step, per step until the next full
+// search, stands for how far it and the other surface may close in: pushes of tenths of a
+// millimetre a step would outrun a fixed reach. Unbounded while the depth is unknown.
+SINEW_HD float fullSearchBound(float depth, float margin, float reach, int every, P3 p, P3 previous) {
+  if (depth >= kUnknownDepth) return 3.0e38f;
+  const P3 moved = sub(p, previous);
+  const float radius = depth + margin + reach + 2.0f * float(every) * sqrtf(dot3(moved, moved));
+  return radius * radius;
+}
+
+// One other structure in the full search: whether its box (grown by the margin) holds p and its
+// surface lies within sqrt(maxD2); h is then the closest point.
+SINEW_HD bool contactWith(const BvhView& v, int own, int other, P3 p, float margin, float maxD2, int hint, const P3* x,
+                          const P3* centres, Hit& h) {
+  if (other == own || (v.exempt && v.exempt[own * v.meshes + other])) return false;
+  if (squaredDistance(v.boxes[v.roots[other]], p) > margin * margin) return false;  // outside the box grown by the margin
+  h = closestPoint(v, other, p, x, centres, maxD2, hint);
+  return h.d2 < maxD2;
+}
+
+// What the full search gathers over the structures, in structure order.
+struct ContactSum {
+  float deepest = 0.0f, stiffness = 0.0f, nearest = 3.0e38f;
+  int nearestLeaf = -1;
+  P3 force{0, 0, 0};
+};
+SINEW_HD void addContact(const Hit& h, P3 p, P3 previous, float alpha, float margin, float damping, ContactSum& sum) {
+  if (h.d2 < sum.nearest) sum.nearest = h.d2, sum.nearestLeaf = h.leaf;
+  sum.stiffness += respondTo(h, p, previous, alpha, margin, damping, sum.deepest, sum.force);
+}
+
 // The response at one vertex of structure `own`. For every other structure whose box (grown by the
 // margin) holds the vertex: if the vertex is inside that structure or closer than the margin to it
 // (by the side of the closest triangle), a pull to the point `margin` outside its surface, plus
@@ -217,7 +248,6 @@ SINEW_HD float respondTo(const Hit& h, P3 p, P3 previous, float alpha, float mar
 SINEW_HD float contactResponse(const BvhView& v, int own, P3 p, P3 previous, float alpha, float margin, float damping,
                                float reach, bool full, int every, float& depth, int& hint, const P3* x,
                                const P3* centres, P3& force) {
-  const P3 moved = sub(p, previous);
   float deepest = 0.0f, stiffness = 0.0f;
   if (!full && depth < kUnknownDepth) {
     if (hint >= 0) {
@@ -231,24 +261,18 @@ SINEW_HD float contactResponse(const BvhView& v, int own, P3 p, P3 previous, flo
     depth = deepest;
     return stiffness;
   }
-  // Twice the vertex's own last step, per step until the next full search, stands for how far it
-  // and the other surface may close in: pushes of tenths of a millimetre a step would outrun a
-  // fixed reach.
-  const float radius = depth + margin + reach + 2.0f * float(every) * sqrtf(dot3(moved, moved));
-  const float maxD2 = depth >= kUnknownDepth ? 3.0e38f : radius * radius;
-  float nearest = 3.0e38f;
-  int nearestLeaf = -1;
+  ContactSum sum;
+  sum.force = force;
+  const float maxD2 = fullSearchBound(depth, margin, reach, every, p, previous);
   for (int other = 0; other < v.meshes; ++other) {
-    if (other == own || (v.exempt && v.exempt[own * v.meshes + other])) continue;
-    if (squaredDistance(v.boxes[v.roots[other]], p) > margin * margin) continue;  // outside the box grown by the margin
-    const Hit h = closestPoint(v, other, p, x, centres, maxD2, hint);
-    if (!(h.d2 < maxD2)) continue;
-    if (h.d2 < nearest) nearest = h.d2, nearestLeaf = h.leaf;
-    stiffness += respondTo(h, p, previous, alpha, margin, damping, deepest, force);
+    Hit h{};
+    if (contactWith(v, own, other, p, margin, maxD2, hint, x, centres, h))
+      addContact(h, p, previous, alpha, margin, damping, sum);
   }
-  depth = deepest;
-  hint = nearestLeaf;
-  return stiffness;
+  depth = sum.deepest;
+  hint = sum.nearestLeaf;
+  force = sum.force;
+  return sum.stiffness;
 }
 
 }  // namespace sinew::collision
