@@ -7,7 +7,7 @@
 
 namespace sinew {
 
-SampledError::SampledError(const std::vector<const ReferenceSurface*>& truths, float spacing) {
+SampledError::SampledError(const std::vector<const ReferenceSurface*>& truths, float spacing) : spacing_(spacing) {
   sampleOffsets_.push_back(0);
   for (const ReferenceSurface* t : truths) {
     truthRoots_.push_back(t ? truth_.append(t->query().bvh()) : -1);
@@ -16,6 +16,7 @@ SampledError::SampledError(const std::vector<const ReferenceSurface*>& truths, f
       samples_.insert(samples_.end(), s.begin(), s.end());
     }
     sampleOffsets_.push_back(Index(samples_.size()));
+    sampleStructure_.resize(samples_.size(), int(truthRoots_.size()) - 1);
   }
 }
 
@@ -25,6 +26,7 @@ bool SampledError::prepare(MeshStore& store) {
   if (builtFor_ == nv) return false;
   meshes_ = {};
   meshRoots_.clear();
+  triangleStructure_.clear();
   meshTriangleOffsets_.assign(1, 0);
   const auto x = store.positions();
   for (Index m = 0; m < store.meshCount(); ++m) {
@@ -35,8 +37,18 @@ bool SampledError::prepare(MeshStore& store) {
       for (Index& k : tri) k = k < r.vertexCount() ? r.vertexBegin + k : nv + r.cellBegin + (k - r.vertexCount());
     meshRoots_.push_back(meshes_.append(bvh));
     meshTriangleOffsets_.push_back(Index(meshes_.triangles.size()));
+    triangleStructure_.resize(meshes_.triangles.size(), int(m));
   }
   builtFor_ = nv;
+  double longest = 0.0;  // the tessellation's mean longest edge, at the level's first positions
+  for (const collision::P3* c = meshes_.corners.data(); c != meshes_.corners.data() + meshes_.corners.size(); c += 3) {
+    const collision::P3 e[3] = {collision::sub(c[1], c[0]), collision::sub(c[2], c[1]), collision::sub(c[0], c[2])};
+    longest += std::sqrt(std::max({collision::dot3(e[0], e[0]), collision::dot3(e[1], e[1]), collision::dot3(e[2], e[2])}));
+  }
+  // One sample per triangle up to 1.25 times the truth's spacing: on the Colin27 test scene
+  // (tst_sampled_error) the worst difference to the exact evaluation went from 0.0044 to 0.0059 mm
+  // (ASSD) with it, and to 0.0124 mm with one sample at every level.
+  perTriangle_ = longest <= 1.25 * spacing_ * double(meshes_.triangles.size()) ? 1 : kSubTriangles;
   return true;
 }
 
@@ -57,29 +69,33 @@ std::vector<std::optional<SurfaceDistanceStats>> SampledError::measure(MeshStore
   meshes_.refit(points_, ex);
   const trianglebvh::View mesh = meshes_.view();
   const trianglebvh::View truth = truth_.view();
-  toTruth_.assign(kSubTriangles * meshes_.triangles.size(), {0.0f, 0.0f});
+  const int per = perTriangle_;
+  toTruth_.assign(per * meshes_.triangles.size(), {0.0f, 0.0f});
   fromTruth_.resize(samples_.size());
-  for (Index m = 0; m < store.meshCount(); ++m) {
-    if (truthRoots_[m] < 0) continue;
-    const Index firstTriangle = meshTriangleOffsets_[m];
-    ex.forEach(meshTriangleOffsets_[m + 1] - firstTriangle, [&](Index i) {
-      const Index t = firstTriangle + i;
-      const collision::P3* c = mesh.corners + 3 * t;
-      const collision::P3 n = collision::cross3(collision::sub(c[1], c[0]), collision::sub(c[2], c[0]));
-      const float area = 0.5f * std::sqrt(collision::dot3(n, n)) / float(kSubTriangles);
-      for (int q = 0; q < kSubTriangles; ++q) {
-        const collision::P3 p = subTriangleCentroid(c[0], c[1], c[2], q);
-        toTruth_[kSubTriangles * t + q] = {std::sqrt(trianglebvh::closestSquaredDistance(truth, truthRoots_[m], p, 3.0e38f)),
-                                           area};
-      }
-    });
-    const Index first = sampleOffsets_[m];
-    ex.forEach(sampleOffsets_[m + 1] - first, [&](Index i) {
-      const SurfaceSample& s = samples_[first + i];
-      fromTruth_[first + i] = {std::sqrt(trianglebvh::closestSquaredDistance(mesh, meshRoots_[m], asP3(s.point), 3.0e38f)),
-                               s.area};
-    });
-  }
+  // One parallel pass over every structure's queries in both directions: a pass per structure and
+  // direction left most threads idle at each one's end on a many-core host.
+  const Index triangles = Index(meshes_.triangles.size());
+  ex.forEach(
+      triangles + Index(samples_.size()),
+      [&](Index i) {
+        if (i < triangles) {
+          const int root = truthRoots_[triangleStructure_[i]];
+          if (root < 0) return;
+          const collision::P3* c = mesh.corners + 3 * i;
+          const collision::P3 n = collision::cross3(collision::sub(c[1], c[0]), collision::sub(c[2], c[0]));
+          const float area = 0.5f * std::sqrt(collision::dot3(n, n)) / float(per);
+          for (int q = 0; q < per; ++q) {
+            const collision::P3 p = subTriangleCentroid(c[0], c[1], c[2], q, per);
+            toTruth_[per * i + q] = {std::sqrt(trianglebvh::closestSquaredDistance(truth, root, p, 3.0e38f)), area};
+          }
+          return;
+        }
+        const Index k = i - triangles;
+        const SurfaceSample& s = samples_[k];
+        fromTruth_[k] = {std::sqrt(trianglebvh::closestSquaredDistance(mesh, meshRoots_[sampleStructure_[k]], asP3(s.point), 3.0e38f)),
+                         s.area};
+      },
+      64);
   return summarise(toTruth_, fromTruth_);
 }
 
@@ -88,7 +104,7 @@ std::vector<std::optional<SurfaceDistanceStats>> SampledError::summarise(std::sp
   std::vector<std::optional<SurfaceDistanceStats>> out(truthRoots_.size());
   for (size_t m = 0; m < out.size(); ++m)
     if (truthRoots_[m] >= 0) {
-      const Index a = kSubTriangles * meshTriangleOffsets_[m], b = kSubTriangles * meshTriangleOffsets_[m + 1];
+      const Index a = perTriangle_ * meshTriangleOffsets_[m], b = perTriangle_ * meshTriangleOffsets_[m + 1];
       out[m] = summariseBinned(toTruth.subspan(a, b - a),
                                fromTruth.subspan(sampleOffsets_[m], sampleOffsets_[m + 1] - sampleOffsets_[m]), kBinMm);
     }

@@ -503,16 +503,21 @@ RunReport SceneRunner::run() {
     model.push_back(initialised && sim.level() == 0 ? surfaceOf(i, L.modelPositions[i]) : StructureResult{});
   }
   const bool ownModel = initialised && sim.level() == 0;
-  const auto scoreStart = [this, &initial, &model, ownModel] {
+  const bool scoredBeside = backend && L.reading == std::launch::async;
+  const auto scoreStart = [this, &initial, &model, ownModel, scoredBeside] {
     const auto t1 = Clock::now();
-    for (size_t i = 0; i < initial.size(); ++i) {
-      score(Index(i), initial[i], true);
-      if (ownModel) score(Index(i), model[i], true);
-      else model[i] = initial[i];
-    }
+    // In the run's way, structures side by side as well (each one's sort and Dice are serial);
+    // beside a device, one after another, so as not to crowd out the thread that drives it.
+    loaded_->sim->executor().forEach(
+        Index(initial.size()),
+        [&](Index i) {
+          score(i, initial[i], true);
+          if (ownModel) score(i, model[i], true);
+          else model[i] = initial[i];
+        },
+        scoredBeside ? Index(initial.size()) : Index(1));
     return since(t1);
   };
-  const bool scoredBeside = backend && L.reading == std::launch::async;
   std::future<double> startScores = std::async(scoredBeside ? std::launch::async : std::launch::deferred, scoreStart);
   if (!scoredBeside) startScores.wait();
   report.stageSeconds.emplace_back("evaluate_start", since(t0));

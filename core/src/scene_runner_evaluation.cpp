@@ -82,7 +82,7 @@ std::vector<StructureResult> SceneRunner::evaluateEnd(ExecutionBackend* backend)
       return out;
     }
   }
-  for (Index i = 0; i < n; ++i) score(i, out[i], true);
+  L.sim->executor().forEach(n, [&](Index i) { score(i, out[i], true); }, 1);  // structures side by side too
   return out;
 }
 

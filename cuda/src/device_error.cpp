@@ -46,7 +46,7 @@ void DeviceSampledError::uploadMeshes(const SampledError& error, cudaStream_t st
   meshRoots_.upload(error.meshRoots(), stream);
   corners_.resize(bvh.corners.size());
   visits_.resize(bvh.nodes.size());
-  toTruth_.resize(kSubTriangles * triangles.size());
+  toTruth_.resize(size_t(error.samplesPerTriangle()) * triangles.size());
   SINEW_CUDA(cudaStreamSynchronize(stream));
 }
 
@@ -82,6 +82,7 @@ std::vector<std::optional<SurfaceDistanceStats>> DeviceSampledError::measure(Sam
   e.leafCount = int(leaves_.size());
   e.triangleCount = int(triangles_.size());
   e.sampleCount = int(samples_.size());
+  e.samplesPerTriangle = error.samplesPerTriangle();
   launchSampledError(view, e, stream);
   hostTo_.resize(toTruth_.size());
   hostFrom_.resize(fromTruth_.size());

@@ -61,12 +61,12 @@ __global__ void refit(Node* nodes, const int* parents, const int* leaves, int le
   }
 }
 
-// Mesh to truth: kSubTriangles threads per tessellation triangle.
+// Mesh to truth: `per` threads per tessellation triangle (SampledError::samplesPerTriangle).
 __global__ void toTruth(trianglebvh::View mesh, trianglebvh::View truth, const int* structureOf, const int* truthRoots,
-                        int triangles, WeightedDistance* out) {
+                        int triangles, int per, WeightedDistance* out) {
   const int i = blockIdx.x * blockDim.x + threadIdx.x;
-  if (i >= triangles * kSubTriangles) return;
-  const int t = i / kSubTriangles, q = i % kSubTriangles;
+  if (i >= triangles * per) return;
+  const int t = i / per, q = i % per;
   const int root = truthRoots[structureOf[t]];
   if (root < 0) {
     out[i] = {0.0f, 0.0f};
@@ -74,8 +74,8 @@ __global__ void toTruth(trianglebvh::View mesh, trianglebvh::View truth, const i
   }
   const P3* c = mesh.corners + 3 * t;
   const P3 n = collision::cross3(collision::sub(c[1], c[0]), collision::sub(c[2], c[0]));
-  const float area = 0.5f * sqrtf(collision::dot3(n, n)) / float(kSubTriangles);
-  const P3 p = subTriangleCentroid(c[0], c[1], c[2], q);
+  const float area = 0.5f * sqrtf(collision::dot3(n, n)) / float(per);
+  const P3 p = subTriangleCentroid(c[0], c[1], c[2], q, per);
   out[i] = {sqrtf(trianglebvh::closestSquaredDistance(truth, root, p, 3.0e38f)), area};
 }
 
@@ -105,8 +105,8 @@ void launchSampledError(const MeshView& m, const SampledErrorDevice& e, cudaStre
   refit<<<blocks(e.leafCount), kThreads, 0, s>>>(e.meshNodes, e.parents, e.leaves, e.leafCount, e.triangles, e.points,
                                                  e.corners, e.visits);
   const trianglebvh::View mesh{e.meshNodes, e.corners}, truth{e.truthNodes, e.truthCorners};
-  toTruth<<<blocks(e.triangleCount * kSubTriangles), kThreads, 0, s>>>(mesh, truth, e.triangleStructure, e.truthRoots,
-                                                                       e.triangleCount, e.toTruth);
+  toTruth<<<blocks(e.triangleCount * e.samplesPerTriangle), kThreads, 0, s>>>(mesh, truth, e.triangleStructure, e.truthRoots,
+                                                                              e.triangleCount, e.samplesPerTriangle, e.toTruth);
   fromTruth<<<blocks(e.sampleCount), kThreads, 0, s>>>(mesh, e.samples, e.sampleAreas, e.sampleStructure, e.meshRoots,
                                                        e.sampleCount, e.fromTruth);
 }

@@ -79,8 +79,12 @@ __global__ void gradient(MeshView m, ParamView p, int kEps, int kDepth, int kSte
 
 // Every per-vertex force of the step in one pass, in the scene's order: one read of each array
 // instead of one per kernel, and no separate zeroing. Sums are formed in the same order as force by
-// force, so the result is bit-identical to the separate kernels (and to the CPU).
-__global__ void fusedForces(MeshView m, FusedTerms t) {
+// force, so the result is bit-identical to the separate kernels (and to the CPU). Without a gradient
+// term the kernel is compiled without its image search and held to 48 registers (5 blocks of 256 per
+// SM, 8 bytes spilled): 4, 5, 6 and 8 blocks gave 282, 273, 278 and 325 us per step of smoothing +
+// shape prior at 2.7 M vertices (H100, 2026-11-24; docs/benchmarks.md).
+template <bool kWithGradient>
+__global__ void __launch_bounds__(kThreads, kWithGradient ? 0 : 5) fusedForces(MeshView m, FusedTerms t) {
   const int v = blockIdx.x * blockDim.x + threadIdx.x;
   if (v >= m.vertices) return;
   const int mesh = m.meshOf[v];
@@ -93,7 +97,8 @@ __global__ void fusedForces(MeshView m, FusedTerms t) {
       case FusedTerm::Smoothing: f = f + smoothingTerm(m, term.params, term.k0, v, alpha); break;
       case FusedTerm::ShapePrior: f = f + shapePriorTerm(m, t.reference, v, alpha); break;
       case FusedTerm::Gradient:
-        f = f + gradientTerm(m, term.params, term.k0, term.k1, term.k2, t.gradientVolume, t.gradient, v, alpha);
+        if constexpr (kWithGradient)
+          f = f + gradientTerm(m, term.params, term.k0, term.k1, term.k2, t.gradientVolume, t.gradient, v, alpha);
         break;
     }
   }
@@ -340,7 +345,10 @@ void launchProfile(const MeshView& m, ParamView p, int kDepth, VolumeView vol, c
                                                                      inside + outside, spacing);
 }
 void launchFusedForces(const MeshView& m, const FusedTerms& t, cudaStream_t s) {
-  fusedForces<<<blocks(m.vertices), kThreads, 0, s>>>(m, t);
+  bool gradient = false;
+  for (int i = 0; i < t.count; ++i) gradient = gradient || t.terms[i].kind == FusedTerm::Gradient;
+  if (gradient) fusedForces<true><<<blocks(m.vertices), kThreads, 0, s>>>(m, t);
+  else fusedForces<false><<<blocks(m.vertices), kThreads, 0, s>>>(m, t);
 }
 void launchVerlet(const MeshView& m, float dt, float keep, cudaStream_t s) {
   verlet<<<blocks(m.vertices), kThreads, 0, s>>>(m, dt, keep);

@@ -221,9 +221,9 @@ struct SampledErrorDevice {
   const float3* samples = nullptr;         // the truths' samples
   const float* sampleAreas = nullptr;
   const int* sampleStructure = nullptr;
-  WeightedDistance* toTruth = nullptr;     // kSubTriangles per triangle
+  WeightedDistance* toTruth = nullptr;     // samplesPerTriangle per triangle
   WeightedDistance* fromTruth = nullptr;   // one per sample
-  int meshNodeCount = 0, leafCount = 0, triangleCount = 0, sampleCount = 0;
+  int meshNodeCount = 0, leafCount = 0, triangleCount = 0, sampleCount = 0, samplesPerTriangle = 4;
 };
 void launchSampledError(const MeshView& m, const SampledErrorDevice& e, cudaStream_t s);
 // out[k]: the exact distance from points[k] to the mesh under roots[k] (the exact evaluation's).

@@ -59,7 +59,11 @@ public:
     int i0[3];
     float f[3];
     for (int a = 0; a < 3; ++a) {
-      c[a] = std::fmin(std::fmax(idx[a], 0.0f), static_cast<float>(s[a] - 1));
+      // std::fmax / std::fmin are library calls here (NaN rules); these comparisons give the same
+      // values (a NaN index clamps to 0, as std::fmax(NaN, 0) does) inline.
+      const float hi = static_cast<float>(s[a] - 1);
+      const float lo = idx[a] > 0.0f ? idx[a] : 0.0f;
+      c[a] = lo < hi ? lo : hi;
       i0[a] = std::min(static_cast<int>(c[a]), std::max(s[a] - 2, 0));
       f[a] = c[a] - static_cast<float>(i0[a]);
     }

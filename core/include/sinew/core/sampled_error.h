@@ -3,9 +3,11 @@
 // stays for the final result and is this method's test oracle.
 //
 // The distances are exact; there are fewer of them, and no hierarchy is built per sample:
-// - mesh to truth: four samples per triangle of the Fig. 1b tessellation (the output surface), at
-//   the centroids of its midpoint split, into the truth's hierarchy (the exact evaluation's,
-//   triangle_bvh.h);
+// - mesh to truth: samples of each triangle of the Fig. 1b tessellation (the output surface) into
+//   the truth's hierarchy (the exact evaluation's, triangle_bvh.h): at coarse levels four, the
+//   centroids of its midpoint split; where the level's triangles are on average no longer than the
+//   truth's sampling spacing, one, the centroid (a quarter of the queries at the fine levels, where
+//   the meshes have the most triangles);
 // - truth to mesh: the truth sampled at a coarser spacing than the exact evaluation's (sampleSurface)
 //   into a hierarchy of the tessellation, built once per level and refitted at each sample;
 // - HD95 from a histogram of 0.005 mm bins instead of a sort.
@@ -35,8 +37,8 @@ public:
   // store's topology changed (true then); the backend refits it, fills the samples in the layout
   // below and hands them to summarise().
   bool prepare(MeshStore& store);
-  // Mesh to truth: kSubTriangles per tessellation triangle (meshes().triangles order); truth to
-  // mesh: one per truth sample (truthSamples() order).
+  // Mesh to truth: samplesPerTriangle() per tessellation triangle (meshes().triangles order);
+  // truth to mesh: one per truth sample (truthSamples() order).
   std::vector<std::optional<SurfaceDistanceStats>> summarise(std::span<const WeightedDistance> toTruth,
                                                              std::span<const WeightedDistance> fromTruth) const;
 
@@ -48,6 +50,7 @@ public:
   const TriangleBvh& meshes() const { return meshes_; }
   const std::vector<int>& meshRoots() const { return meshRoots_; }
   const std::vector<Index>& meshTriangleOffsets() const { return meshTriangleOffsets_; }  // per structure, and the end
+  int samplesPerTriangle() const { return perTriangle_; }  // 1 or kSubTriangles, for the current level
 
 private:
   TriangleBvh truth_;
@@ -58,8 +61,11 @@ private:
   std::vector<int> meshRoots_;
   std::vector<Index> meshTriangleOffsets_;
   Index builtFor_ = -1;  // the vertex count (the level) the tessellations were built for
+  float spacing_;
+  int perTriangle_ = kSubTriangles;
   std::vector<Vec3> points_;
   std::vector<WeightedDistance> toTruth_, fromTruth_;
+  std::vector<int> triangleStructure_, sampleStructure_;  // the structure of each tessellation triangle, truth sample
 };
 
 // Both directions summarised as the exact evaluation does: ASSD the area-weighted mean of both;

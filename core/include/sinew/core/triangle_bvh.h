@@ -67,13 +67,15 @@ struct WeightedDistance {
   float d, w;
 };
 
-// The sampled error's (sampled_error.h) samples of a triangle: the centroids of its four midpoint
-// sub-triangles (the corner ones, then the middle one).
+// The sampled error's (sampled_error.h) samples of a triangle: one, its centroid, for a triangle
+// small beside the sampling spacing; otherwise kSubTriangles, the centroids of its four midpoint
+// sub-triangles (the corner ones, then the middle one). Sample q of `count`.
 inline constexpr int kSubTriangles = 4;
-SINEW_HD collision::P3 subTriangleCentroid(collision::P3 a, collision::P3 b, collision::P3 c, int q) {
+SINEW_HD collision::P3 subTriangleCentroid(collision::P3 a, collision::P3 b, collision::P3 c, int q, int count) {
   using namespace collision;
   const P3 centroid = scale(add(a, add(b, c)), 1.0f / 3.0f);
+  if (count == 1 || q == 3) return centroid;
   const P3 corner = q == 0 ? a : q == 1 ? b : c;
-  return q == 3 ? centroid : scale(add(corner, centroid), 0.5f);  // halfway from a corner to the centroid
+  return scale(add(corner, centroid), 0.5f);  // halfway from a corner to the centroid
 }
 }  // namespace sinew
