@@ -5,9 +5,9 @@
 // The distances are exact; there are fewer of them, and no hierarchy is built per sample:
 // - mesh to truth: samples of each triangle of the Fig. 1b tessellation (the output surface) into
 //   the truth's hierarchy (the exact evaluation's, triangle_bvh.h): at coarse levels four, the
-//   centroids of its midpoint split; where the level's triangles are on average no longer than the
-//   truth's sampling spacing, one, the centroid (a quarter of the queries at the fine levels, where
-//   the meshes have the most triangles);
+//   centroids of its midpoint split; where the level's triangles' longest edges are on average no
+//   longer than 1.25 times the truth's sampling spacing, one, the centroid (a quarter of the queries
+//   at the fine levels, where the meshes have the most triangles);
 // - truth to mesh: the truth sampled at a coarser spacing than the exact evaluation's (sampleSurface)
 //   into a hierarchy of the tessellation, built once per level and refitted at each sample;
 // - HD95 from a histogram of 0.005 mm bins instead of a sort.
