@@ -10,15 +10,24 @@ constexpr unsigned kThreads = 256;
 __device__ __forceinline__ float triangleArea(float3 a, float3 b, float3 c) { return 0.5f * norm(cross(b - a, c - a)); }
 __device__ __forceinline__ int pick(const int3& v, int k) { return k == 0 ? v.x : (k == 1 ? v.y : v.z); }
 
-__global__ void cellCentres(MeshView m) {
-  const int c = blockIdx.x * blockDim.x + threadIdx.x;
-  if (c >= m.cells) return;
+__device__ __forceinline__ float3 centreOf(const MeshView& m, int c) {
   float3 sum = make_float3(0, 0, 0);
   const int b = m.cellOffsets[c], e = m.cellOffsets[c + 1];
   for (int i = b; i < e; ++i) sum = sum + m.x[m.cellVertices[i]];
-  m.cellCentre[c] = sum / static_cast<float>(e - b);
+  return sum / static_cast<float>(e - b);
 }
 
+__global__ void cellCentres(MeshView m) {
+  const int c = blockIdx.x * blockDim.x + threadIdx.x;
+  if (c >= m.cells) return;
+  m.cellCentre[c] = centreOf(m, c);
+}
+
+// kOwnCentres: each vertex computes its three cells' centres itself (the same sums as
+// cellCentres) instead of reading them from the pass before, and writes those of the cells it is the
+// first vertex of, so that later kernels of the step find every centre. One launch fewer, for
+// scenes small enough that launches, not memory, set the step's time (launchGeometry).
+template <bool kOwnCentres>
 __global__ void vertexGeometry(MeshView m) {
   const int v = blockIdx.x * blockDim.x + threadIdx.x;
   if (v >= m.vertices) return;
@@ -29,21 +38,41 @@ __global__ void vertexGeometry(MeshView m) {
   if (m.elevation) m.elevation[v] = dot(p - p1, f.normal);
   if (m.area) {
     const int3 c = m.vertexCells[v];
+    float3 centre[3];
+#pragma unroll
+    for (int j = 0; j < 3; ++j) {
+      if constexpr (kOwnCentres) {
+        centre[j] = centreOf(m, pick(c, j));
+        if (m.cellVertices[m.cellOffsets[pick(c, j)]] == v) m.cellCentre[pick(c, j)] = centre[j];
+      } else {
+        centre[j] = m.cellCentre[pick(c, j)];
+      }
+    }
     float a = 0.0f;
 #pragma unroll
     for (int j = 0; j < 3; ++j) {
       const float3 q = m.x[pick(n, j)];
-      a += triangleArea(p, q, m.cellCentre[pick(c, j)]) + triangleArea(p, q, m.cellCentre[pick(c, (j + 1) % 3)]);
+      a += triangleArea(p, q, centre[j]) + triangleArea(p, q, centre[(j + 1) % 3]);
     }
     m.area[v] = a;
     if (m.mass) m.mass[v] = a * m.density[m.meshOf[v]];
   }
 }
+
+// Below this many vertices the centres are computed inside vertexGeometry: H100, 2026-11-24,
+// smoothing + shape prior per step 11.3 against 12.2 us at 42,496 vertices, equal at 169,984, and
+// 296 against 273 us at 2.7 M, where recomputing each centre three times costs more than its pass.
+constexpr int kOwnCentresBelow = 131072;
 }  // namespace
 
 void launchGeometry(const MeshView& m, cudaStream_t s) {
+  const unsigned vertexBlocks = (m.vertices + kThreads - 1) / kThreads;
+  if (m.area && m.cellCentre && m.vertices < kOwnCentresBelow) {
+    vertexGeometry<true><<<vertexBlocks, kThreads, 0, s>>>(m);
+    return;
+  }
   if (m.cellCentre) cellCentres<<<(m.cells + kThreads - 1) / kThreads, kThreads, 0, s>>>(m);
-  if (m.normal || m.elevation || m.area) vertexGeometry<<<(m.vertices + kThreads - 1) / kThreads, kThreads, 0, s>>>(m);
+  if (m.normal || m.elevation || m.area) vertexGeometry<false><<<vertexBlocks, kThreads, 0, s>>>(m);
 }
 
 }  // namespace sinew::cuda
