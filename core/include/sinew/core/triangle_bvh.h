@@ -10,7 +10,7 @@ namespace sinew::trianglebvh {
 using collision::Box;
 using collision::P3;
 
-constexpr int kLeafTriangles = 8;
+constexpr int kLeafTriangles = 4;
 constexpr int kStackDepth = 64;
 
 // Leaves have left == -1 and hold the triangles first .. first + count (corners 3 t .. 3 t + 2).
@@ -32,12 +32,16 @@ struct View {
 SINEW_HD float closestSquaredDistance(const View& v, int root, P3 p, float maxD2, P3* closest = nullptr,
                                       int* triangle = nullptr) {
   float best = maxD2;
+  // A node is kept with its box's distance, so that one no longer nearer than the best is dropped
+  // without loading it.
   int stack[kStackDepth];
+  float near[kStackDepth];
   int top = 0;
-  stack[top++] = root;
+  stack[top] = root, near[top++] = collision::squaredDistance(v.nodes[root].box, p);
   while (top > 0) {
-    const Node& n = v.nodes[stack[--top]];
-    if (collision::squaredDistance(n.box, p) >= best) continue;
+    --top;
+    if (near[top] >= best) continue;
+    const Node& n = v.nodes[stack[top]];
     if (n.left < 0) {
       for (int t = n.first; t < n.first + n.count; ++t) {
         const P3 q = collision::closestOnTriangle(p, v.corners[3 * t], v.corners[3 * t + 1], v.corners[3 * t + 2]);
@@ -54,8 +58,9 @@ SINEW_HD float closestSquaredDistance(const View& v, int root, P3 p, float maxD2
     const float dl = collision::squaredDistance(v.nodes[n.left].box, p);
     const float dr = collision::squaredDistance(v.nodes[n.right].box, p);
     if (top + 2 > kStackDepth) continue;  // unreachable for median splits; never overrun
-    stack[top++] = dl < dr ? n.right : n.left;
-    stack[top++] = dl < dr ? n.left : n.right;
+    const bool leftFirst = dl < dr;
+    if ((leftFirst ? dr : dl) < best) stack[top] = leftFirst ? n.right : n.left, near[top++] = leftFirst ? dr : dl;
+    if ((leftFirst ? dl : dr) < best) stack[top] = leftFirst ? n.left : n.right, near[top++] = leftFirst ? dl : dr;
   }
   return best;
 }

@@ -1,0 +1,62 @@
+// The error against the ground truth on a real run: at every report sample of a scene's run, the
+// sampled error on the host (sampled_error.h, the timeline's) and the exact evaluation
+// (surface_distance.h, the final result's) timed side by side on the same positions, summed per
+// level. For the query's cost behind sample_error and evaluate_* in report.json's stage_seconds.
+//   bench_error SCENE.json [REPEATS (default 3)]
+#include "synthetic.h"
+#include "sinew/core/scene.h"
+#include "sinew/core/scene_runner.h"
+#include "sinew/core/simulation.h"
+
+#include <chrono>
+#include <cstdio>
+#include <map>
+
+using namespace sinew;
+
+int main(int argc, char** argv) {
+  if (argc < 2) {
+    std::fprintf(stderr, "usage: bench_error SCENE.json [REPEATS]\n");
+    return 2;
+  }
+  const int repeats = argc > 2 ? std::atoi(argv[2]) : 3;
+  using Clock = std::chrono::steady_clock;
+  struct Sum {
+    int samples = 0;
+    double sampled = 0, exact = 0, assd = 0;
+  };
+  std::map<int, Sum> perLevel;
+  SceneRunner* current = nullptr;
+  RunOptions options;
+  options.progress = [&](const RunProgress& p) {
+    Sum& s = perLevel[p.level];
+    auto t0 = Clock::now();
+    double assd = 0;
+    for (int r = 0; r < repeats; ++r)
+      for (const auto& e : current->sampledError()) assd += e ? e->assd : 0.0;
+    s.sampled += std::chrono::duration<double>(Clock::now() - t0).count() / repeats;
+    t0 = Clock::now();
+    for (Index i = 0; i < current->simulation().structureCount(); ++i) s.assd += current->evaluate(i, false).assdFinalMm;
+    s.exact += std::chrono::duration<double>(Clock::now() - t0).count();
+    s.samples++;
+  };
+  try {
+    SceneRunner runner(testing::builtinRegistry(), readScene(argv[1]), options);
+    current = &runner;
+    runner.load();
+    runner.run();
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "bench_error: %s\n", e.what());
+    return 1;
+  }
+  std::printf("| level | samples | sampled ms per sample | exact ms per sample | exact / sampled |\n| ---: | ---: | ---: | ---: | ---: |\n");
+  Sum all;
+  for (const auto& [level, s] : perLevel) {
+    std::printf("| %d | %d | %.2f | %.2f | %.1f |\n", level, s.samples, 1e3 * s.sampled / s.samples, 1e3 * s.exact / s.samples,
+                s.exact / s.sampled);
+    all.samples += s.samples, all.sampled += s.sampled, all.exact += s.exact;
+  }
+  std::printf("| all | %d | %.2f | %.2f | %.1f |\n", all.samples, 1e3 * all.sampled / all.samples, 1e3 * all.exact / all.samples,
+              all.exact / all.sampled);
+  return 0;
+}
