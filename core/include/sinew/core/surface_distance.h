@@ -16,7 +16,7 @@ inline collision::P3 asP3(const Vec3& v) { return {v.x(), v.y(), v.z()}; }
 inline Vec3 asVec3(const collision::P3& p) { return {p.x, p.y, p.z}; }
 
 // The hierarchy of triangle_bvh.h, built on the host: median splits along the widest axis of the
-// triangles' centroids, down to leaves of at most eight.
+// triangles' centroids, down to leaves of at most trianglebvh::kLeafTriangles.
 struct TriangleBvh {
   std::vector<trianglebvh::Node> nodes;          // pre-order, root first
   std::vector<trianglebvh::P3> corners;          // three per triangle, in leaf order
