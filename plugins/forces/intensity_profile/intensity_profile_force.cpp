@@ -51,20 +51,32 @@ public:
       line.resize(length_ + 2 * reach);
       for (int q = 0; q < static_cast<int>(line.size()); ++q)
         line[q] = image.sample(x[v] + (offset(q) - reach * spacing_) * normal[v]);
+      // The windows' sums side by side (window j + reach starts at line[j + reach]): each window
+      // adds its samples in the same order as one window at a time would, so the scores are the
+      // same bit for bit (and the CUDA kernel's), but the loop over windows vectorises.
+      const int windows = 2 * reach + 1;
+      thread_local std::vector<float> sums;
+      sums.assign(3 * static_cast<size_t>(windows), 0.0f);
+      float* __restrict sum = sums.data();
+      float* __restrict sum2 = sum + windows;
+      float* __restrict dot = sum2 + windows;
+      for (int k = 0; k < length_; ++k) {
+        const float r = ref[k];
+        const float* __restrict w = &line[k];
+        for (int j = 0; j < windows; ++j) {
+          sum[j] += w[j];
+          sum2[j] += w[j] * w[j];
+          dot[j] += w[j] * r;
+        }
+      }
       float best = -2.0f;
       int bestJ = 0;
       for (int j = -reach; j <= reach; ++j) {
-        const float* w = &line[j + reach];
-        float sum = 0.0f, sum2 = 0.0f, dot = 0.0f;
-        for (int k = 0; k < length_; ++k) {
-          sum += w[k];
-          sum2 += w[k] * w[k];
-          dot += w[k] * ref[k];
-        }
+        const int i = j + reach;
         // ref has zero mean and unit norm, so NCC = dot / ||w - mean(w)||. A flat reference (all
         // zeros) scores 0 everywhere and the tie rule keeps the vertex in place.
-        const float var = sum2 - sum * sum / static_cast<float>(length_);
-        const float ncc = var > 1e-12f ? dot / std::sqrt(var) : -1.0f;
+        const float var = sum2[i] - sum[i] * sum[i] / static_cast<float>(length_);
+        const float ncc = var > 1e-12f ? dot[i] / std::sqrt(var) : -1.0f;
         if (ncc > best || (ncc == best && std::abs(j) < std::abs(bestJ))) {
           best = ncc;
           bestJ = j;
