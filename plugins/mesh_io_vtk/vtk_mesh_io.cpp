@@ -242,13 +242,21 @@ TriangleMesh labelSurface(const LabelVolume& labels, std::int32_t label, const L
   int lo[3] = {g.size[0], g.size[1], g.size[2]}, hi[3] = {-1, -1, -1};
   std::size_t count = 0;
   for (int k = 0; k < g.size[2]; ++k)
-    for (int j = 0; j < g.size[1]; ++j)
-      for (int i = 0; i < g.size[0]; ++i)
-        if (labels.at(i, j, k) == label) {
-          const int at[3] = {i, j, k};
-          for (int a = 0; a < 3; ++a) lo[a] = std::min(lo[a], at[a]), hi[a] = std::max(hi[a], at[a]);
-          ++count;
-        }
+    for (int j = 0; j < g.size[1]; ++j) {
+      // A row is counted first (a loop that vectorises: most rows hold none of the label), and only
+      // a row that holds it is searched for its ends.
+      const std::int32_t* row = &labels.at(0, j, k);
+      int inRow = 0;
+      for (int i = 0; i < g.size[0]; ++i) inRow += row[i] == label;
+      if (inRow == 0) continue;
+      count += std::size_t(inRow);
+      int first = 0, last = g.size[0] - 1;
+      while (row[first] != label) ++first;
+      while (row[last] != label) --last;
+      lo[0] = std::min(lo[0], first), hi[0] = std::max(hi[0], last);
+      lo[1] = std::min(lo[1], j), hi[1] = std::max(hi[1], j);
+      lo[2] = std::min(lo[2], k), hi[2] = std::max(hi[2], k);
+    }
   if (count == 0) throw InputError("label " + std::to_string(label) + " is absent from the label map");
   vtkNew<vtkImageData> mask;
   const int px = hi[0] - lo[0] + 3, py = hi[1] - lo[1] + 3, pz = hi[2] - lo[2] + 3;
