@@ -6,20 +6,15 @@ void DeviceSampledError::uploadTruth(const SampledError& error, cudaStream_t str
   truthNodes_.upload(error.truth().nodes, stream);
   truthCorners_.upload(error.truth().corners, stream);
   truthRoots_.upload(error.truthRoots(), stream);
-  const auto& samples = error.truthSamples();
-  const auto& offsets = error.truthSampleOffsets();
   std::vector<float3> points;
   std::vector<float> areas;
-  std::vector<int> structure;
-  for (size_t m = 0; m + 1 < offsets.size(); ++m)
-    for (Index i = offsets[m]; i < offsets[m + 1]; ++i) {
-      points.push_back(make_float3(samples[i].point.x(), samples[i].point.y(), samples[i].point.z()));
-      areas.push_back(samples[i].area);
-      structure.push_back(int(m));
-    }
+  for (const SurfaceSample& s : error.truthSamples()) {
+    points.push_back(make_float3(s.point.x(), s.point.y(), s.point.z()));
+    areas.push_back(s.area);
+  }
   samples_.upload(points, stream);
   sampleAreas_.upload(areas, stream);
-  sampleStructure_.upload(structure, stream);
+  sampleStructure_.upload(error.truthSampleStructure(), stream);
   fromTruth_.resize(points.size());
   SINEW_CUDA(cudaStreamSynchronize(stream));  // the host vectors go out of scope
   truthOf_ = &error;
@@ -35,14 +30,11 @@ void DeviceSampledError::uploadMeshes(const SampledError& error, cudaStream_t st
   }
   std::vector<int3> triangles;
   for (const auto& t : bvh.triangles) triangles.push_back(make_int3(int(t[0]), int(t[1]), int(t[2])));
-  std::vector<int> structure;
-  const auto& offsets = error.meshTriangleOffsets();
-  for (size_t m = 0; m + 1 < offsets.size(); ++m) structure.insert(structure.end(), offsets[m + 1] - offsets[m], int(m));
   meshNodes_.upload(bvh.nodes, stream);
   parents_.upload(parents, stream);
   leaves_.upload(leaves, stream);
   triangles_.upload(triangles, stream);
-  triangleStructure_.upload(structure, stream);
+  triangleStructure_.upload(error.meshTriangleStructure(), stream);
   meshRoots_.upload(error.meshRoots(), stream);
   corners_.resize(bvh.corners.size());
   visits_.resize(bvh.nodes.size());

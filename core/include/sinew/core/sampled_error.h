@@ -46,10 +46,12 @@ public:
   const std::vector<int>& truthRoots() const { return truthRoots_; }  // -1: no truth
   const std::vector<SurfaceSample>& truthSamples() const { return samples_; }
   const std::vector<Index>& truthSampleOffsets() const { return sampleOffsets_; }  // per structure, and the end
+  const std::vector<int>& truthSampleStructure() const { return sampleStructure_; }  // per truth sample
   // The tessellations; their points are the store's vertices, then its cell centres.
   const TriangleBvh& meshes() const { return meshes_; }
   const std::vector<int>& meshRoots() const { return meshRoots_; }
   const std::vector<Index>& meshTriangleOffsets() const { return meshTriangleOffsets_; }  // per structure, and the end
+  const std::vector<int>& meshTriangleStructure() const { return triangleStructure_; }  // per tessellation triangle
   int samplesPerTriangle() const { return perTriangle_; }  // 1 or kSubTriangles, for the current level
 
 private:
