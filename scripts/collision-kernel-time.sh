@@ -46,6 +46,9 @@ ratio = f"{total / base:.2f}" if base > 0 else "1"
 print(f"| {levels} | {verts} | {label} | {len(window) // steps} | {total:.4f} | {coll:.4f} | {ratio} | "
       f"{r['overlaps']['total_after_mm3']:.1f} | {assd:.3f} |")
 open(path.replace("ncu.csv", "total.txt"), "w").write(f"{total}\n")
+by = {}
+for n, t in window: by[n.split("(")[0].split("<")[0]] = by.get(n.split("(")[0].split("<")[0], 0.0) + t / steps / 1e3
+open(path.replace("ncu.csv", "kernels.txt"), "w").write(", ".join(f"{n} {t:.1f} us" for n, t in sorted(by.items(), key=lambda kv: -kv[1])) + "\n")
 PY
   cat "$d/row.txt"
   if [ "$c" = off ]; then base=$(cat "$d/total.txt"); fi

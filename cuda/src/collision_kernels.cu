@@ -12,10 +12,28 @@ namespace {
 constexpr unsigned kThreads = 128;
 using namespace sinew::collision;
 
-// Only the steps of a full search read the boxes (counter: the level's steps so far).
+// Each vertex's move since the last step and the step's largest (every step: the clearance pays
+// for it), then, on the steps of a full search (the only ones to read them; counter: the level's
+// steps so far), the boxes: the leaves', then up the tree, the last child to arrive at a node
+// merging both. (One block per structure merging its inner nodes height by height took longer:
+// 19.6 against 32 us for the whole climb at 20,352 vertices, 120 against about 70 us at 325,632.)
 __global__ void refit(BvhView v, const int* leaves, int leafCount, int* visits, const P3* x, const P3* centres,
-                      const int* counter, int every) {
+                      const int* counter, int every, float3* last, float* moved, unsigned* motion) {
   const int l = blockIdx.x * blockDim.x + threadIdx.x;
+  float largest = 0.0f;
+  if (l < leafCount) {
+    const Node leaf = v.nodes[leaves[l]];
+    for (int k = leaf.first; k < leaf.first + leaf.count; ++k) {
+      const int i = v.order[k];
+      const float3 now = make_float3(x[i].x, x[i].y, x[i].z);
+      const float3 d = now - last[i];
+      moved[i] = sqrtf(dot(d, d));
+      last[i] = now;
+      largest = fmaxf(largest, moved[i]);
+    }
+  }
+  for (int o = 16; o > 0; o /= 2) largest = fmaxf(largest, __shfl_xor_sync(0xffffffffu, largest, o));
+  if (threadIdx.x % 32 == 0) atomicMax(motion, __float_as_uint(largest));  // non-negative floats order as their bits
   if (l >= leafCount || *counter % every != 0) return;
   int id = leaves[l];
   v.boxes[id] = leafBox(v, v.nodes[id], x, centres);
@@ -37,14 +55,16 @@ __global__ void refit(BvhView v, const int* leaves, int leafCount, int* visits, 
 
 // The contact response (collision::contactResponse) with kGroup lanes per vertex: in each round
 // the group's lanes search the next kGroup structures (contactWith), then the group's first lane
-// adds their contacts in structure order (addContact), as contactResponse does: the CPU's result to
-// the bit. With one thread per vertex, small scenes spent the step on a few vertices searching
-// several neighbours one after another (ncu at 20,352 vertices: 6 of 32 threads active per warp);
-// large ones fill the device anyway, and there the group's shared work only costs
-// (docs/benchmarks.md).
+// adds their contacts in structure order (addContact), as contactResponse does: the CPU's
+// arithmetic, in its order. A vertex still clear of every structure (clearOfContacts) does not
+// search, and a warp with none searching skips the rounds. With one thread per vertex, small scenes
+// spent the step on a few vertices searching several neighbours one after another (ncu at 20,352
+// vertices: 6 of 32 threads active per warp); large ones fill the device anyway, and there the
+// group's shared work only costs (docs/benchmarks.md).
 template <int kGroup>
 __global__ void respondGroup(MeshView m, ParamView p, BvhView v, float margin, float damping, float reach,
-                             const int* counter, int every, float* depth, int* hint, float* stiffness) {
+                             const int* counter, int every, const float* moved, const unsigned* motion, float* depth,
+                             int* hint, float* slack, float* stiffness) {
   const int t = blockIdx.x * blockDim.x + threadIdx.x;
   const int i = t / kGroup, g = t % kGroup;
   const bool valid = i < m.vertices;  // every lane stays for the shuffles
@@ -57,28 +77,33 @@ __global__ void respondGroup(MeshView m, ParamView p, BvhView v, float margin, f
   const float alpha = active ? param(p, own, 0) * m.mass[i] : 0.0f;
   float lastDepth = active ? depth[i] : 0.0f;
   int lastHint = active ? hint[i] : -1;
+  float lastSlack = active ? slack[i] : 0.0f;
+  const bool clear = active && clearOfContacts(lastDepth, moved[i], __uint_as_float(*motion), lastSlack);
   // Every lane runs every round (the shuffles need the whole warp); only a full search searches.
-  const bool search = active && (*counter % every == 0 || lastDepth >= kUnknownDepth);
+  const bool search = active && !clear && (*counter % every == 0 || lastDepth >= kUnknownDepth);
   const float maxD2 = fullSearchBound(lastDepth, margin, reach, every, point, previous);
   ContactSum sum;
   const unsigned mask = 0xffffffffu;
   const int leader = (threadIdx.x % 32) - g;
-  for (int base = 0; base < v.meshes; base += kGroup) {
-    Hit h{};
-    const bool found = search && base + g < v.meshes &&
-                       contactWith(v, own, base + g, point, margin, maxD2, lastHint, x, centres, h);
-    for (int q = 0; q < kGroup; ++q) {
-      const int src = leader + q;
-      Hit c;
-      c.d2 = __shfl_sync(mask, h.d2, src);
-      c.point = {__shfl_sync(mask, h.point.x, src), __shfl_sync(mask, h.point.y, src), __shfl_sync(mask, h.point.z, src)};
-      c.normal = {__shfl_sync(mask, h.normal.x, src), __shfl_sync(mask, h.normal.y, src),
-                  __shfl_sync(mask, h.normal.z, src)};
-      c.side = __shfl_sync(mask, h.side, src);
-      c.leaf = __shfl_sync(mask, h.leaf, src);
-      if (__shfl_sync(mask, found, src) && g == 0) addContact(c, point, previous, alpha, margin, damping, sum);
+  float clearance2 = 3.0e38f;
+  if (__any_sync(mask, search))
+    for (int base = 0; base < v.meshes; base += kGroup) {
+      Hit h{};
+      const bool found = search && base + g < v.meshes &&
+                         contactWith(v, own, base + g, point, margin, maxD2, lastHint, x, centres, h, clearance2);
+      for (int q = 0; q < kGroup; ++q) {
+        const int src = leader + q;
+        Hit c;
+        c.d2 = __shfl_sync(mask, h.d2, src);
+        c.point = {__shfl_sync(mask, h.point.x, src), __shfl_sync(mask, h.point.y, src), __shfl_sync(mask, h.point.z, src)};
+        c.normal = {__shfl_sync(mask, h.normal.x, src), __shfl_sync(mask, h.normal.y, src),
+                    __shfl_sync(mask, h.normal.z, src)};
+        c.side = __shfl_sync(mask, h.side, src);
+        c.leaf = __shfl_sync(mask, h.leaf, src);
+        if (__shfl_sync(mask, found, src) && g == 0) addContact(c, point, previous, alpha, margin, damping, sum);
+      }
     }
-  }
+  for (int o = kGroup / 2; o > 0; o /= 2) clearance2 = fminf(clearance2, __shfl_xor_sync(mask, clearance2, o));
   if (!active || g != 0) {
     if (valid && g == 0 && stiffness) stiffness[i] = 0.0f;
     return;
@@ -86,12 +111,14 @@ __global__ void respondGroup(MeshView m, ParamView p, BvhView v, float margin, f
   if (search) {
     lastDepth = sum.deepest;
     lastHint = sum.nearestLeaf;
-  } else {  // between full searches: the patch test
-    sum.stiffness = contactResponse(v, own, point, previous, alpha, margin, damping, reach, false, every, lastDepth,
-                                    lastHint, x, centres, sum.force);
+    lastSlack = slackAfterSearch(lastDepth, clearance2, margin);
+  } else if (!clear) {  // between full searches: the patch test (the clearance already paid for the step)
+    sum.stiffness = contactResponse(v, own, point, previous, alpha, margin, damping, reach, false, every, 0.0f, 0.0f,
+                                    lastDepth, lastHint, lastSlack, x, centres, sum.force);
   }
   depth[i] = lastDepth;
   hint[i] = lastHint;
+  slack[i] = lastSlack;
   m.force[i] = m.force[i] + make_float3(sum.force.x, sum.force.y, sum.force.z);
   if (stiffness) stiffness[i] = sum.stiffness;
 }
@@ -108,7 +135,10 @@ __global__ void contactSprings(MeshView m, ParamView p, const int* partner, cons
   }
   if (stiffness) stiffness[i] = k;
 }
-__global__ void advance(int* counter) { ++*counter; }
+__global__ void advance(int* counter, unsigned* motion) {
+  ++*counter;
+  *motion = 0;
+}
 }  // namespace
 
 void launchContactSprings(const MeshView& m, ParamView p, const int* partner, const float3* offset, float* stiffness,
@@ -120,19 +150,18 @@ void launchCollision(const MeshView& m, ParamView p, const CollisionDevice& c, f
                      int every, cudaStream_t s) {
   BvhView v{c.nodes, c.boxes, c.tris, c.order, c.roots, c.exempt, c.meshes, c.nodeCount};
   SINEW_CUDA(cudaMemsetAsync(c.visits, 0, sizeof(int) * c.nodeCount, s));
-  refit<<<(c.leafCount + kThreads - 1) / kThreads, kThreads, 0, s>>>(v, c.leaves, c.leafCount, c.visits,
-                                                                      reinterpret_cast<const P3*>(m.x),
-                                                                      reinterpret_cast<const P3*>(m.cellCentre),
-                                                                      c.counter, every);
+  refit<<<(c.leafCount + kThreads - 1) / kThreads, kThreads, 0, s>>>(
+      v, c.leaves, c.leafCount, c.visits, reinterpret_cast<const P3*>(m.x), reinterpret_cast<const P3*>(m.cellCentre),
+      c.counter, every, c.last, c.moved, c.motion);
   const int group = m.vertices >= 131072 ? 1 : m.vertices >= 32768 ? 4 : 16;
   const unsigned grid = static_cast<unsigned>((static_cast<size_t>(m.vertices) * group + kThreads - 1) / kThreads);
   if (group == 1)
-    respondGroup<1><<<grid, kThreads, 0, s>>>(m, p, v, margin, damping, reach, c.counter, every, c.depth, c.hint, c.stiffness);
+    respondGroup<1><<<grid, kThreads, 0, s>>>(m, p, v, margin, damping, reach, c.counter, every, c.moved, c.motion, c.depth, c.hint, c.slack, c.stiffness);
   else if (group == 4)
-    respondGroup<4><<<grid, kThreads, 0, s>>>(m, p, v, margin, damping, reach, c.counter, every, c.depth, c.hint, c.stiffness);
+    respondGroup<4><<<grid, kThreads, 0, s>>>(m, p, v, margin, damping, reach, c.counter, every, c.moved, c.motion, c.depth, c.hint, c.slack, c.stiffness);
   else
-    respondGroup<16><<<grid, kThreads, 0, s>>>(m, p, v, margin, damping, reach, c.counter, every, c.depth, c.hint, c.stiffness);
-  advance<<<1, 1, 0, s>>>(c.counter);
+    respondGroup<16><<<grid, kThreads, 0, s>>>(m, p, v, margin, damping, reach, c.counter, every, c.moved, c.motion, c.depth, c.hint, c.slack, c.stiffness);
+  advance<<<1, 1, 0, s>>>(c.counter, c.motion);
 }
 
 }  // namespace sinew::cuda

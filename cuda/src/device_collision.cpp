@@ -18,6 +18,12 @@ void DeviceCollision::build(MeshStore& store, const SceneData& scene, float marg
   if (withStiffness) SINEW_CUDA(cudaMemsetAsync(stiffness_.get(), 0, stiffness_.bytes(), stream));
   depth_.upload(std::vector<float>(store.vertexCount(), collision::kUnknownDepth), stream);
   hint_.upload(std::vector<int>(store.vertexCount(), -1), stream);
+  slack_.resize(store.vertexCount());  // set by the first step's search before it is read
+  moved_.resize(store.vertexCount());
+  const auto x = store.positions();
+  last_.upload(reinterpret_cast<const float3*>(x.data()), x.size(), stream);
+  motion_.resize(1);
+  SINEW_CUDA(cudaMemsetAsync(motion_.get(), 0, motion_.bytes(), stream));
   counter_.resize(1);
   SINEW_CUDA(cudaMemsetAsync(counter_.get(), 0, counter_.bytes(), stream));
   meshes_ = int(tree.roots.size());
@@ -38,6 +44,10 @@ CollisionDevice DeviceCollision::view() const {
   c.counter = counter_.get();
   c.exempt = exempt_.get();
   c.hint = hint_.get();
+  c.slack = slack_.get();
+  c.moved = moved_.get();
+  c.last = last_.get();
+  c.motion = motion_.get();
   c.meshes = meshes_;
   c.nodeCount = int(nodes_.size());
   c.leafCount = int(leaves_.size());
@@ -46,7 +56,7 @@ CollisionDevice DeviceCollision::view() const {
 
 std::size_t DeviceCollision::bytes() const {
   return nodes_.bytes() + boxes_.bytes() + tris_.bytes() + order_.bytes() + roots_.bytes() + leaves_.bytes() + visits_.bytes() +
-         stiffness_.bytes() + depth_.bytes() + counter_.bytes() + hint_.bytes() + exempt_.bytes();
+         stiffness_.bytes() + depth_.bytes() + counter_.bytes() + hint_.bytes() + exempt_.bytes() + slack_.bytes() + moved_.bytes() + last_.bytes() + motion_.bytes();
 }
 
 }  // namespace sinew::cuda

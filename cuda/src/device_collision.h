@@ -26,7 +26,9 @@ private:
   DeviceArray<collision::Box> boxes_;
   DeviceArray<collision::Tri> tris_;
   DeviceArray<int> order_, roots_, leaves_, visits_, hint_;
-  DeviceArray<float> stiffness_, depth_;
+  DeviceArray<float> stiffness_, depth_, slack_, moved_;
+  DeviceArray<float3> last_;
+  DeviceArray<unsigned> motion_;
   DeviceArray<int> counter_;  // the level's steps so far (full searches every full_search_every)
   DeviceArray<unsigned char> exempt_;
   int meshes_ = 0;

@@ -128,6 +128,10 @@ struct CollisionDevice {
   float* depth = nullptr;  // per vertex, the last penetration (collision::contactResponse)
   int* counter = nullptr;  // the level's steps so far
   int* hint = nullptr;     // per vertex, the last nearest contact leaf
+  float* slack = nullptr;  // per vertex, its clearance beyond the margin (collision::clearOfContacts)
+  float* moved = nullptr;  // per vertex, how far it moved since the last step
+  float3* last = nullptr;  // the positions the last step saw
+  unsigned* motion = nullptr;  // the step's largest move (a float's bits: atomicMax orders them)
   const unsigned char* exempt = nullptr;  // pairs left out (meshes x meshes), or null
   int meshes = 0, nodeCount = 0, leafCount = 0;
 };

@@ -24,6 +24,10 @@ public:
     stiffness_.clear();
     depth_.assign(ctx.store.vertexCount(), collision::kUnknownDepth);
     hint_.assign(ctx.store.vertexCount(), -1);
+    slack_.assign(ctx.store.vertexCount(), 0.0f);
+    moved_.assign(ctx.store.vertexCount(), 0.0f);
+    const auto x = ctx.store.positions();
+    last_.assign(x.begin(), x.end());
     step_ = 0;
     builtFor_ = ctx.store.vertexCount();
     checked_ = false;
@@ -51,11 +55,13 @@ public:
     const auto previous = s.previousPositions();
     const auto meshOf = s.meshOfVertex();
     const auto mass = s.masses();
+    const float motion = trackMotion(s.positions(), ctx.executor);
     stiffness_.assign(s.vertexCount(), 0.0f);
     forActiveVertices(ctx, [&](Index v, float alpha) {
       collision::P3 f{0, 0, 0};
       stiffness_[v] = collision::contactResponse(view, int(meshOf[v]), x[v], asP3(previous[v]), alpha * mass[v], margin, damping,
-                                                 reach, full, every, depth_[v], hint_[v], x, centres, f);
+                                                 reach, full, every, moved_[v], motion, depth_[v], hint_[v], slack_[v], x,
+                                                 centres, f);
       forces[v] += asVec3(f);
     });
   }
@@ -67,12 +73,31 @@ public:
   }
 
 private:
+  // Each vertex's distance from where the last step saw it (moved_), and the largest: the motion
+  // that the clearance of every vertex pays for (collision::clearOfContacts).
+  float trackMotion(std::span<const Vec3> x, const Executor& executor) {
+    return executor.reduce(
+        Index(0), Index(x.size()), 0.0f,
+        [&](Index b, Index e, float largest) {
+          for (Index v = b; v < e; ++v) {
+            moved_[v] = (x[v] - last_[v]).norm();
+            last_[v] = x[v];
+            largest = std::max(largest, moved_[v]);
+          }
+          return largest;
+        },
+        [](float a, float b) { return std::max(a, b); }, 4096);
+  }
+
   CollisionTree tree_;
   Index builtFor_ = -1;
   bool checked_ = false;
   std::vector<float> stiffness_;
   std::vector<float> depth_;  // each vertex's last penetration (collision::contactResponse)
   std::vector<int> hint_;     // each vertex's last nearest contact leaf
+  std::vector<float> slack_;  // each vertex's clearance of the other structures beyond the margin
+  std::vector<float> moved_;
+  std::vector<Vec3> last_;    // the positions the last step saw
   long step_ = 0;  // steps at this level: every full_search_every-th one searches in full
 };
 }  // namespace
