@@ -47,7 +47,9 @@ print(f"| {levels} | {verts} | {label} | {len(window) // steps} | {total:.4f} | 
       f"{r['overlaps']['total_after_mm3']:.1f} | {assd:.3f} |")
 open(path.replace("ncu.csv", "total.txt"), "w").write(f"{total}\n")
 by = {}
-for n, t in window: by[n.split("(")[0].split("<")[0]] = by.get(n.split("(")[0].split("<")[0], 0.0) + t / steps / 1e3
+for n, t in window:
+    name = n.split("(")[0].split("<")[0]  # the kernel's name without template arguments or parameters
+    by[name] = by.get(name, 0.0) + t / steps / 1e3
 open(path.replace("ncu.csv", "kernels.txt"), "w").write(", ".join(f"{n} {t:.1f} us" for n, t in sorted(by.items(), key=lambda kv: -kv[1])) + "\n")
 PY
   cat "$d/row.txt"

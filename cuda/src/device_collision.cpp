@@ -18,8 +18,9 @@ void DeviceCollision::build(MeshStore& store, const SceneData& scene, float marg
   if (withStiffness) SINEW_CUDA(cudaMemsetAsync(stiffness_.get(), 0, stiffness_.bytes(), stream));
   depth_.upload(std::vector<float>(store.vertexCount(), collision::kUnknownDepth), stream);
   hint_.upload(std::vector<int>(store.vertexCount(), -1), stream);
-  slack_.resize(store.vertexCount());  // set by the first step's search before it is read
-  moved_.resize(store.vertexCount());
+  slack_.resize(store.vertexCount());  // no slack until the first step's (unbounded) search
+  SINEW_CUDA(cudaMemsetAsync(slack_.get(), 0, slack_.bytes(), stream));
+  moved_.resize(store.vertexCount());  // written by every step's refit before the response reads it
   const auto x = store.positions();
   last_.upload(reinterpret_cast<const float3*>(x.data()), x.size(), stream);
   motion_.resize(1);

@@ -305,7 +305,8 @@ private slots:
       const collision::P3* p = asP3(store.positions());
       const collision::P3* c = asP3(store.cellCentres());
       for (Index v = 0; v < n; ++v) {
-        const bool clear = depthKept[v] == 0.0f && slack[v] - moved[v] - motion > 0.0f;
+        float probe = slack[v];  // what contactResponse will decide, on a copy
+        const bool clear = collision::clearOfContacts(depthKept[v], moved[v], motion, probe);
         collision::P3 kept{0, 0, 0}, every{0, 0, 0};
         const float kKept = collision::contactResponse(view, int(meshOf[v]), p[v], asP3(last[v]), 1.0f, margin, 0.0f, reach, true, 1,
                                                        moved[v], motion, depthKept[v], hintKept[v], slack[v], p, c, kept);
