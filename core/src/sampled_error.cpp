@@ -4,6 +4,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <unordered_map>
 
 namespace sinew {
 
@@ -14,9 +16,34 @@ SampledError::SampledError(const std::vector<const ReferenceSurface*>& truths, f
     if (t) {
       const std::vector<SurfaceSample> s = sampleSurface(t->surface(), spacing);
       samples_.insert(samples_.end(), s.begin(), s.end());
+      groupIntoPatches(s, int(truthRoots_.size()) - 1);
     }
     sampleOffsets_.push_back(Index(samples_.size()));
-    sampleStructure_.resize(samples_.size(), int(truthRoots_.size()) - 1);
+  }
+  planes_.resize(patchCentres_.size());
+}
+
+void SampledError::groupIntoPatches(const std::vector<SurfaceSample>& samples, int structure) {
+  // Patches numbered in the order of their first sample, so the grouping does not depend on hashing.
+  std::unordered_map<std::uint64_t, int> patchOfCube;
+  std::vector<Eigen::Vector3d> sum;
+  std::vector<double> area;
+  const int first = int(patchCentres_.size());
+  for (const SurfaceSample& s : samples) {
+    std::uint64_t key = 0;
+    for (int k = 0; k < 3; ++k)  // 21 bits per axis: +-1,048,576 cubes, far beyond any image
+      key = (key << 21) | (std::uint64_t(std::int64_t(std::floor(s.point[k] / kPatchMm)) + (1 << 20)) & 0x1fffff);
+    const auto [it, added] = patchOfCube.try_emplace(key, first + int(sum.size()));
+    if (added) sum.emplace_back(Eigen::Vector3d::Zero()), area.push_back(0.0);
+    const int local = it->second - first;
+    sum[local] += double(s.area) * s.point.cast<double>();
+    area[local] += s.area;
+    samplePatch_.push_back(it->second);
+  }
+  for (size_t k = 0; k < sum.size(); ++k) {
+    const Eigen::Vector3d c = area[k] > 0.0 ? Eigen::Vector3d(sum[k] / area[k]) : Eigen::Vector3d::Zero();
+    patchCentres_.push_back({float(c.x()), float(c.y()), float(c.z())});
+    patchStructure_.push_back(structure);
   }
 }
 
@@ -72,11 +99,11 @@ std::vector<std::optional<SurfaceDistanceStats>> SampledError::measure(MeshStore
   const int per = perTriangle_;
   toTruth_.assign(per * meshes_.triangles.size(), {0.0f, 0.0f});
   fromTruth_.resize(samples_.size());
-  // One parallel pass over every structure's queries in both directions: a pass per structure and
+  // One parallel pass over every structure's searches in both directions: a pass per structure and
   // direction left most threads idle at each one's end on a many-core host.
   const Index triangles = Index(meshes_.triangles.size());
   ex.forEach(
-      triangles + Index(samples_.size()),
+      triangles + Index(patchCentres_.size()),
       [&](Index i) {
         if (i < triangles) {
           const int root = truthRoots_[triangleStructure_[i]];
@@ -91,11 +118,13 @@ std::vector<std::optional<SurfaceDistanceStats>> SampledError::measure(MeshStore
           return;
         }
         const Index k = i - triangles;
-        const SurfaceSample& s = samples_[k];
-        fromTruth_[k] = {std::sqrt(trianglebvh::closestSquaredDistance(mesh, meshRoots_[sampleStructure_[k]], asP3(s.point), 3.0e38f)),
-                         s.area};
+        planes_[k] = trianglebvh::closestTangentPlane(mesh, meshRoots_[patchStructure_[k]], patchCentres_[k]);
       },
       64);
+  ex.forEach(Index(samples_.size()), [&](Index k) {
+    const int patch = samplePatch_[k];
+    fromTruth_[k] = {trianglebvh::planeDistance(planes_[patch], patchCentres_[patch], asP3(samples_[k].point)), samples_[k].area};
+  });
   return summarise(toTruth_, fromTruth_);
 }
 

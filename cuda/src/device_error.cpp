@@ -14,7 +14,10 @@ void DeviceSampledError::uploadTruth(const SampledError& error, cudaStream_t str
   }
   samples_.upload(points, stream);
   sampleAreas_.upload(areas, stream);
-  sampleStructure_.upload(error.truthSampleStructure(), stream);
+  samplePatch_.upload(error.samplePatch(), stream);
+  patchCentres_.upload(error.patchCentres(), stream);
+  patchStructure_.upload(error.patchStructure(), stream);
+  planes_.resize(error.patchCentres().size());
   fromTruth_.resize(points.size());
   SINEW_CUDA(cudaStreamSynchronize(stream));  // the host vectors go out of scope
   truthOf_ = &error;
@@ -67,13 +70,17 @@ std::vector<std::optional<SurfaceDistanceStats>> DeviceSampledError::measure(Sam
   e.truthRoots = truthRoots_.get();
   e.samples = samples_.get();
   e.sampleAreas = sampleAreas_.get();
-  e.sampleStructure = sampleStructure_.get();
+  e.samplePatch = samplePatch_.get();
+  e.patchCentres = patchCentres_.get();
+  e.patchStructure = patchStructure_.get();
+  e.planes = planes_.get();
   e.toTruth = toTruth_.get();
   e.fromTruth = fromTruth_.get();
   e.meshNodeCount = int(meshNodes_.size());
   e.leafCount = int(leaves_.size());
   e.triangleCount = int(triangles_.size());
   e.sampleCount = int(samples_.size());
+  e.patchCount = int(patchCentres_.size());
   e.samplesPerTriangle = error.samplesPerTriangle();
   launchSampledError(view, e, stream);
   hostTo_.resize(toTruth_.size());
@@ -87,7 +94,7 @@ std::vector<std::optional<SurfaceDistanceStats>> DeviceSampledError::measure(Sam
 
 std::size_t DeviceSampledError::bytes() const {
   return truthNodes_.bytes() + meshNodes_.bytes() + truthCorners_.bytes() + corners_.bytes() + points_.bytes() +
-         truthRoots_.bytes() + sampleStructure_.bytes() + parents_.bytes() + leaves_.bytes() + triangleStructure_.bytes() +
+         truthRoots_.bytes() + samplePatch_.bytes() + patchStructure_.bytes() + patchCentres_.bytes() + planes_.bytes() + parents_.bytes() + leaves_.bytes() + triangleStructure_.bytes() +
          meshRoots_.bytes() + visits_.bytes() + triangles_.bytes() + samples_.bytes() + sampleAreas_.bytes() +
          toTruth_.bytes() + fromTruth_.bytes();
 }

@@ -24,8 +24,9 @@ private:
 
   const SampledError* truthOf_ = nullptr;  // whose truths are on the device
   DeviceArray<trianglebvh::Node> truthNodes_, meshNodes_;
-  DeviceArray<collision::P3> truthCorners_, corners_, points_;
-  DeviceArray<int> truthRoots_, sampleStructure_, parents_, leaves_, triangleStructure_, meshRoots_, visits_;
+  DeviceArray<collision::P3> truthCorners_, corners_, points_, patchCentres_;
+  DeviceArray<int> truthRoots_, samplePatch_, patchStructure_, parents_, leaves_, triangleStructure_, meshRoots_, visits_;
+  DeviceArray<trianglebvh::TangentPlane> planes_;
   DeviceArray<int3> triangles_;
   DeviceArray<float3> samples_;
   DeviceArray<float> sampleAreas_;

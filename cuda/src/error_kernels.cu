@@ -79,13 +79,19 @@ __global__ void toTruth(trianglebvh::View mesh, trianglebvh::View truth, const i
   out[i] = {sqrtf(trianglebvh::closestSquaredDistance(truth, root, p, 3.0e38f)), area};
 }
 
-// Truth to mesh: one thread per truth sample.
-__global__ void fromTruth(trianglebvh::View mesh, const float3* samples, const float* areas, const int* structureOf,
-                          const int* meshRoots, int count, WeightedDistance* out) {
+// Truth to mesh: the tessellation's tangent plane at each patch (one thread per patch), then each
+// truth sample's distance to its patch's plane (one thread per sample).
+__global__ void patchPlanes(trianglebvh::View mesh, const P3* centres, const int* structureOf, const int* meshRoots, int count,
+                            trianglebvh::TangentPlane* planes) {
+  const int i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i < count) planes[i] = trianglebvh::closestTangentPlane(mesh, meshRoots[structureOf[i]], centres[i]);
+}
+__global__ void fromTruth(const trianglebvh::TangentPlane* planes, const P3* centres, const float3* samples, const float* areas,
+                          const int* patchOf, int count, WeightedDistance* out) {
   const int i = blockIdx.x * blockDim.x + threadIdx.x;
   if (i >= count) return;
-  const P3 p{samples[i].x, samples[i].y, samples[i].z};
-  out[i] = {sqrtf(trianglebvh::closestSquaredDistance(mesh, meshRoots[structureOf[i]], p, 3.0e38f)), areas[i]};
+  const int patch = patchOf[i];
+  out[i] = {trianglebvh::planeDistance(planes[patch], centres[patch], P3{samples[i].x, samples[i].y, samples[i].z}), areas[i]};
 }
 __global__ void closestDistances(trianglebvh::View meshes, const P3* points, const int* roots, int count, float* out) {
   const int i = blockIdx.x * blockDim.x + threadIdx.x;
@@ -107,8 +113,12 @@ void launchSampledError(const MeshView& m, const SampledErrorDevice& e, cudaStre
   const trianglebvh::View mesh{e.meshNodes, e.corners}, truth{e.truthNodes, e.truthCorners};
   toTruth<<<blocks(e.triangleCount * e.samplesPerTriangle), kThreads, 0, s>>>(mesh, truth, e.triangleStructure, e.truthRoots,
                                                                               e.triangleCount, e.samplesPerTriangle, e.toTruth);
-  fromTruth<<<blocks(e.sampleCount), kThreads, 0, s>>>(mesh, e.samples, e.sampleAreas, e.sampleStructure, e.meshRoots,
-                                                       e.sampleCount, e.fromTruth);
+  if (e.patchCount > 0)
+    patchPlanes<<<blocks(e.patchCount), kThreads, 0, s>>>(mesh, e.patchCentres, e.patchStructure, e.meshRoots, e.patchCount,
+                                                          e.planes);
+  if (e.sampleCount > 0)
+    fromTruth<<<blocks(e.sampleCount), kThreads, 0, s>>>(e.planes, e.patchCentres, e.samples, e.sampleAreas, e.samplePatch,
+                                                         e.sampleCount, e.fromTruth);
 }
 
 }  // namespace sinew::cuda

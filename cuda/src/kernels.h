@@ -14,6 +14,7 @@ struct P3;
 }  // namespace sinew::collision
 namespace sinew::trianglebvh {
 struct Node;
+struct TangentPlane;
 }  // namespace sinew::trianglebvh
 namespace sinew {
 struct WeightedDistance;
@@ -224,10 +225,13 @@ struct SampledErrorDevice {
   const int* truthRoots = nullptr;         // per structure, -1 without a truth
   const float3* samples = nullptr;         // the truths' samples
   const float* sampleAreas = nullptr;
-  const int* sampleStructure = nullptr;
+  const int* samplePatch = nullptr;        // each sample's patch
+  const collision::P3* patchCentres = nullptr;
+  const int* patchStructure = nullptr;
+  trianglebvh::TangentPlane* planes = nullptr;  // per patch
   WeightedDistance* toTruth = nullptr;     // samplesPerTriangle per triangle
   WeightedDistance* fromTruth = nullptr;   // one per sample
-  int meshNodeCount = 0, leafCount = 0, triangleCount = 0, sampleCount = 0, samplesPerTriangle = 4;
+  int meshNodeCount = 0, leafCount = 0, triangleCount = 0, sampleCount = 0, patchCount = 0, samplesPerTriangle = 4;
 };
 void launchSampledError(const MeshView& m, const SampledErrorDevice& e, cudaStream_t s);
 // out[k]: the exact distance from points[k] to the mesh under roots[k] (the exact evaluation's).

@@ -13,6 +13,7 @@
 #include <QtTest>
 
 #include <cmath>
+#include <random>
 
 using namespace sinew;
 
@@ -31,6 +32,44 @@ private slots:
     // The 95th percentile by area, not by count: 96 % of the area at 0.1, the rest at 2.
     std::vector<WeightedDistance> c{{0.1f, 96.0f}, {2.0f, 4.0f}};
     QVERIFY(std::abs(summariseBinned(c, {}, SampledError::kBinMm).hd95 - 0.1) <= SampledError::kBinMm);
+  }
+
+  // The truth-to-mesh direction's first-order distances (trianglebvh::planeDistance): exact on a
+  // flat surface, on either side of it and from a patch centre on it; on a sphere, within the stated
+  // |s - c|^2 / 2R (R the radius of the distance's level set, plus the facets' sagitta) of the exact
+  // distance.
+  void tangentPlaneDistances() {
+    TriangleMesh square;
+    square.points = {{-5, -5, 0}, {5, -5, 0}, {5, 5, 0}, {-5, 5, 0}};
+    square.triangles = {{0, 1, 2}, {0, 2, 3}};
+    const TriangleBvh flat = TriangleBvh::build(square);
+    struct Case {
+      collision::P3 c, s;
+      float expected;
+    };
+    for (const Case& k : {Case{{0.2f, 0.3f, 0.0f}, {0.5f, -0.4f, -0.7f}, 0.7f}, Case{{0.0f, 0.0f, 0.4f}, {0.3f, 0.2f, -0.5f}, 0.5f},
+                          Case{{1.0f, -2.0f, -0.3f}, {1.6f, -1.5f, -1.1f}, 1.1f}}) {
+      const trianglebvh::TangentPlane plane = trianglebvh::closestTangentPlane(flat.view(), 0, k.c);
+      QVERIFY2(std::abs(trianglebvh::planeDistance(plane, k.c, k.s) - k.expected) < 1e-5f,
+               qPrintable(QString::number(trianglebvh::planeDistance(plane, k.c, k.s))));
+    }
+    const float radius = 10.0f;
+    const TriangleBvh sphere = TriangleBvh::build(testing::ellipsoidSurface(Vec3::Zero(), Vec3::Constant(radius), 5));
+    std::mt19937 random(7);
+    std::uniform_real_distribution<float> unit(-1.0f, 1.0f);
+    float worstExcess = -1.0f;
+    for (int i = 0; i < 2000; ++i) {
+      const Vec3 direction = Vec3(unit(random), unit(random), unit(random)).normalized();
+      const Vec3 c = direction * (radius + 1.5f * unit(random));
+      const Vec3 s = c + 0.9f * Vec3(unit(random), unit(random), unit(random));  // a 1.8 mm cube's reach
+      const trianglebvh::TangentPlane plane = trianglebvh::closestTangentPlane(sphere.view(), 0, asP3(c));
+      const float estimate = trianglebvh::planeDistance(plane, asP3(c), asP3(s));
+      const float exact = std::sqrt(trianglebvh::closestSquaredDistance(sphere.view(), 0, asP3(s), 3.0e38f));
+      // The level sets through s curve with radius |s| >= R - 1.5 - |s - c|; plus the facets' sagitta.
+      const float bound = (s - c).squaredNorm() / (2.0f * (radius - 1.5f - (s - c).norm())) + 0.02f;
+      worstExcess = std::max(worstExcess, std::abs(estimate - exact) - bound);
+    }
+    QVERIFY2(worstExcess <= 0.0f, qPrintable(QString::number(worstExcess)));
   }
 
   void agreesWithTheExactEvaluationOnColin27() {

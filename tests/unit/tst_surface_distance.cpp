@@ -4,12 +4,43 @@
 
 #include <QtTest>
 
+#include <algorithm>
+#include <random>
+
 using namespace sinew;
 using namespace sinew::testing;
 
 class TestSurfaceDistance : public QObject {
   Q_OBJECT
 private slots:
+  // The HD95's selection against accumulating the areas of the sorted distances, on distances with
+  // many ties (a coarse grid of values) and on distinct ones, at several quantiles.
+  void weightedQuantileMatchesTheSortedAccumulation() {
+    std::mt19937 random(3);
+    for (int round = 0; round < 200; ++round) {
+      const int n = 1 + int(random() % 500);
+      const bool ties = round % 2 == 0;
+      std::vector<WeightedDistance> all(n);
+      for (WeightedDistance& w : all)
+        w = {ties ? float(random() % 7) * 0.25f : float(random() % 100000) * 1e-4f, float(1 + random() % 9) * 0.125f};
+      double total = 0;
+      for (const WeightedDistance& w : all) total += w.w;
+      for (double share : {0.0, 0.3, 0.95, 1.0}) {
+        std::vector<WeightedDistance> sorted = all;
+        std::sort(sorted.begin(), sorted.end(), [](const WeightedDistance& a, const WeightedDistance& b) { return a.d < b.d; });
+        float expected = sorted.back().d;
+        double acc = 0;
+        for (const WeightedDistance& w : sorted)
+          if ((acc += w.w) >= share * total) {
+            expected = w.d;
+            break;
+          }
+        std::vector<WeightedDistance> copy = all;
+        QCOMPARE(weightedQuantile(copy, share * total), expected);
+      }
+    }
+  }
+
   void pointToSurfaceIsExact() {
     const TriangleMesh cube = [] {
       TriangleMesh m;

@@ -8,8 +8,14 @@
 //   centroids of its midpoint split; where the level's triangles' longest edges are on average no
 //   longer than 1.25 times the truth's sampling spacing, one, the centroid (a quarter of the queries
 //   at the fine levels, where the meshes have the most triangles);
-// - truth to mesh: the truth sampled at a coarser spacing than the exact evaluation's (sampleSurface)
-//   into a hierarchy of the tessellation, built once per level and refitted at each sample;
+// - truth to mesh: the truth sampled at a coarser spacing than the exact evaluation's (sampleSurface),
+//   the samples grouped into patches (cubes of kPatchMm, per structure); one search per patch, from
+//   its centre into a hierarchy of the tessellation (built once per level, refitted at each sample),
+//   gives the tessellation's tangent plane there, and each of the patch's samples is its distance to
+//   that plane (trianglebvh::planeDistance). The tessellation is smooth at this scale, unlike the
+//   truth (a label surface), so this direction is the one that can be approximated: on the demo the
+//   searches drop from 77,452 to 14,869 and the largest difference to the exact ASSD from 0.0073 to
+//   0.0087 mm (HD95 unchanged, 0.041 mm); the other direction stays exact;
 // - HD95 from a histogram of 0.005 mm bins instead of a sort.
 // The CUDA backend runs the same inline queries in its kernels (ExecutionBackend::measureError).
 #pragma once
@@ -25,6 +31,7 @@ namespace sinew {
 class SampledError {
 public:
   static constexpr float kBinMm = 0.005f;  // the histogram HD95 is read from
+  static constexpr float kPatchMm = 1.5f;  // the edge of the cubes that group the truth's samples
 
   // One truth per structure, null where a structure has none; their hierarchies are copied, their
   // surfaces sampled at `spacing`.
@@ -46,7 +53,11 @@ public:
   const std::vector<int>& truthRoots() const { return truthRoots_; }  // -1: no truth
   const std::vector<SurfaceSample>& truthSamples() const { return samples_; }
   const std::vector<Index>& truthSampleOffsets() const { return sampleOffsets_; }  // per structure, and the end
-  const std::vector<int>& truthSampleStructure() const { return sampleStructure_; }  // per truth sample
+  // The patches: their centres (their samples' area-weighted mean), structures, and each truth
+  // sample's patch.
+  const std::vector<collision::P3>& patchCentres() const { return patchCentres_; }
+  const std::vector<int>& patchStructure() const { return patchStructure_; }
+  const std::vector<int>& samplePatch() const { return samplePatch_; }
   // The tessellations; their points are the store's vertices, then its cell centres.
   const TriangleBvh& meshes() const { return meshes_; }
   const std::vector<int>& meshRoots() const { return meshRoots_; }
@@ -55,6 +66,8 @@ public:
   int samplesPerTriangle() const { return perTriangle_; }  // 1 or kSubTriangles, for the current level
 
 private:
+  void groupIntoPatches(const std::vector<SurfaceSample>& samples, int structure);
+
   TriangleBvh truth_;
   std::vector<int> truthRoots_;
   std::vector<SurfaceSample> samples_;
@@ -67,7 +80,10 @@ private:
   int perTriangle_ = kSubTriangles;
   std::vector<Vec3> points_;
   std::vector<WeightedDistance> toTruth_, fromTruth_;
-  std::vector<int> triangleStructure_, sampleStructure_;  // the structure of each tessellation triangle, truth sample
+  std::vector<collision::P3> patchCentres_;
+  std::vector<int> patchStructure_, samplePatch_;
+  std::vector<trianglebvh::TangentPlane> planes_;  // per patch, at the last measure()
+  std::vector<int> triangleStructure_;  // the structure of each tessellation triangle
 };
 
 // Both directions summarised as the exact evaluation does: ASSD the area-weighted mean of both;

@@ -69,6 +69,11 @@ struct SurfaceDistanceStats {
 SurfaceDistanceStats surfaceDistance(const TriangleMesh& a, const TriangleMesh& b, float spacing,
                                      const Executor& executor = Executor());
 
+// The smallest distance d such that the distances up to d carry at least `target` of the area: what
+// accumulating the areas in ascending order finds, in linear time (the elements are reordered).
+// `all` must not be empty.
+float weightedQuantile(std::span<WeightedDistance> all, double target);
+
 // A fixed surface (e.g. a ground truth) compared with many others: its query structure and
 // samples are built once.
 class ReferenceSurface {

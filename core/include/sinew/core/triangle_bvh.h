@@ -64,6 +64,26 @@ SINEW_HD float closestSquaredDistance(const View& v, int root, P3 p, float maxD2
   }
   return best;
 }
+
+// The surface under `root` near c, to first order: the plane through c's closest point, normal to
+// the direction from that point to c (its triangle's normal where c lies on the surface), and c's
+// distance to it. A point s near c is about |d + n . (s - c)| from the surface (planeDistance): exact
+// where the surface is flat there, off by about |s - c|^2 / 2R on a surface of curvature radius R.
+struct TangentPlane {
+  P3 n;
+  float d;
+};
+SINEW_HD TangentPlane closestTangentPlane(const View& v, int root, P3 c) {
+  P3 q = c;
+  int t = 0;
+  const float d = sqrtf(closestSquaredDistance(v, root, c, 3.0e38f, &q, &t));
+  if (d > 1.0e-4f) return {collision::scale(collision::sub(c, q), 1.0f / d), d};
+  return {collision::unitNormal(v.corners[3 * t], v.corners[3 * t + 1], v.corners[3 * t + 2]), d};
+}
+SINEW_HD float planeDistance(const TangentPlane& plane, P3 c, P3 s) {
+  const float signedDistance = plane.d + collision::dot3(plane.n, collision::sub(s, c));
+  return signedDistance < 0.0f ? -signedDistance : signedDistance;
+}
 }  // namespace sinew::trianglebvh
 
 namespace sinew {
