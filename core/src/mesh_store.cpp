@@ -1,5 +1,6 @@
 #include "sinew/core/mesh_store.h"
 
+#include <algorithm>
 #include <stdexcept>
 
 namespace sinew {
@@ -32,6 +33,7 @@ MeshStore::MeshStore(std::span<const SimplexTopology* const> topologies) {
     const Index mesh = static_cast<Index>(ranges_.size());
     ranges_.push_back(r);
     density_.push_back(1.0f);
+    massFloor_.push_back(0.0f);
     for (Index v = 0; v < t->vertexCount(); ++v) {
       meshOfVertex_.push_back(mesh);
       auto n = t->neighbours[v];
@@ -148,6 +150,11 @@ void MeshStore::setDensity(Index mesh, float density) {
   ++positionsVersion_;  // masses depend on it
 }
 
+void MeshStore::setMassFloor(Index mesh, float mass) {
+  massFloor_[mesh] = mass;
+  ++positionsVersion_;
+}
+
 const Executor& MeshStore::executor() const { return executor_ ? *executor_ : serialExecutor(); }
 
 void MeshStore::refresh() {
@@ -188,7 +195,7 @@ void MeshStore::refreshCurrent() {
         for (int j = 0; j < 3; ++j)
           a += triangleArea(p, x[n[j]], centre[c[j]]) + triangleArea(p, x[n[j]], centre[c[(j + 1) % 3]]);
         area[v] = a;
-        if (mass) mass[v] = a * density_[meshOfVertex_[v]];
+        if (mass) mass[v] = std::max(a * density_[meshOfVertex_[v]], massFloor_[meshOfVertex_[v]]);
       }
     });
   }
@@ -279,7 +286,7 @@ std::size_t MeshStore::bytes(MemoryCategory c) const {
   switch (c) {
     case MemoryCategory::Topology:
       total = vecBytes(ranges_) + vecBytes(meshOfVertex_) + vecBytes(neighbours_) +
-              vecBytes(vertexCells_) + vecBytes(cellOffsets_) + vecBytes(cellVertices_) + vecBytes(density_);
+              vecBytes(vertexCells_) + vecBytes(cellOffsets_) + vecBytes(cellVertices_) + vecBytes(density_) + vecBytes(massFloor_);
       break;
     case MemoryCategory::State:
       for (Attribute a : {Attribute::Position, Attribute::PreviousPosition, Attribute::Force,
@@ -305,6 +312,7 @@ MeshStore MeshStore::refined(std::span<const SimplexTopology* const> fineTopolog
   MeshStore fine(fineTopologies);
   fine.executor_ = executor_;
   fine.density_ = density_;
+  fine.massFloor_ = massFloor_;
   for (int a = 0; a < idx(Attribute::Count); ++a)
     if (allocated_[a]) fine.require(static_cast<Attribute>(a));
   for (Attribute a : {Attribute::Position, Attribute::PreviousPosition, Attribute::Force,

@@ -125,7 +125,7 @@ ForceSettings readForces(const Node& n) {
 StructureDesc readStructureRest(const Node& n, StructureDesc& s);
 
 StructureDesc readStructure(const Node& n) {
-  n.expectObject({"name", "label", "reference", "initial", "forces", "density", "ground_truth", "attraction_points_mm",
+  n.expectObject({"name", "label", "reference", "initial", "forces", "density", "mass_floor", "ground_truth", "attraction_points_mm",
                   "include_points_mm", "exclude_points_mm"});
   StructureDesc s;
   s.name = n.at("name").string();
@@ -171,6 +171,10 @@ StructureDesc readStructureRest(const Node& n, StructureDesc& s) {
   if (n.has("density")) {
     s.density = n.at("density").number();
     if (s.density < 0.0) n.at("density").fail("the density must be >= 0 (0 = automatic)");
+  }
+  if (n.has("mass_floor")) {
+    s.massFloor = n.at("mass_floor").number();
+    if (!(s.massFloor >= 0.0 && s.massFloor <= 1.0)) n.at("mass_floor").fail("the mass floor must be between 0 and 1 (a share of the mean vertex mass)");
   }
   if (n.has("ground_truth")) s.groundTruth = readLabelRef(n.at("ground_truth"));
   const auto readPoints = [&](const char* key, std::vector<std::array<double, 3>>& out) {
@@ -469,6 +473,7 @@ std::string sceneToJson(const SceneDesc& s) {
                       {"translation_mm", p.translationMm}, {"scale", p.scale}};
     if (!d.forces.empty()) o["forces"] = forcesJson(d.forces);
     if (d.density != 0.0) o["density"] = d.density;
+    if (d.massFloor != 0.0) o["mass_floor"] = d.massFloor;
     if (d.groundTruth) o["ground_truth"] = labelRefJson(*d.groundTruth);
     if (!d.attractionPointsMm.empty()) o["attraction_points_mm"] = d.attractionPointsMm;
     if (!d.includePointsMm.empty()) o["include_points_mm"] = d.includePointsMm;

@@ -219,6 +219,7 @@ void SceneRunner::load() {
     StructureSpec spec;
     spec.name = d.name;
     spec.density = static_cast<float>(d.density);
+    spec.massFloor = static_cast<float>(d.massFloor);
     if (!d.reference.mesh && !d.reference.label) {
       const ModelStructure* ms = L.model->find(d.name);
       if (!ms) sceneError(scene_, where + "/name", "the model " + scene_.model->string() + " has no structure '" + d.name + "'");

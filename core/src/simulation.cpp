@@ -131,15 +131,19 @@ void Simulation::applyDensities() {
   if (!store_.has(Attribute::Area)) return;
   // Density 0 means "auto": the mean vertex mass of the structure is 1 at every level, so one time
   // step suits every level (a level has 4x the vertices, each with about 1/4 of the area).
+  // The mass floor keeps the vertices beside the smallest cells from being so light that the shape
+  // and smoothing pulls, which do not scale with area, take them past the explicit step's limit:
+  // without it a few dozen of them trembled by 1-1.6 mm every step on the demo (docs/stability.md).
   for (Index m = 0; m < structureCount(); ++m) {
-    if (structures_[m].density > 0.0f) {
-      store_.setDensity(m, structures_[m].density);
-      continue;
-    }
     const auto areas = store_.areas();
     const MeshRange& r = store_.range(m);
     const double total = std::accumulate(areas.begin() + r.vertexBegin, areas.begin() + r.vertexEnd, 0.0);
-    store_.setDensity(m, total > 0.0 ? static_cast<float>(r.vertexCount() / total) : 1.0f);
+    const float density = structures_[m].density > 0.0f ? structures_[m].density
+                          : total > 0.0                  ? static_cast<float>(r.vertexCount() / total)
+                                                         : 1.0f;
+    store_.setDensity(m, density);
+    const double meanMass = r.vertexCount() > 0 ? density * total / r.vertexCount() : 0.0;
+    store_.setMassFloor(m, static_cast<float>(structures_[m].massFloor * meanMass));
   }
 }
 

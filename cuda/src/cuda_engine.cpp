@@ -61,7 +61,7 @@ struct CudaEngine::Impl {
   DeviceTopology topology;
   DeviceArray<int> meshBegin, meshEnd;
   std::vector<int> hostMeshBegin;  // the current level's vertex ranges, for the next level change
-  DeviceArray<float> density, elevation, area, mass;
+  DeviceArray<float> density, massFloor, elevation, area, mass;
   DeviceArray<float3> x, prev, force, normal, centre;
   DeviceArray<float4> reference;
   // Implicit Euler: per-structure Jacobian weights and the solver's work arrays.
@@ -289,16 +289,18 @@ struct CudaEngine::Impl {
     s.refresh();  // reference parameters and trained profiles are computed on the host, once per level
     topology.upload(s, stream);
     std::vector<int> begin, end;
-    std::vector<float> dens;
+    std::vector<float> dens, floors;
     for (Index m = 0; m < s.meshCount(); ++m) {
       begin.push_back(s.range(m).vertexBegin);
       end.push_back(s.range(m).vertexEnd);
       dens.push_back(s.density(m));
+      floors.push_back(s.massFloor(m));
     }
     meshBegin.upload(begin, stream);
     hostMeshBegin = begin;
     meshEnd.upload(end, stream);
     density.upload(dens, stream);
+    massFloor.upload(floors, stream);
     if (state) uploadState();
     force.resize(s.vertexCount());
     if (s.has(Attribute::Normal)) normal.resize(s.vertexCount());
@@ -343,6 +345,7 @@ struct CudaEngine::Impl {
     view = MeshView{};
     topology.bind(s, view);
     view.density = density.get();
+    view.massFloor = massFloor.get();
     view.x = x.get();
     view.prev = prev.get();
     view.force = force.get();
@@ -683,7 +686,7 @@ std::string CudaEngine::device() const { return impl_->device; }
 
 std::size_t CudaEngine::deviceBytes() const {
   const Impl& I = *impl_;
-  return I.topology.bytes() + I.density.bytes() + I.elevation.bytes() + I.area.bytes() + I.mass.bytes() + I.x.bytes() +
+  return I.topology.bytes() + I.density.bytes() + I.massFloor.bytes() + I.elevation.bytes() + I.area.bytes() + I.mass.bytes() + I.x.bytes() +
          I.prev.bytes() + I.force.bytes() + I.normal.bytes() + I.centre.bytes() + I.reference.bytes() +
          I.imageQuads.bytes() + I.profiles.bytes() + I.gradient.bytes() + I.contourOut.bytes() + I.implicitA.bytes() +
          I.implicitB.bytes() + I.implicitOff.bytes() + I.implicitC.bytes() + I.implicitVel.bytes() + I.implicitRhs.bytes() +

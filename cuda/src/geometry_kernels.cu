@@ -55,7 +55,11 @@ __global__ void vertexGeometry(MeshView m) {
       a += triangleArea(p, q, centre[j]) + triangleArea(p, q, centre[(j + 1) % 3]);
     }
     m.area[v] = a;
-    if (m.mass) m.mass[v] = a * m.density[m.meshOf[v]];
+    if (m.mass) {
+      const int mesh = m.meshOf[v];
+      const float mass = a * m.density[mesh];
+      m.mass[v] = m.massFloor && m.massFloor[mesh] > mass ? m.massFloor[mesh] : mass;  // as std::max on the host
+    }
   }
 }
 

@@ -104,6 +104,8 @@ private slots:
     QTest::newRow("shape limit") << R"("version": 1,)" << R"("version": 1, "stability": {"min_volume_ratio": 1.5},)"
                                  << "/stability/min_volume_ratio: must be in [0, 1)";
     QTest::newRow("not json") << R"("version": 1,)" << R"("version": 1,,)" << "/data/scene.json: not valid JSON";
+    QTest::newRow("mass floor") << R"("scale": 1.05})" << R"("scale": 1.05}, "mass_floor": 1.5)"
+                                << "/structures/0/mass_floor: the mass floor must be between 0 and 1";
   }
   void errorsNameTheJsonPath() {
     QFETCH(QString, from);
@@ -136,13 +138,16 @@ private slots:
     QVERIFY(y.excludePointsMm == x.excludePointsMm);
     QVERIFY(b.forces == a.forces);
     QCOMPARE(b.integrator, a.integrator);
-    // Attachments and the thickness output too.
-    SceneDesc c = parseScene(replaced(kValid, R"("version": 1,)",
-                                      R"("version": 1, "outputs": {"thickness": true}, "attachments": [{"structure": "a", "fixed_within_mm": {"centre": [1, 2, 3], "radius": 4}}],)"),
+    QCOMPARE(y.massFloor, 0.0);  // off unless asked for
+    // Attachments, the thickness output and a mass floor too.
+    SceneDesc c = parseScene(replaced(replaced(kValid, R"("version": 1,)",
+                                               R"("version": 1, "outputs": {"thickness": true}, "attachments": [{"structure": "a", "fixed_within_mm": {"centre": [1, 2, 3], "radius": 4}}],)"),
+                                      R"("scale": 1.05})", R"("scale": 1.05}, "mass_floor": 0.3)"),
                              "/data/scene.json");
     writeScene(c, file);
     const SceneDesc d = readScene(file);
     QVERIFY(d.thickness);
+    QCOMPARE(d.structures[0].massFloor, 0.3);
     QCOMPARE(d.attachments.size(), std::size_t(1));
     QCOMPARE(d.attachments[0].kind, std::string("fixed"));
     QVERIFY((d.attachments[0].centreMm == std::array<double, 3>{1, 2, 3}));

@@ -109,6 +109,55 @@ private slots:
     for (Index c = 0; c < store.cellCount(); ++c) QVERIFY((centres[c] - expected[c]).norm() < 1e-5f);
   }
 
+  // mass = max(area x density, floor): the floor lifts the light vertices and leaves the others, and
+  // the simulation sets it as a share of each structure's mean vertex mass at the level's start.
+  void massFloorLiftsOnlyTheLightVertices() {
+    // A sphere squashed along one axis, so that its vertices' areas differ.
+    SimplexMesh m = SimplexMesh::sphere(2, 5.0f);
+    for (Vec3& p : m.positions) p.z() *= 0.3f;
+    MeshStore store(std::vector<const SimplexTopology*>{&m.topology});
+    store.require(Attribute::Mass);
+    std::copy(m.positions.begin(), m.positions.end(), store.positionsForWrite().begin());
+    store.setDensity(0, 2.5f);
+    std::vector<float> sorted(store.areas().begin(), store.areas().end());
+    std::sort(sorted.begin(), sorted.end());
+    const float floor = 2.5f * sorted[sorted.size() / 2];  // the median vertex's mass
+    store.setMassFloor(0, floor);
+    const auto area = store.areas();
+    const auto mass = store.masses();  // recomputed: the floor makes the masses stale
+    int lifted = 0, kept = 0;
+    for (Index v = 0; v < store.vertexCount(); ++v) {
+      QCOMPARE(mass[v], std::max(2.5f * area[v], floor));
+      (2.5f * area[v] < floor ? lifted : kept)++;
+    }
+    QVERIFY(lifted > 0 && kept > 0);
+
+    auto sim = std::make_unique<Simulation>(forceRegistry(), 1);
+    for (float share : {0.0f, 0.6f}) {
+      StructureSpec s = sphereStructure("s" + std::to_string(int(share * 10)), 2, 5.0f, Vec3(16 + 20 * share, 16, 16));
+      for (Vec3& p : s.initialPositions) p.z() = 16 + 0.3f * (p.z() - 16);
+      s.referencePositions = s.initialPositions;
+      s.massFloor = share;
+      sim->addStructure(std::move(s));
+    }
+    sim->addForce("smoothing");
+    sim->setIntegrator("damped_verlet");
+    sim->initialize();
+    MeshStore& st = sim->store();
+    for (Index k = 0; k < 2; ++k) {
+      const MeshRange& r = st.range(k);
+      double total = 0;
+      float lightest = 1e30f;
+      for (Index v = r.vertexBegin; v < r.vertexEnd; ++v) total += st.areas()[v] * st.density(k);
+      for (Index v = r.vertexBegin; v < r.vertexEnd; ++v) lightest = std::min(lightest, st.masses()[v]);
+      const double mean = total / r.vertexCount();  // auto density: 1
+      QVERIFY(std::abs(mean - 1.0) < 1e-4);
+      QVERIFY(std::abs(st.massFloor(k) - (k == 0 ? 0.0 : 0.6 * mean)) < 1e-5);
+      if (k == 0) QVERIFY(lightest < 0.6f);  // without the floor some vertices are lighter
+      else QVERIFY(lightest >= 0.6f * float(mean) - 1e-5f);
+    }
+  }
+
   void derivedGeometryIsNeverStale() {
     const SimplexMesh m = SimplexMesh::sphere(2, 5.0f);
     MeshStore store(std::vector<const SimplexTopology*>{&m.topology});

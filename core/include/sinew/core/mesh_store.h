@@ -30,7 +30,7 @@ enum class Attribute : int {
   SimplexParams,
   CellCentre,  // per cell
   Area,        // per vertex: sum of the paper-000 Fig. 1b triangles at the vertex
-  Mass,        // area x the mesh's density
+  Mass,        // area x the mesh's density, at least the mesh's mass floor
   // Derived from ReferencePosition.
   ReferenceNormal,
   ReferenceParams,
@@ -92,6 +92,10 @@ public:
 
   void setDensity(Index mesh, float density);
   float density(Index mesh) const { return density_[mesh]; }
+  // The least mass of the mesh's vertices (Simulation::applyDensities): mass = max(area x density,
+  // floor). 0 (the default) leaves area x density.
+  void setMassFloor(Index mesh, float mass);
+  float massFloor(Index mesh) const { return massFloor_[mesh]; }
 
   // Named per-vertex float channels for forces (e.g. trained profiles): width floats per vertex.
   std::span<float> requireChannel(const std::string& name, Index width, MemoryCategory category);
@@ -128,7 +132,7 @@ private:
   std::vector<Index> meshOfVertex_;
   std::vector<std::array<Index, 3>> neighbours_, vertexCells_;
   std::vector<Index> cellOffsets_{0}, cellVertices_;
-  std::vector<float> density_;
+  std::vector<float> density_, massFloor_;
 
   std::array<bool, static_cast<int>(Attribute::Count)> allocated_{};
   std::array<std::vector<Vec3>, static_cast<int>(Attribute::Count)> vec3_;

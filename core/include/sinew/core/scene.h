@@ -49,6 +49,9 @@ struct StructureDesc {
   Placement initial;
   ForceSettings forces;
   double density = 0.0;
+  // The least vertex mass as a share of the structure's mean (StructureSpec::massFloor). Off by
+  // default: docs/stability.md has what 0.3 does, and why it is not the default yet.
+  double massFloor = 0.0;
   std::optional<LabelRef> groundTruth;
   std::vector<std::array<double, 3>> attractionPointsMm;  // placed by the user (paper 000 section 4.5)
   // Points the structure must include or exclude (paper 001 section 4).

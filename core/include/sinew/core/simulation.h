@@ -21,6 +21,9 @@ struct StructureSpec {
   // gets the coarser reference carried by the prolongation.
   std::vector<std::vector<Vec3>> finerReferences;
   float density = 0.0f;                  // 0: chosen per level so the mean vertex mass is 1
+  // The least vertex mass, as a share of the structure's mean vertex mass at each level's start
+  // (MeshStore::setMassFloor): 0 leaves mass = area x density.
+  float massFloor = 0.0f;
 };
 
 class Simulation {

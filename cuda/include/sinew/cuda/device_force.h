@@ -24,6 +24,7 @@ struct MeshView {
   const int* cellVertices = nullptr;
   const int* meshOf = nullptr;        // the structure of each vertex
   const float* density = nullptr;     // per structure
+  const float* massFloor = nullptr;   // per structure, the least vertex mass; null: none
   float3* x = nullptr;                // positions
   float3* prev = nullptr;             // previous positions
   float3* force = nullptr;            // the step's force: add to it, never overwrite
