@@ -174,7 +174,8 @@ StructureDesc readStructureRest(const Node& n, StructureDesc& s) {
   }
   if (n.has("mass_floor")) {
     s.massFloor = n.at("mass_floor").number();
-    if (!(s.massFloor >= 0.0 && s.massFloor <= 1.0)) n.at("mass_floor").fail("the mass floor must be between 0 and 1 (a share of the mean vertex mass)");
+    if (!(s.massFloor >= 0.0 && s.massFloor <= 1.0))
+      n.at("mass_floor").fail("the mass floor must be between 0 and 1 (a share of the mean vertex mass)");
   }
   if (n.has("ground_truth")) s.groundTruth = readLabelRef(n.at("ground_truth"));
   const auto readPoints = [&](const char* key, std::vector<std::array<double, 3>>& out) {

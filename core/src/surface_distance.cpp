@@ -165,7 +165,9 @@ SurfaceDistanceStats ReferenceSurface::summarise(std::vector<WeightedDistance> a
 
 float weightedQuantile(std::span<WeightedDistance> all, double target) {
   // Quickselect on three-way partitions: `below` is the area of everything left of [lo, hi), which
-  // holds the answer. A sort of every distance did the same and was most of the summary's time.
+  // holds the answer. nth_element only picks the pivot (the range's median, so no bad pivots); the
+  // partitions put the pivot's ties together, which carry one value. A sort of every distance did
+  // the same and was most of the summary's time.
   auto lo = all.begin(), hi = all.end();
   double below = 0.0;
   const auto area = [](auto first, auto last) {
