@@ -5,7 +5,8 @@
 # STEPS steps' kernels of each run are timed. EVERY: values of the collision force's
 # full_search_every to measure. Needs ncu (CUDA toolkit) on the GPU machine. docs/benchmarks.md.
 # MAKE_SCENE_ARGS: more sinew-make-scene options (e.g. another --structures list); SCHEDULE:
-# iterations per level instead (the finest level must run more than STEPS).
+# iterations per level instead (the finest level must run more than STEPS); MASS_FLOOR: every
+# structure's mass_floor; RUN: another sinew-run to time (an older build's, side by side).
 # Usage: bash scripts/collision-kernel-time.sh BUILD_DIR OUT_DIR [LEVELS=3]
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -21,11 +22,17 @@ for c in off $(for k in ${EVERY:-1 4}; do echo "every$k"; done); do
   weight=1; [ "$c" = off ] && weight=0
   "$build/app/sinew-make-scene" --atlas "$t/aal.nii.gz" --labels "$t/aal.nii.txt" --training "$t/ch2better.nii.gz" \
     --target "$t/ch2.nii.gz" --seed 1 --iterations "${SCHEDULE:-${schedules[$levels]},60}" --collision-weight "$weight" ${MAKE_SCENE_ARGS:-} -o "$d/scene.json" >/dev/null
-  if [ "$c" != off ]; then
-    python3 -c 'import json,sys; p=sys.argv[1]; j=json.load(open(p)); j["forces"]["collision"]["full_search_every"]=int(sys.argv[2]); json.dump(j,open(p,"w"),indent=1)' "$d/scene.json" "${c#every}"
-  fi
+  python3 - "$d/scene.json" "${c#every}" "${MASS_FLOOR:-}" <<'PY'
+import json, sys
+p, every, floor = sys.argv[1:]
+j = json.load(open(p))
+if every != "off": j["forces"]["collision"]["full_search_every"] = int(every)
+for s in j["structures"]:
+    if floor: s["mass_floor"] = float(floor)
+json.dump(j, open(p, "w"), indent=1)
+PY
   # Every kernel of the run, then the last `steps` steps' worth (a step starts with vertexGeometry).
-  ncu --csv --metrics gpu__time_duration.sum "$build/app/sinew-run" "$d/scene.json" -o "$d/run" -q --backend cuda \
+  ncu --csv --metrics gpu__time_duration.sum "${RUN:-$build/app/sinew-run}" "$d/scene.json" -o "$d/run" -q --backend cuda \
     > "$d/ncu.csv" 2>/dev/null || true
   python3 - "$d/ncu.csv" "$d/run/report.json" "$levels" "$c" "$steps" "${base:-0}" > "$d/row.txt" <<'PY'
 import csv, json, sys
@@ -37,8 +44,9 @@ kernels = [(r[k], float(r[v].replace(",", ""))) for r in rows if r[m] == "gpu__t
 starts = [i for i, (name, _) in enumerate(kernels) if "vertexGeometry" in name]
 window = kernels[starts[-steps - 1]:starts[-1]]  # the last full steps (the final one may be cut by a sample)
 total = sum(t for _, t in window) / steps / 1e6  # ns -> ms
-# The collision refit takes the BvhView; the sampled error has a refit of its own.
-coll = sum(t for n, t in window if "respond" in n or "advance" in n or ("refit" in n and "BvhView" in n)) / steps / 1e6
+# The collision refit takes the BvhView (`refit` before 2026-11-25; since, `climbRefit` or
+# `vertexBoxes` and `nodeBoxes`); the sampled error has a refit of its own.
+coll = sum(t for n, t in window if "respond" in n or "Boxes" in n or "advance" in n or ("efit" in n and "BvhView" in n)) / steps / 1e6
 r = json.load(open(report))
 verts = sum(s["vertices"] for s in r["structures"])
 assd = sum(s["assd_mm"]["final"] for s in r["structures"]) / len(r["structures"])

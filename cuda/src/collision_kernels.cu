@@ -1,10 +1,12 @@
 // Collision detection and response on the device (core/collision_bvh.h holds the code the CPU
-// force runs too): the hierarchies refitted bottom up, the last child to arrive at a node computing
-// its box, then 1-16 threads per vertex finding its contacts.
+// force runs too): the hierarchies refitted (bottom up in large scenes; in smaller ones every
+// node's box at once from its vertices'), then 1-16 threads per vertex finding its contacts.
 #include "cuda_check.h"
 #include "device_math.cuh"
 
 #include "sinew/core/collision_bvh.h"
+
+#include <algorithm>
 
 namespace sinew::cuda {
 
@@ -12,17 +14,14 @@ namespace {
 constexpr unsigned kThreads = 128;
 using namespace sinew::collision;
 
-// Each vertex's move since the last step and the step's largest (every step: the clearance pays
-// for it), then, on the steps of a full search (the only ones to read them; counter: the level's
-// steps so far), the boxes: the leaves', then up the tree, the last child to arrive at a node
-// merging both. (One block per structure merging its inner nodes height by height took longer:
-// 19.6 against 32 us for the whole climb at 20,352 vertices, 120 against about 70 us at 325,632.)
-__global__ void refit(BvhView v, const int* leaves, int leafCount, int* visits, const P3* x, const P3* centres,
-                      const int* counter, int every, int vertices, float3* last, float* moved, unsigned* motion) {
-  const int l = blockIdx.x * blockDim.x + threadIdx.x;
-  const int threads = gridDim.x * blockDim.x;
+// Each vertex's move since the last step, and the step's largest into motion (every step: the
+// clearance pays for it). Grid-stride by vertex index (coalesced); one atomic per block (one per
+// warp of a thread per vertex on the one address cost the climb 16 us at 325,632 vertices). Every
+// thread of the block calls it.
+__device__ void trackMotion(int vertices, const P3* x, float3* last, float* moved, unsigned* motion) {
+  __shared__ float warpLargest[kThreads / 32];
   float largest = 0.0f;
-  for (int i = l; i < vertices; i += threads) {  // by index, not by leaf: coalesced
+  for (int i = blockIdx.x * blockDim.x + threadIdx.x; i < vertices; i += gridDim.x * blockDim.x) {
     const float3 now = make_float3(x[i].x, x[i].y, x[i].z);
     const float3 d = now - last[i];
     moved[i] = sqrtf(dot(d, d));
@@ -30,24 +29,106 @@ __global__ void refit(BvhView v, const int* leaves, int leafCount, int* visits, 
     largest = fmaxf(largest, moved[i]);
   }
   for (int o = 16; o > 0; o /= 2) largest = fmaxf(largest, __shfl_xor_sync(0xffffffffu, largest, o));
-  if (threadIdx.x % 32 == 0) atomicMax(motion, __float_as_uint(largest));  // non-negative floats order as their bits
+  if (threadIdx.x % 32 == 0) warpLargest[threadIdx.x / 32] = largest;
+  __syncthreads();
+  if (threadIdx.x == 0) {
+    for (int w = 1; w < int(blockDim.x / 32); ++w) largest = fmaxf(largest, warpLargest[w]);
+    atomicMax(motion, __float_as_uint(largest));  // non-negative floats order as their bits
+  }
+}
+
+// A box another block wrote this launch: read past L1 (not coherent between SMs).
+__device__ Box coherentBox(const Box* boxes, int id) {
+  const float* f = reinterpret_cast<const float*>(boxes + id);
+  return {{__ldcg(f), __ldcg(f + 1), __ldcg(f + 2)}, {__ldcg(f + 3), __ldcg(f + 4), __ldcg(f + 5)}};
+}
+
+// The refit of large scenes (CollisionDevice::climb): the motion, then, on the steps of a full
+// search (the only ones to read the boxes; counter: the level's steps so far), the leaves' boxes
+// and up the tree, the last child to arrive at a node merging both. (One block per structure
+// merging its inner nodes height by height took longer: 19.6 against 32 us for the whole climb at
+// 20,352 vertices, 120 against about 70 us at 325,632.)
+__global__ void climbRefit(BvhView v, const int* leaves, int leafCount, int* visits, const P3* x, const P3* centres,
+                           const int* counter, int every, int vertices, float3* last, float* moved, unsigned* motion) {
+  const int l = blockIdx.x * blockDim.x + threadIdx.x;
+  trackMotion(vertices, x, last, moved, motion);
   if (l >= leafCount || *counter % every != 0) return;
   int id = leaves[l];
   v.boxes[id] = leafBox(v, v.nodes[id], x, centres);
   // Up the tree: the first child to arrive stops, the second merges both (its sibling's box is
-  // written and fenced before the counter moved).
+  // written and fenced before the counter moved), then resets the counter for the next refit.
   for (int parent = v.nodes[id].parent; parent >= 0; parent = v.nodes[parent].parent) {
     __threadfence();
     if (atomicAdd(&visits[parent], 1) == 0) return;
     const Node n = v.nodes[parent];
-    const volatile Box* boxes = v.boxes;
-    Box a, b;
-    a.lo = {boxes[n.left].lo.x, boxes[n.left].lo.y, boxes[n.left].lo.z};
-    a.hi = {boxes[n.left].hi.x, boxes[n.left].hi.y, boxes[n.left].hi.z};
-    b.lo = {boxes[n.right].lo.x, boxes[n.right].lo.y, boxes[n.right].lo.z};
-    b.hi = {boxes[n.right].hi.x, boxes[n.right].hi.y, boxes[n.right].hi.z};
-    v.boxes[parent] = merge(a, b);
+    v.boxes[parent] = merge(coherentBox(v.boxes, n.left), coherentBox(v.boxes, n.right));
+    visits[parent] = 0;
   }
+}
+
+// The refit of smaller scenes, where the climb's chain of fenced atomics, one per level, set its
+// time: the motion, then each vertex's box in tree order (thread i: vertex i's move, tree position
+// i's box) ...
+__global__ void vertexBoxes(BvhView v, const P3* x, const P3* centres, const int* counter, int every, int vertices,
+                            float3* last, float* moved, unsigned* motion, Box* boxes) {
+  const int i = blockIdx.x * blockDim.x + threadIdx.x;
+  trackMotion(vertices, x, last, moved, motion);
+  if (i < vertices && *counter % every == 0) boxes[i] = vertexBox(v, i, x, centres);
+}
+
+// ... then every node's box. Nodes of at most kThreadNode vertices (the leaves among them) take a
+// thread each and nodes of at most kWarpNode a warp each, as the union of their vertices' boxes: no
+// node waits for another. The last block to finish then merges the few larger nodes' children
+// height by height (NodeLists::topNodes). At 20,352 vertices the two took 18 us of a step against
+// the climb's 31; at 325,632, 83 against 57, as every level below kWarpNode reads all the vertex
+// boxes again (docs/benchmarks.md).
+__device__ Box warpUnion(Box b) {
+  for (int o = 16; o > 0; o /= 2) {
+    b.lo = {fminf(b.lo.x, __shfl_xor_sync(0xffffffffu, b.lo.x, o)), fminf(b.lo.y, __shfl_xor_sync(0xffffffffu, b.lo.y, o)),
+            fminf(b.lo.z, __shfl_xor_sync(0xffffffffu, b.lo.z, o))};
+    b.hi = {fmaxf(b.hi.x, __shfl_xor_sync(0xffffffffu, b.hi.x, o)), fmaxf(b.hi.y, __shfl_xor_sync(0xffffffffu, b.hi.y, o)),
+            fmaxf(b.hi.z, __shfl_xor_sync(0xffffffffu, b.hi.z, o))};
+  }
+  return b;
+}
+__global__ void nodeBoxes(BvhView v, const Box* vertexBox, NodeLists lists, unsigned* finished, const int* counter,
+                          int every) {
+  if (*counter % every != 0) return;
+  const int threadBlocks = (lists.threadCount + kThreads - 1) / kThreads;
+  if (int(blockIdx.x) < threadBlocks) {
+    const int t = blockIdx.x * blockDim.x + threadIdx.x;
+    if (t < lists.threadCount) {
+      const Node n = v.nodes[lists.threadNodes[t]];
+      Box b = emptyBox();
+      for (int j = n.first; j < n.first + n.count; ++j) b = merge(b, vertexBox[j]);
+      v.boxes[lists.threadNodes[t]] = b;
+    }
+  } else {
+    const int w = ((blockIdx.x - threadBlocks) * blockDim.x + threadIdx.x) / 32, lane = threadIdx.x % 32;
+    if (w < lists.warpCount) {  // the whole warp
+      const Node n = v.nodes[lists.warpNodes[w]];
+      Box b = emptyBox();
+      for (int j = n.first + lane; j < n.first + n.count; j += 32) b = merge(b, vertexBox[j]);
+      b = warpUnion(b);
+      if (lane == 0) v.boxes[lists.warpNodes[w]] = b;
+    }
+  }
+  // The last block to finish merges the larger nodes, children before parents.
+  __shared__ bool last;
+  __threadfence();
+  __syncthreads();
+  if (threadIdx.x == 0) last = atomicAdd(finished, 1u) == gridDim.x - 1;
+  __syncthreads();
+  if (!last) return;
+  for (int h = 0; h < lists.heights; ++h) {
+    for (int k = lists.topStart[h] + threadIdx.x; k < lists.topStart[h + 1]; k += blockDim.x) {
+      const Node n = v.nodes[lists.topNodes[k]];
+      v.boxes[lists.topNodes[k]] = merge(coherentBox(v.boxes, n.left), coherentBox(v.boxes, n.right));
+    }
+    __threadfence_block();
+    __syncthreads();
+  }
+  if (threadIdx.x == 0) *finished = 0;  // for the next refit
 }
 
 // The contact response (collision::contactResponse) with kGroup lanes per vertex: in each round
@@ -146,10 +227,19 @@ void launchContactSprings(const MeshView& m, ParamView p, const int* partner, co
 void launchCollision(const MeshView& m, ParamView p, const CollisionDevice& c, float margin, float damping, float reach,
                      int every, cudaStream_t s) {
   BvhView v{c.nodes, c.boxes, c.tris, c.order, c.roots, c.exempt, c.meshes, c.nodeCount};
-  SINEW_CUDA(cudaMemsetAsync(c.visits, 0, sizeof(int) * c.nodeCount, s));
-  refit<<<(c.leafCount + kThreads - 1) / kThreads, kThreads, 0, s>>>(
-      v, c.leaves, c.leafCount, c.visits, reinterpret_cast<const P3*>(m.x), reinterpret_cast<const P3*>(m.cellCentre),
-      c.counter, every, m.vertices, c.last, c.moved, c.motion);
+  const P3* x = reinterpret_cast<const P3*>(m.x);
+  const P3* centres = reinterpret_cast<const P3*>(m.cellCentre);
+  if (c.climb) {
+    climbRefit<<<(c.leafCount + kThreads - 1) / kThreads, kThreads, 0, s>>>(
+        v, c.leaves, c.leafCount, c.visits, x, centres, c.counter, every, m.vertices, c.last, c.moved, c.motion);
+  } else {
+    vertexBoxes<<<(m.vertices + kThreads - 1) / kThreads, kThreads, 0, s>>>(
+        v, x, centres, c.counter, every, m.vertices, c.last, c.moved, c.motion, c.vertexBoxes);
+    const NodeLists& l = c.lists;
+    const int blocks = std::max(1, (l.threadCount + int(kThreads) - 1) / int(kThreads) +
+                                       (l.warpCount * 32 + int(kThreads) - 1) / int(kThreads));
+    nodeBoxes<<<blocks, kThreads, 0, s>>>(v, c.vertexBoxes, l, c.finished, c.counter, every);
+  }
   const int group = m.vertices >= 131072 ? 1 : m.vertices >= 32768 ? 4 : 16;
   const unsigned grid = static_cast<unsigned>((static_cast<size_t>(m.vertices) * group + kThreads - 1) / kThreads);
   if (group == 1)

@@ -1,5 +1,7 @@
 #include "device_collision.h"
 
+#include <algorithm>
+
 namespace sinew::cuda {
 
 void DeviceCollision::build(MeshStore& store, const SceneData& scene, float margin, bool ignoreEnclosed,
@@ -12,8 +14,17 @@ void DeviceCollision::build(MeshStore& store, const SceneData& scene, float marg
   tris_.upload(tree.tris, stream);
   order_.upload(tree.order, stream);
   roots_.upload(tree.roots, stream);
-  leaves_.upload(tree.leaves, stream);
-  visits_.resize(tree.nodes.size());
+  climb_ = store.vertexCount() >= kClimbFrom;
+  if (climb_) {
+    leaves_.upload(tree.leaves, stream);
+    visits_.resize(tree.nodes.size());  // zero between refits: each node's second child resets it
+    SINEW_CUDA(cudaMemsetAsync(visits_.get(), 0, visits_.bytes(), stream));
+  } else {
+    buildNodeLists(tree, stream);
+    vertexBoxes_.resize(store.vertexCount());
+    finished_.resize(1);
+    SINEW_CUDA(cudaMemsetAsync(finished_.get(), 0, finished_.bytes(), stream));
+  }
   stiffness_.resize(withStiffness ? size_t(store.vertexCount()) : 0);
   if (withStiffness) SINEW_CUDA(cudaMemsetAsync(stiffness_.get(), 0, stiffness_.bytes(), stream));
   depth_.upload(std::vector<float>(store.vertexCount(), collision::kUnknownDepth), stream);
@@ -31,6 +42,31 @@ void DeviceCollision::build(MeshStore& store, const SceneData& scene, float marg
   SINEW_CUDA(cudaStreamSynchronize(stream));  // the host vectors go out of scope
 }
 
+// NodeLists: the nodes the refit computes from their vertices, then the larger ones by height.
+void DeviceCollision::buildNodeLists(const CollisionTree& tree, cudaStream_t stream) {
+  std::vector<int> threadNodes, warpNodes, height(tree.nodes.size(), 0);
+  std::vector<std::vector<int>> top;
+  for (int id = int(tree.nodes.size()) - 1; id >= 0; --id) {  // children after parents: bottom up
+    const collision::Node& n = tree.nodes[id];
+    if (n.count <= kThreadNode) threadNodes.push_back(id);
+    else if (n.count <= kWarpNode) warpNodes.push_back(id);
+    else {
+      height[id] = 1 + std::max(height[n.left], height[n.right]);
+      if (int(top.size()) < height[id]) top.resize(height[id]);
+      top[height[id] - 1].push_back(id);
+    }
+  }
+  std::vector<int> topNodes, topStart{0};
+  for (const auto& level : top) {
+    topNodes.insert(topNodes.end(), level.begin(), level.end());
+    topStart.push_back(int(topNodes.size()));
+  }
+  threadNodes_.upload(threadNodes, stream);
+  warpNodes_.upload(warpNodes, stream);
+  topNodes_.upload(topNodes, stream);
+  topStart_.upload(topStart, stream);
+}
+
 CollisionDevice DeviceCollision::view() const {
   CollisionDevice c;
   c.nodes = nodes_.get();
@@ -38,8 +74,14 @@ CollisionDevice DeviceCollision::view() const {
   c.tris = tris_.get();
   c.order = order_.get();
   c.roots = roots_.get();
+  c.climb = climb_;
   c.leaves = leaves_.get();
   c.visits = visits_.get();
+  c.leafCount = int(leaves_.size());
+  c.vertexBoxes = vertexBoxes_.get();
+  c.lists = {threadNodes_.get(), warpNodes_.get(), topNodes_.get(), topStart_.get(), int(threadNodes_.size()),
+             int(warpNodes_.size()), int(topStart_.size()) - 1};
+  c.finished = finished_.get();
   c.stiffness = stiffness_.get();
   c.depth = depth_.get();
   c.counter = counter_.get();
@@ -51,12 +93,11 @@ CollisionDevice DeviceCollision::view() const {
   c.motion = motion_.get();
   c.meshes = meshes_;
   c.nodeCount = int(nodes_.size());
-  c.leafCount = int(leaves_.size());
   return c;
 }
 
 std::size_t DeviceCollision::bytes() const {
-  return nodes_.bytes() + boxes_.bytes() + tris_.bytes() + order_.bytes() + roots_.bytes() + leaves_.bytes() + visits_.bytes() +
+  return nodes_.bytes() + boxes_.bytes() + tris_.bytes() + order_.bytes() + roots_.bytes() + leaves_.bytes() + visits_.bytes() + threadNodes_.bytes() + warpNodes_.bytes() + topNodes_.bytes() + topStart_.bytes() + finished_.bytes() + vertexBoxes_.bytes() +
          stiffness_.bytes() + depth_.bytes() + counter_.bytes() + hint_.bytes() + exempt_.bytes() + slack_.bytes() + moved_.bytes() + last_.bytes() + motion_.bytes();
 }
 

@@ -22,16 +22,21 @@ public:
   std::size_t bytes() const;
 
 private:
+  void buildNodeLists(const CollisionTree& tree, cudaStream_t stream);
+
   DeviceArray<collision::Node> nodes_;
   DeviceArray<collision::Box> boxes_;
   DeviceArray<collision::Tri> tris_;
-  DeviceArray<int> order_, roots_, leaves_, visits_, hint_;
+  DeviceArray<collision::Box> vertexBoxes_;
+  DeviceArray<int> order_, roots_, leaves_, visits_, threadNodes_, warpNodes_, topNodes_, topStart_, hint_;
+  DeviceArray<unsigned> finished_;
   DeviceArray<float> stiffness_, depth_, slack_, moved_;
   DeviceArray<float3> last_;
   DeviceArray<unsigned> motion_;
   DeviceArray<int> counter_;  // the level's steps so far (full searches every full_search_every)
   DeviceArray<unsigned char> exempt_;
   int meshes_ = 0;
+  bool climb_ = false;
 };
 
 }  // namespace sinew::cuda

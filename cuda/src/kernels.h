@@ -117,14 +117,31 @@ void launchProlongAdd(const int* rows, const int* index, const float* weight, in
 
 // Collisions (collision_kernels.cu): the hierarchies of core/collision_tree.h in device memory.
 // stiffness (per vertex, may be null): each vertex's summed contact pull, for implicit Euler.
+// The refit's nodes by how it computes their boxes (collision_kernels.cu nodeBoxes): at most
+// kThreadNode vertices a thread each, at most kWarpNode a warp each (both from their vertices'
+// boxes), the rest from their children, height by height (topStart[h] .. topStart[h + 1]).
+constexpr int kThreadNode = 8, kWarpNode = 512, kClimbFrom = 131072;
+struct NodeLists {
+  const int* threadNodes = nullptr;
+  const int* warpNodes = nullptr;
+  const int* topNodes = nullptr;
+  const int* topStart = nullptr;
+  int threadCount = 0, warpCount = 0, heights = 0;
+};
 struct CollisionDevice {
   const collision::Node* nodes = nullptr;
   collision::Box* boxes = nullptr;
   const collision::Tri* tris = nullptr;
   const int* order = nullptr;
   const int* roots = nullptr;
+  // The refit (collision_kernels.cu): from kClimbFrom vertices up the climb from the leaves,
+  // below it each vertex's box then every node's at once.
+  bool climb = false;
   const int* leaves = nullptr;
-  int* visits = nullptr;  // per node, the refit's arrival counters
+  int* visits = nullptr;  // per node, the climb's arrival counters
+  collision::Box* vertexBoxes = nullptr;  // per vertex in tree order
+  NodeLists lists;
+  unsigned* finished = nullptr;  // nodeBoxes' blocks done this step
   float* stiffness = nullptr;
   float* depth = nullptr;  // per vertex, the last penetration (collision::contactResponse)
   int* counter = nullptr;  // the level's steps so far

@@ -78,16 +78,22 @@ SINEW_HD float squaredDistance(const Box& b, P3 p) {
   return dx * dx + (dy * dy + dz * dz);
 }
 
-// A leaf's box: its vertices' triangles (the vertices, their successors, the cell centres).
+// The box of the vertex at tree position i (order[i]): its three triangles' corners (the vertex,
+// its successors, the cell centres). A node's box is the union of its vertices' (a node's vertices
+// are contiguous in tree order).
+SINEW_HD Box vertexBox(const BvhView& v, int i, const P3* x, const P3* centres) {
+  Box b = emptyBox();
+  for (int k = 0; k < 3; ++k) {
+    const Tri t = v.tris[3 * v.order[i] + k];
+    extend(b, x[t.a]);
+    extend(b, x[t.b]);
+    extend(b, centres[t.cell]);
+  }
+  return b;
+}
 SINEW_HD Box leafBox(const BvhView& v, const Node& n, const P3* x, const P3* centres) {
   Box b = emptyBox();
-  for (int i = n.first; i < n.first + n.count; ++i)
-    for (int k = 0; k < 3; ++k) {
-      const Tri t = v.tris[3 * v.order[i] + k];
-      extend(b, x[t.a]);
-      extend(b, x[t.b]);
-      extend(b, centres[t.cell]);
-    }
+  for (int i = n.first; i < n.first + n.count; ++i) b = merge(b, vertexBox(v, i, x, centres));
   return b;
 }
 
