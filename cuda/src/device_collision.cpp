@@ -80,7 +80,7 @@ CollisionDevice DeviceCollision::view() const {
   c.leafCount = int(leaves_.size());
   c.vertexBoxes = vertexBoxes_.get();
   c.lists = {threadNodes_.get(), warpNodes_.get(), topNodes_.get(), topStart_.get(), int(threadNodes_.size()),
-             int(warpNodes_.size()), int(topStart_.size()) - 1};
+             int(warpNodes_.size()), std::max(0, int(topStart_.size()) - 1)};
   c.finished = finished_.get();
   c.stiffness = stiffness_.get();
   c.depth = depth_.get();
@@ -97,8 +97,10 @@ CollisionDevice DeviceCollision::view() const {
 }
 
 std::size_t DeviceCollision::bytes() const {
-  return nodes_.bytes() + boxes_.bytes() + tris_.bytes() + order_.bytes() + roots_.bytes() + leaves_.bytes() + visits_.bytes() + threadNodes_.bytes() + warpNodes_.bytes() + topNodes_.bytes() + topStart_.bytes() + finished_.bytes() + vertexBoxes_.bytes() +
-         stiffness_.bytes() + depth_.bytes() + counter_.bytes() + hint_.bytes() + exempt_.bytes() + slack_.bytes() + moved_.bytes() + last_.bytes() + motion_.bytes();
+  return nodes_.bytes() + boxes_.bytes() + tris_.bytes() + order_.bytes() + roots_.bytes() + leaves_.bytes() +
+         visits_.bytes() + threadNodes_.bytes() + warpNodes_.bytes() + topNodes_.bytes() + topStart_.bytes() +
+         finished_.bytes() + vertexBoxes_.bytes() + stiffness_.bytes() + depth_.bytes() + counter_.bytes() +
+         hint_.bytes() + exempt_.bytes() + slack_.bytes() + moved_.bytes() + last_.bytes() + motion_.bytes();
 }
 
 }  // namespace sinew::cuda

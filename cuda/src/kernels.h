@@ -115,9 +115,7 @@ void launchGather(const int* index, int count, const float3* from, float3* to, c
 void launchProlongAdd(const int* rows, const int* index, const float* weight, int count, const float3* coarse,
                       float3* fine, float scale, cudaStream_t s);
 
-// Collisions (collision_kernels.cu): the hierarchies of core/collision_tree.h in device memory.
-// stiffness (per vertex, may be null): each vertex's summed contact pull, for implicit Euler.
-// The refit's nodes by how it computes their boxes (collision_kernels.cu nodeBoxes): at most
+// The collision refit's nodes by how it computes their boxes (collision_kernels.cu nodeBoxes): at most
 // kThreadNode vertices a thread each, at most kWarpNode a warp each (both from their vertices'
 // boxes), the rest from their children, height by height (topStart[h] .. topStart[h + 1]).
 constexpr int kThreadNode = 8, kWarpNode = 512, kClimbFrom = 131072;
@@ -128,6 +126,8 @@ struct NodeLists {
   const int* topStart = nullptr;
   int threadCount = 0, warpCount = 0, heights = 0;
 };
+// Collisions (collision_kernels.cu): the hierarchies of core/collision_tree.h in device memory.
+// stiffness (per vertex, may be null): each vertex's summed contact pull, for implicit Euler.
 struct CollisionDevice {
   const collision::Node* nodes = nullptr;
   collision::Box* boxes = nullptr;
