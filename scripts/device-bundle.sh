@@ -3,7 +3,7 @@
 # libraries): the CUDA build's programs and test plugins at their build paths, every library they
 # load, Qt's offscreen platform plugin, fonts and the mricron-data templates, into
 # .device/bundle.tar.xz (ignored by git; carried with the device tool). scripts/device-checks.sh
-# unpacks and runs it there. Usage: bash scripts/device-bundle.sh [BUILD_DIR]
+# unpacks and runs it there. Usage: [EXTRA="PROGRAM..."] bash scripts/device-bundle.sh [BUILD_DIR]
 set -euo pipefail
 cd "$(dirname "$0")/.."
 build="$(realpath "${1:-build/ci}")"
@@ -14,6 +14,8 @@ bins=("$build/app/sinew-run" "$build/app/sinew-cohort" "$build/app/sinew-make-sc
 for b in bench_cuda bench_soak bench_autosave bench_error; do
   [ -x "$build/tests/bench/$b" ] && bins+=("$build/tests/bench/$b")
 done
+# EXTRA: more programs to carry (an older build's, to time side by side), at their paths.
+for f in ${EXTRA:-}; do bins+=("$(realpath "$f")"); done
 for f in "${bins[@]}" "$build"/core/libsinew_core.so* "$build"/tests/plugins/*/sinew-plugin-*.so; do
   mkdir -p "$stage/root$(dirname "$f")"
   cp -a "$f" "$stage/root$f"

@@ -131,15 +131,117 @@ __global__ void nodeBoxes(BvhView v, const Box* vertexBox, NodeLists lists, unsi
   if (threadIdx.x == 0) *finished = 0;  // for the next refit
 }
 
+// collision::closestPoint with the warp's lanes testing each leaf's triangles side by side.
+// Nsight Compute at 20,352 vertices found the triangle tests to be most of respondGroup's
+// instructions, each run by one lane of its warp (1-2 of 32 threads active in the walk). Every lane
+// of the warp calls it; `walks`: whether this lane searches (the others only help test the leaves
+// of those that do). Each lane's pops, bounds and triangle order are closestPoint's, and its best
+// is updated by replacesBest in testLeaf's order, so the result is the same bit for bit.
+__device__ P3 shuffle(P3 a, int src) {
+  return {__shfl_sync(0xffffffffu, a.x, src), __shfl_sync(0xffffffffu, a.y, src), __shfl_sync(0xffffffffu, a.z, src)};
+}
+__device__ Hit closestPointWarp(const BvhView& v, int mesh, P3 p, const P3* x, const P3* centres, float maxD2, int hint,
+                                bool walks) {
+  constexpr unsigned all = 0xffffffffu;
+  const int lane = threadIdx.x % 32;
+  Hit best{maxD2, p, {0, 0, 0}, 0.0f, -1};
+  bool found = false;
+  struct Entry {
+    int id;
+    float d2;
+  };
+  Entry stack[kStackDepth];
+  int top = 0, leaf = -1;  // leaf: reached by this lane, to be tested by the warp
+  if (walks) {
+    const int end = mesh + 1 < v.meshes ? v.roots[mesh + 1] : v.nodeCount;
+    if (hint >= v.roots[mesh] && hint < end && v.nodes[hint].left < 0) leaf = hint;
+    stack[top++] = {v.roots[mesh], squaredDistance(v.boxes[v.roots[mesh]], p)};
+  }
+  while (true) {
+    // Each leaf reached: triangle k of the leaf's vertex j on lane 3 j + k (at most 12 lanes).
+    for (unsigned pending = __ballot_sync(all, leaf >= 0); pending; pending &= pending - 1) {
+      const int owner = __ffs(pending) - 1;
+      const int id = __shfl_sync(all, leaf, owner);
+      const P3 q = shuffle(p, owner);
+      // Ties can raise the best a little (by at most 1e-4 of it) within a leaf: a looser filter.
+      const float within = 1.01f * __shfl_sync(all, found ? tieBound(best.d2) : best.d2, owner) + 1e-10f;
+      const Node n = v.nodes[id];
+      const bool triangle = lane < 3 * n.count;
+      float d2 = 0.0f, side = 0.0f;
+      P3 at{0, 0, 0}, normal{0, 0, 0};
+      if (triangle) {
+        const Tri t = v.tris[3 * v.order[n.first + lane / 3] + lane % 3];
+        const P3 a = x[t.a], b = x[t.b], c = centres[t.cell];
+        at = closestOnTriangle(q, a, b, c);
+        const P3 d = sub(q, at);
+        d2 = dot3(d, d);
+        normal = unitNormal(a, b, c);
+        side = dot3(d, normal);
+      }
+      // The owner takes the candidates in the triangles' order, as testLeaf does.
+      for (unsigned c = __ballot_sync(all, triangle && d2 <= within); c; c &= c - 1) {
+        const int src = __ffs(c) - 1;
+        const float cd2 = __shfl_sync(all, d2, src), cside = __shfl_sync(all, side, src);
+        const P3 cat = shuffle(at, src), cnormal = shuffle(normal, src);
+        if (lane == owner && replacesBest(best, found, cd2, cside)) {
+          best = {cd2, cat, cnormal, cside, id};
+          found = true;
+        }
+      }
+    }
+    leaf = -1;
+    if (!__any_sync(all, top > 0)) break;
+    if (top > 0) {  // one node per searching lane
+      const Entry e = stack[--top];
+      const float bound = found ? tieBound(best.d2) : best.d2;
+      if (e.d2 <= bound) {
+        const Node n = v.nodes[e.id];
+        if (n.left < 0) {
+          if (e.id != hint) leaf = e.id;
+        } else {
+          const float dl = squaredDistance(v.boxes[n.left], p), dr = squaredDistance(v.boxes[n.right], p);
+          const Entry nearer = dl < dr ? Entry{n.left, dl} : Entry{n.right, dr};
+          const Entry farther = dl < dr ? Entry{n.right, dr} : Entry{n.left, dl};
+          if (top + 2 <= kStackDepth) {
+            if (farther.d2 <= bound) stack[top++] = farther;
+            if (nearer.d2 <= bound) stack[top++] = nearer;
+          }
+        }
+      }
+    }
+  }
+  return best;
+}
+
+// collision::contactWith for every lane of the warp at once (closestPointWarp).
+__device__ bool contactWithWarp(const BvhView& v, int own, int other, P3 p, float margin, float maxD2, int hint,
+                                const P3* x, const P3* centres, bool search, Hit& h, float& clearance2) {
+  bool walks = search && other < v.meshes && other != own && !(v.exempt && v.exempt[own * v.meshes + other]);
+  if (walks) {
+    const float box2 = squaredDistance(v.boxes[v.roots[other]], p);
+    if (box2 > margin * margin) {  // outside the box grown by the margin
+      clearance2 = fmin3(clearance2, box2);
+      walks = false;
+    }
+  }
+  h = closestPointWarp(v, walks ? other : 0, p, x, centres, maxD2, hint, walks);
+  if (!walks) return false;
+  clearance2 = fmin3(clearance2, h.d2);  // maxD2 where nothing was nearer
+  return h.d2 < maxD2;
+}
+
 // The contact response (collision::contactResponse) with kGroup lanes per vertex: in each round
-// the group's lanes search the next kGroup structures (contactWith), then the group's first lane
-// adds their contacts in structure order (addContact), as contactResponse does: the CPU's
-// arithmetic, in its order. A vertex still clear of every structure (clearOfContacts) does not
-// search, and a warp with none searching skips the rounds. With one thread per vertex, small scenes
-// spent the step on a few vertices searching several neighbours one after another (ncu at 20,352
-// vertices: 6 of 32 threads active per warp); large ones fill the device anyway, and there the
-// group's shared work only costs (docs/benchmarks.md).
-template <int kGroup>
+// the group's lanes search the next kGroup structures, then the group's first lane adds their
+// contacts in structure order (addContact), as contactResponse does: the CPU's arithmetic, in its
+// order. A vertex still clear of every structure (clearOfContacts) does not search, and a warp with
+// none searching skips the rounds. With one thread per vertex, small scenes spent the step on a few
+// vertices searching several neighbours one after another (ncu at 20,352 vertices: 6 of 32 threads
+// active per warp); large ones fill the device anyway, and there the group's shared work only costs
+// (docs/benchmarks.md). kWarpLeaves: the warp tests each reached leaf's triangles together
+// (contactWithWarp), which pays where few lanes walk at once (small scenes: the response took 50
+// instead of 78 us at 20,352 vertices, H100) and costs where many do (591 instead of 497 us at
+// 325,632).
+template <int kGroup, bool kWarpLeaves>
 __global__ void respondGroup(MeshView m, ParamView p, BvhView v, float margin, float damping, float reach,
                              const int* counter, int every, const float* moved, const unsigned* motion, float* depth,
                              int* hint, float* slack, float* stiffness) {
@@ -167,8 +269,12 @@ __global__ void respondGroup(MeshView m, ParamView p, BvhView v, float margin, f
   if (__any_sync(mask, search))
     for (int base = 0; base < v.meshes; base += kGroup) {
       Hit h{};
-      const bool found = search && base + g < v.meshes &&
-                         contactWith(v, own, base + g, point, margin, maxD2, lastHint, x, centres, h, clearance2);
+      bool found;
+      if constexpr (kWarpLeaves)
+        found = contactWithWarp(v, own, base + g, point, margin, maxD2, lastHint, x, centres, search, h, clearance2);
+      else
+        found = search && base + g < v.meshes &&
+                contactWith(v, own, base + g, point, margin, maxD2, lastHint, x, centres, h, clearance2);
       for (int q = 0; q < kGroup; ++q) {
         const int src = leader + q;
         Hit c;
@@ -243,11 +349,11 @@ void launchCollision(const MeshView& m, ParamView p, const CollisionDevice& c, f
   const int group = m.vertices >= 131072 ? 1 : m.vertices >= 32768 ? 4 : 16;
   const unsigned grid = static_cast<unsigned>((static_cast<size_t>(m.vertices) * group + kThreads - 1) / kThreads);
   if (group == 1)
-    respondGroup<1><<<grid, kThreads, 0, s>>>(m, p, v, margin, damping, reach, c.counter, every, c.moved, c.motion, c.depth, c.hint, c.slack, c.stiffness);
+    respondGroup<1, false><<<grid, kThreads, 0, s>>>(m, p, v, margin, damping, reach, c.counter, every, c.moved, c.motion, c.depth, c.hint, c.slack, c.stiffness);
   else if (group == 4)
-    respondGroup<4><<<grid, kThreads, 0, s>>>(m, p, v, margin, damping, reach, c.counter, every, c.moved, c.motion, c.depth, c.hint, c.slack, c.stiffness);
+    respondGroup<4, true><<<grid, kThreads, 0, s>>>(m, p, v, margin, damping, reach, c.counter, every, c.moved, c.motion, c.depth, c.hint, c.slack, c.stiffness);
   else
-    respondGroup<16><<<grid, kThreads, 0, s>>>(m, p, v, margin, damping, reach, c.counter, every, c.moved, c.motion, c.depth, c.hint, c.slack, c.stiffness);
+    respondGroup<16, true><<<grid, kThreads, 0, s>>>(m, p, v, margin, damping, reach, c.counter, every, c.moved, c.motion, c.depth, c.hint, c.slack, c.stiffness);
   advance<<<1, 1, 0, s>>>(c.counter, c.motion);
 }
 

@@ -6,6 +6,7 @@
 #include "device_attachments.h"
 #include "device_collision.h"
 #include "device_error.h"
+#include "device_image.h"
 #include "device_placed.h"
 #include "device_radial.h"
 #include "device_store.h"
@@ -69,7 +70,7 @@ struct CudaEngine::Impl {
   DeviceArray<float3> implicitVel, implicitRhs, implicitR, implicitZ, implicitP, implicitAp;
   DeviceArray<double> implicitScalars;
   // Image-derived data, only when a force needs it.
-  DeviceArray<float4> imageQuads;  // the profile force's target image (launchVolumeQuads)
+  DeviceImageTexture imageTexture;  // the profile force's target image
   DeviceArray<float> profiles;
   DeviceArray<float3> gradient;
   DeviceArray<float3> imageForce;  // the image forces alone, while the affine regularisation is on
@@ -326,10 +327,8 @@ struct CudaEngine::Impl {
       if (f.kind == Kind::Profile) {
         const Image3D& im = sim.scene().targetImage();
         imageView = viewOf(im.geometry());
-        DeviceArray<float> voxels;  // freed once the quads are built (cudaFree waits for the device)
-        voxels.upload(im.voxels(), stream);
-        imageQuads.resize(im.voxels().size());
-        launchVolumeQuads(voxels.get(), imageView, imageQuads.get(), stream);
+        if (imageTexture.source() != im.voxels().data())  // the same image at every level
+          imageTexture.upload(im.voxels().data(), imageView.sx, imageView.sy, imageView.sz, stream);
         const auto ch = s.channel("intensity_profile.reference");
         profiles.upload(ch.data(), ch.size(), stream);
         const ParamTable& t = sim.forceParams(f.name);
@@ -423,7 +422,7 @@ struct CudaEngine::Impl {
                          gradientView, gradient.get(), stream);
           break;
         case Kind::Profile:
-          launchProfile(imageTarget, p, t.indexOf("search_depth"), imageView, imageQuads.get(), profiles.get(), profileInside,
+          launchProfile(imageTarget, p, t.indexOf("search_depth"), imageView, imageTexture.get(), profiles.get(), profileInside,
                         profileOutside, profileSpacing, maxProfileReach(t), stream);
           break;
         case Kind::Attraction:
@@ -688,7 +687,7 @@ std::size_t CudaEngine::deviceBytes() const {
   const Impl& I = *impl_;
   return I.topology.bytes() + I.density.bytes() + I.massFloor.bytes() + I.elevation.bytes() + I.area.bytes() + I.mass.bytes() + I.x.bytes() +
          I.prev.bytes() + I.force.bytes() + I.normal.bytes() + I.centre.bytes() + I.reference.bytes() +
-         I.imageQuads.bytes() + I.profiles.bytes() + I.gradient.bytes() + I.contourOut.bytes() + I.implicitA.bytes() +
+         I.imageTexture.bytes() + I.profiles.bytes() + I.gradient.bytes() + I.contourOut.bytes() + I.implicitA.bytes() +
          I.implicitB.bytes() + I.implicitOff.bytes() + I.implicitC.bytes() + I.implicitVel.bytes() + I.implicitRhs.bytes() +
          I.implicitR.bytes() + I.implicitZ.bytes() + I.implicitP.bytes() + I.implicitAp.bytes() + I.collision.bytes() + I.sampledError.bytes() +
          I.contactLinks.bytes() + I.radial.bytes() + I.attachments.bytes();

@@ -53,10 +53,13 @@ void launchSmoothing(const MeshView& m, ParamView p, int elevationTerm, cudaStre
 void launchShapePrior(const MeshView& m, ParamView p, const float4* reference, cudaStream_t s);
 void launchGradient(const MeshView& m, ParamView p, int kEps, int kDepth, int kStep, VolumeView volume,
                     const float3* gradient, cudaStream_t s);
-// The target image as one float4 per voxel for the profile force (force_kernels.cu says how).
-void launchVolumeQuads(const float* image, VolumeView volume, float4* quads, cudaStream_t s);
-// quads: from launchVolumeQuads; maxReach: the largest floor(search_depth / spacing) over the structures.
-void launchProfile(const MeshView& m, ParamView p, int kDepth, VolumeView volume, const float4* quads,
+// The target image's values mapped to [0, 1] in 16-bit steps for its texture (image_kernels.cu).
+// scratch: 2 + 2 * kNormaliseParts floats (the range, then the reduction's parts).
+constexpr int kNormaliseParts = 1024;
+void launchNormalise16(const float* values, size_t n, float* scratch, unsigned short* out, cudaStream_t s);
+// The profile force (profile_kernels.cu). image: the target image as a texture
+// (DeviceImageTexture); maxReach: the largest floor(search_depth / spacing) over the structures.
+void launchProfile(const MeshView& m, ParamView p, int kDepth, VolumeView volume, cudaTextureObject_t image,
                    const float* profiles, int inside, int outside, float spacing, int maxReach, cudaStream_t s);
 // The attraction_points force. points: every placed point; pointMesh: the structure of each;
 // pointKind: kAttractPoint, kIncludePoint or kExcludePoint; keys, windings: one of each per point;

@@ -136,10 +136,18 @@ SINEW_HD P3 unitNormal(P3 a, P3 b, P3 c) {
 // several triangles, computed from each).
 SINEW_HD float tieBound(float d2) { return d2 * (1.0f + 1e-4f) + 1e-12f; }
 
+// Whether a triangle whose closest point to p is d2 away, on the side `side` of its plane,
+// replaces the best so far, taking the triangles one after another. Where the closest point is
+// shared by several triangles (an edge or a corner), the triangle facing p most squarely gives the
+// side: one face's normal alone can put a point outside a sharp edge inside. Only triangles within
+// tieBound(best.d2) can replace it.
+SINEW_HD bool replacesBest(const Hit& best, bool found, float d2, float side) {
+  const bool better = found ? d2 < best.d2 * (1.0f - 1e-4f) : d2 < best.d2;
+  const bool tie = found && !better && d2 <= tieBound(best.d2);
+  return better || (tie && fabsf(side) > fabsf(best.side));
+}
+
 // A node's triangles (a leaf's; under an inner node, all its vertices') against the best so far.
-// Where the closest point is shared by several triangles (an edge or a corner), the triangle facing
-// p most squarely gives the side: one face's normal alone can put a point outside a sharp edge
-// inside.
 SINEW_HD void testLeaf(const BvhView& v, int id, P3 p, const P3* x, const P3* centres, Hit& best, bool& found) {
   const Node n = v.nodes[id];
   for (int i = n.first; i < n.first + n.count; ++i)
@@ -149,12 +157,10 @@ SINEW_HD void testLeaf(const BvhView& v, int id, P3 p, const P3* x, const P3* ce
       const P3 q = closestOnTriangle(p, a, b, c);
       const P3 d = sub(p, q);
       const float d2 = dot3(d, d);
-      const bool better = found ? d2 < best.d2 * (1.0f - 1e-4f) : d2 < best.d2;
-      const bool tie = found && !better && d2 <= tieBound(best.d2);
-      if (!better && !tie) continue;
+      if (d2 > tieBound(best.d2)) continue;  // cheaper than the normal
       const P3 normal = unitNormal(a, b, c);
       const float side = dot3(d, normal);
-      if (tie && fabsf(side) <= fabsf(best.side)) continue;
+      if (!replacesBest(best, found, d2, side)) continue;
       best = {d2, q, normal, side, id};
       found = true;
     }
