@@ -409,6 +409,20 @@ struct CudaEngine::Impl {
       fused.terms[fused.count++] = term;
     }
     launchFusedForces(view, fused, stream);
+    // Damped Verlet runs in the profile kernel's pass when the profile is the step's last force
+    // and nothing else comes between the forces and the move.
+    const auto activeAfter = [&](size_t i) {
+      for (size_t k = i + 1; k < forces.size(); ++k)
+        if (sim.forceParams(forces[k].name).anyPositive(0)) return true;
+      return false;
+    };
+    const bool moveAlone = implicit() || regularise || !coarseLevels.empty() || !attachments.empty();
+    VerletMove move{};
+    if (!moveAlone) {
+      const ParamTable& ip = sim.integratorParams();
+      move = {ip.getf(0, ip.indexOf("time_step")), 1.0f - ip.getf(0, ip.indexOf("damping"))};
+    }
+    bool moved = false;
     for (; next < forces.size(); ++next) {
       const ForceSlot& f = forces[next];
       const ParamTable& t = sim.forceParams(f.name);
@@ -422,8 +436,9 @@ struct CudaEngine::Impl {
                          gradientView, gradient.get(), stream);
           break;
         case Kind::Profile:
+          moved = !moveAlone && !activeAfter(next);
           launchProfile(imageTarget, p, t.indexOf("search_depth"), imageView, imageTexture.get(), profiles.get(), profileInside,
-                        profileOutside, profileSpacing, maxProfileReach(t), stream);
+                        profileOutside, profileSpacing, maxProfileReach(t), moved ? &move : nullptr, stream);
           break;
         case Kind::Attraction:
           placedPoints.launch(view, p, t.indexOf("ring"), t.indexOf("margin_mm"), meshBegin.get(), meshEnd.get(), stream);
@@ -446,7 +461,7 @@ struct CudaEngine::Impl {
                                  affineParts, affineMoments.get(), affineCoefficients.get(), share, stream);
     if (!coarseLevels.empty()) enqueueCoarseForces(sim.coarseForceWeight());
     if (!attachments.empty()) launchAttachmentShare(view, attachments.view(), stream);
-    enqueueIntegrator();
+    if (!moved) enqueueIntegrator();
     if (!attachments.empty()) launchAttachmentProject(view, attachments.view(), stream);
   }
 

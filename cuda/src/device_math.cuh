@@ -56,6 +56,14 @@ __device__ __forceinline__ float elevationFromSinCos(float r, float d2, float s,
 
 __device__ __forceinline__ float param(const ParamView& p, int mesh, int k) { return p.values[mesh * p.count + k]; }
 
+// Damped Verlet (plugins/integrators/damped_verlet) for vertex v under force f: x += keep (x -
+// prev) + dt^2 / m f, prev = the old x. keep: 1 - damping.
+__device__ __forceinline__ void verletMove(const MeshView& m, int v, float3 f, float dt, float keep) {
+  const float3 current = m.x[v];
+  m.x[v] = current + keep * (current - m.prev[v]) + (dt * dt / m.mass[v]) * f;
+  m.prev[v] = current;
+}
+
 // sinew::Volume<T>::sample with T = float or float3: border voxels extend outside.
 __device__ __forceinline__ float lerp(float a, float b, float t) { return a + (b - a) * t; }
 __device__ __forceinline__ float3 lerp(float3 a, float3 b, float t) { return a + t * (b - a); }

@@ -108,9 +108,7 @@ __global__ void __launch_bounds__(kThreads, kWithGradient ? 0 : 5) fusedForces(M
 __global__ void verlet(MeshView m, float dt, float keep) {
   const int v = blockIdx.x * blockDim.x + threadIdx.x;
   if (v >= m.vertices) return;
-  const float3 current = m.x[v];
-  m.x[v] = current + keep * (current - m.prev[v]) + (dt * dt / m.mass[v]) * m.force[v];
-  m.prev[v] = current;
+  verletMove(m, v, m.force[v], dt, keep);
 }
 
 __global__ void prolong(const int* __restrict__ rows, const int* __restrict__ index, const float* __restrict__ weight,

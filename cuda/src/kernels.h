@@ -59,8 +59,14 @@ constexpr int kNormaliseParts = 1024;
 void launchNormalise16(const float* values, size_t n, float* scratch, unsigned short* out, cudaStream_t s);
 // The profile force (profile_kernels.cu). image: the target image as a texture
 // (DeviceImageTexture); maxReach: the largest floor(search_depth / spacing) over the structures.
+// then: when not null, the step's damped Verlet move follows (the profile being the step's last
+// force), in the same pass where the kernel allows.
+struct VerletMove {
+  float dt, keep;  // keep: 1 - damping
+};
 void launchProfile(const MeshView& m, ParamView p, int kDepth, VolumeView volume, cudaTextureObject_t image,
-                   const float* profiles, int inside, int outside, float spacing, int maxReach, cudaStream_t s);
+                   const float* profiles, int inside, int outside, float spacing, int maxReach, const VerletMove* then,
+                   cudaStream_t s);
 // The attraction_points force. points: every placed point; pointMesh: the structure of each;
 // pointKind: kAttractPoint, kIncludePoint or kExcludePoint; keys, windings: one of each per point;
 // constraints: whether any point is an include or exclude point (m.cellCentre is then required).

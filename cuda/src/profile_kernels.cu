@@ -94,11 +94,13 @@ __device__ __forceinline__ void scoreWindows(const float (&w)[kCount + kLength -
 // lanes sample its line into shared memory, each every kLanes-th slot (no index arithmetic but the
 // texture coordinates); then each lane scores a run of consecutive windows from registers, and the
 // vertex's lanes agree on the best by a shuffle reduction. kLanes trades parallelism (small scenes)
-// for fewer shared-memory reads and registers per vertex (large ones).
+// for fewer shared-memory reads and registers per vertex (large ones). With `integrate`, the
+// vertex's first lane then moves it by damped Verlet (the step's force complete): a vertex's
+// position is read and written by its own lanes only, so the move needs no pass of its own.
 template <int kLength, int kMaxReach, int kLanes>
 __global__ void __launch_bounds__(128, kLanes == 1 ? 0 : kLanes == 2 ? 7 : 8) profileLanes(MeshView m, ParamView p, int kDepth, VolumeView vol,
                                                     cudaTextureObject_t image, const float* __restrict__ profiles,
-                                                    int inside, float spacing) {
+                                                    int inside, float spacing, bool integrate, VerletMove move) {
   constexpr int kLine = kLength + 2 * kMaxReach, kPerWarp = 32 / kLanes, kWindows = 2 * kMaxReach + 1;
   constexpr int kTurns = (kWindows + kLanes - 1) / kLanes;  // windows per lane
   constexpr int kLocal = kTurns + kLength - 1;               // the slots one lane's windows cover
@@ -152,8 +154,13 @@ __global__ void __launch_bounds__(128, kLanes == 1 ? 0 : kLanes == 2 ? 7 : 8) pr
       bestJ = otherJ;
     }
   }
-  if (reach >= 0 && part == 0)
-    m.force[v] = m.force[v] + (param(p, m.meshOf[v], 0) * (static_cast<float>(bestJ) * spacing)) * n;
+  if (part != 0 || v >= m.vertices || (reach < 0 && !integrate)) return;
+  float3 f = m.force[v];
+  if (reach >= 0) {
+    f = f + (param(p, m.meshOf[v], 0) * (static_cast<float>(bestJ) * spacing)) * n;
+    m.force[v] = f;
+  }
+  if (integrate) verletMove(m, v, f, move.dt, move.keep);
 }
 
 // Any other layout: one warp per vertex; the lanes sample the search line into shared memory
@@ -215,21 +222,21 @@ constexpr int kRegisterLength = 30, kRegisterReach = 10;
 
 template <int kMaxReach, int kLanes>
 void launchProfileLanes(const MeshView& m, ParamView p, int kDepth, VolumeView vol, cudaTextureObject_t image,
-                        const float* profiles, int inside, float spacing, cudaStream_t s) {
+                        const float* profiles, int inside, float spacing, const VerletMove* then, cudaStream_t s) {
   constexpr int perBlock = 4 * (32 / kLanes);
-  profileLanes<kRegisterLength, kMaxReach, kLanes>
-      <<<(m.vertices + perBlock - 1) / perBlock, 128, 0, s>>>(m, p, kDepth, vol, image, profiles, inside, spacing);
+  profileLanes<kRegisterLength, kMaxReach, kLanes><<<(m.vertices + perBlock - 1) / perBlock, 128, 0, s>>>(
+      m, p, kDepth, vol, image, profiles, inside, spacing, then != nullptr, then ? *then : VerletMove{});
 }
 // The kernel for the scene's largest reach, rounded up to an even number of samples: a line is
 // sampled and scored for that reach, whatever a vertex's own.
 template <int kLanes>
 void launchForReach(int maxReach, const MeshView& m, ParamView p, int kDepth, VolumeView vol, cudaTextureObject_t image,
-                    const float* profiles, int inside, float spacing, cudaStream_t s) {
-  if (maxReach <= 2) launchProfileLanes<2, kLanes>(m, p, kDepth, vol, image, profiles, inside, spacing, s);
-  else if (maxReach <= 4) launchProfileLanes<4, kLanes>(m, p, kDepth, vol, image, profiles, inside, spacing, s);
-  else if (maxReach <= 6) launchProfileLanes<6, kLanes>(m, p, kDepth, vol, image, profiles, inside, spacing, s);
-  else if (maxReach <= 8) launchProfileLanes<8, kLanes>(m, p, kDepth, vol, image, profiles, inside, spacing, s);
-  else launchProfileLanes<10, kLanes>(m, p, kDepth, vol, image, profiles, inside, spacing, s);
+                    const float* profiles, int inside, float spacing, const VerletMove* then, cudaStream_t s) {
+  if (maxReach <= 2) launchProfileLanes<2, kLanes>(m, p, kDepth, vol, image, profiles, inside, spacing, then, s);
+  else if (maxReach <= 4) launchProfileLanes<4, kLanes>(m, p, kDepth, vol, image, profiles, inside, spacing, then, s);
+  else if (maxReach <= 6) launchProfileLanes<6, kLanes>(m, p, kDepth, vol, image, profiles, inside, spacing, then, s);
+  else if (maxReach <= 8) launchProfileLanes<8, kLanes>(m, p, kDepth, vol, image, profiles, inside, spacing, then, s);
+  else launchProfileLanes<10, kLanes>(m, p, kDepth, vol, image, profiles, inside, spacing, then, s);
 }
 
 // Lanes per vertex by scene size, measured with bench_cuda case (a) on an H100 (docs/benchmarks.md,
@@ -246,19 +253,30 @@ int lanesFor(int vertices) {
 }  // namespace
 
 void launchProfile(const MeshView& m, ParamView p, int kDepth, VolumeView vol, cudaTextureObject_t image,
-                   const float* profiles, int inside, int outside, float spacing, int maxReach, cudaStream_t s) {
+                   const float* profiles, int inside, int outside, float spacing, int maxReach, const VerletMove* then,
+                   cudaStream_t s) {
+  // The move in the profile pass saves a launch, which is what small scenes pay for; from 131,072
+  // vertices its scattered accesses (a vertex's first lane only) cost more than the separate,
+  // coalesced pass (H200: 2,656 / 42,496 vertices 14.41 -> 12.96 / 24.44 -> 23.22 us a step,
+  // 679,936 / 2.7 M 190.4 -> 193.8 / 686.6 -> 704.1).
+  if (then && m.vertices >= 131072) {
+    launchProfile(m, p, kDepth, vol, image, profiles, inside, outside, spacing, maxReach, nullptr, s);
+    launchVerlet(m, then->dt, then->keep, s);
+    return;
+  }
   if (inside + outside == kRegisterLength && maxReach <= kRegisterReach) {
     switch (lanesFor(m.vertices)) {
-      case 1: launchForReach<1>(maxReach, m, p, kDepth, vol, image, profiles, inside, spacing, s); break;
-      case 2: launchForReach<2>(maxReach, m, p, kDepth, vol, image, profiles, inside, spacing, s); break;
-      case 4: launchForReach<4>(maxReach, m, p, kDepth, vol, image, profiles, inside, spacing, s); break;
-      default: launchForReach<8>(maxReach, m, p, kDepth, vol, image, profiles, inside, spacing, s); break;
+      case 1: launchForReach<1>(maxReach, m, p, kDepth, vol, image, profiles, inside, spacing, then, s); break;
+      case 2: launchForReach<2>(maxReach, m, p, kDepth, vol, image, profiles, inside, spacing, then, s); break;
+      case 4: launchForReach<4>(maxReach, m, p, kDepth, vol, image, profiles, inside, spacing, then, s); break;
+      default: launchForReach<8>(maxReach, m, p, kDepth, vol, image, profiles, inside, spacing, then, s); break;
     }
     return;
   }
   constexpr int warps = 8;  // lines[8][...] in the kernel
   profileWarp<<<(m.vertices + warps - 1) / warps, warps * 32, 0, s>>>(m, p, kDepth, vol, image, profiles, inside,
                                                                      inside + outside, spacing);
+  if (then) launchVerlet(m, then->dt, then->keep, s);
 }
 
 }  // namespace sinew::cuda
