@@ -9,49 +9,45 @@ namespace sinew::cuda {
 namespace {
 constexpr int kThreads = 256, kParts = kNormaliseParts;
 
+// The block's least and greatest of its threads' (a, b), valid in thread 0.
+__device__ float2 blockRange(float a, float b) {
+  __shared__ float lo[kThreads], hi[kThreads];
+  lo[threadIdx.x] = a;
+  hi[threadIdx.x] = b;
+  __syncthreads();
+  for (int s = kThreads / 2; s > 0; s /= 2) {
+    if (threadIdx.x < s) {
+      lo[threadIdx.x] = fminf(lo[threadIdx.x], lo[threadIdx.x + s]);
+      hi[threadIdx.x] = fmaxf(hi[threadIdx.x], hi[threadIdx.x + s]);
+    }
+    __syncthreads();
+  }
+  return make_float2(lo[0], hi[0]);
+}
+
 // Block b's least and greatest finite value of a grid-stride share (NaN and infinities skipped).
 __global__ void rangeParts(const float* __restrict__ v, size_t n, float2* __restrict__ parts) {
-  __shared__ float lo[kThreads], hi[kThreads];
   float a = FLT_MAX, b = -FLT_MAX;
   for (size_t i = blockIdx.x * size_t(kThreads) + threadIdx.x; i < n; i += size_t(gridDim.x) * kThreads)
     if (isfinite(v[i])) {
       a = fminf(a, v[i]);
       b = fmaxf(b, v[i]);
     }
-  lo[threadIdx.x] = a;
-  hi[threadIdx.x] = b;
-  __syncthreads();
-  for (int s = kThreads / 2; s > 0; s /= 2) {
-    if (threadIdx.x < s) {
-      lo[threadIdx.x] = fminf(lo[threadIdx.x], lo[threadIdx.x + s]);
-      hi[threadIdx.x] = fmaxf(hi[threadIdx.x], hi[threadIdx.x + s]);
-    }
-    __syncthreads();
-  }
-  if (threadIdx.x == 0) parts[blockIdx.x] = make_float2(lo[0], hi[0]);
+  const float2 r = blockRange(a, b);
+  if (threadIdx.x == 0) parts[blockIdx.x] = r;
 }
 
 // One block: the parts' range into range[0] (least) and range[1] (greatest).
 __global__ void rangeTotal(const float2* __restrict__ parts, int count, float* __restrict__ range) {
-  __shared__ float lo[kThreads], hi[kThreads];
   float a = FLT_MAX, b = -FLT_MAX;
   for (int i = threadIdx.x; i < count; i += kThreads) {
     a = fminf(a, parts[i].x);
     b = fmaxf(b, parts[i].y);
   }
-  lo[threadIdx.x] = a;
-  hi[threadIdx.x] = b;
-  __syncthreads();
-  for (int s = kThreads / 2; s > 0; s /= 2) {
-    if (threadIdx.x < s) {
-      lo[threadIdx.x] = fminf(lo[threadIdx.x], lo[threadIdx.x + s]);
-      hi[threadIdx.x] = fmaxf(hi[threadIdx.x], hi[threadIdx.x + s]);
-    }
-    __syncthreads();
-  }
+  const float2 r = blockRange(a, b);
   if (threadIdx.x == 0) {
-    range[0] = lo[0];
-    range[1] = hi[0];
+    range[0] = r.x;
+    range[1] = r.y;
   }
 }
 
