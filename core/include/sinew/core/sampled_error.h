@@ -7,7 +7,9 @@
 //   the truth's hierarchy (the exact evaluation's, triangle_bvh.h): at coarse levels four, the
 //   centroids of its midpoint split; where the level's triangles' longest edges are on average no
 //   longer than 1.25 times the truth's sampling spacing, one, the centroid (a quarter of the queries
-//   at the fine levels, where the meshes have the most triangles);
+//   at the fine levels, where the meshes have the most triangles). On the host each search starts
+//   bounded by the distance to the truth triangle that was nearest to the same sample last time
+//   (the meshes move little between samples), which prunes most of the walk and changes no distance;
 // - truth to mesh: the truth sampled at a coarser spacing than the exact evaluation's (sampleSurface),
 //   the samples grouped into patches (cubes of kPatchMm, per structure); one search per patch, from
 //   its centre into a hierarchy of the tessellation (built once per level, refitted at each sample),
@@ -84,6 +86,9 @@ private:
   std::vector<int> patchStructure_, samplePatch_;
   std::vector<trianglebvh::TangentPlane> planes_;  // per patch, at the last measure()
   std::vector<int> triangleStructure_;  // the structure of each tessellation triangle
+  // Per mesh-to-truth sample, the truth triangle nearest to it at the last measure() (-1: none yet):
+  // the next search starts bounded by the distance to it (exact: that triangle is one of the truth's).
+  std::vector<int> truthHint_;
 };
 
 // Both directions summarised as the exact evaluation does: ASSD the area-weighted mean of both;

@@ -65,6 +65,22 @@ SINEW_HD float closestSquaredDistance(const View& v, int root, P3 p, float maxD2
   return best;
 }
 
+// closestSquaredDistance, the search bounded from the start by the distance to triangle `hint`
+// (when >= 0: one under `root`), so that it only looks for nearer ones; `hint` becomes the nearest
+// triangle. The distance is the same as without the hint; the walk is shorter when the hint is near
+// (the sampled error's searches from points that moved little: 8 % of its time on the demo).
+SINEW_HD float closestSquaredDistanceFrom(const View& v, int root, P3 p, int& hint) {
+  float bound = 3.0e38f;
+  if (hint >= 0) {
+    const P3 d = collision::sub(p, collision::closestOnTriangle(p, v.corners[3 * hint], v.corners[3 * hint + 1], v.corners[3 * hint + 2]));
+    bound = collision::dot3(d, d);
+  }
+  int nearest = -1;
+  const float d2 = closestSquaredDistance(v, root, p, bound, nullptr, &nearest);
+  if (nearest >= 0) hint = nearest;
+  return d2;
+}
+
 // The surface under `root` near c, to first order: the plane through c's closest point, normal to
 // the direction from that point to c (its triangle's normal where c lies on the surface), and c's
 // distance to it. A point s near c is about |d + n . (s - c)| from the surface (planeDistance): exact
