@@ -19,20 +19,6 @@
 namespace sinew::cuda {
 
 namespace {
-VolumeView viewOf(const ImageGeometry& g) {
-  VolumeView v{};
-  v.sx = g.size[0];
-  v.sy = g.size[1];
-  v.sz = g.size[2];
-  // Same float matrix as Volume<T>: the inverse in double, then cast.
-  const Eigen::Matrix3f m = g.indexToWorldMatrix().inverse().cast<float>();
-  for (int r = 0; r < 3; ++r)
-    for (int c = 0; c < 3; ++c) v.m[r * 3 + c] = m(r, c);
-  const Vec3 o = g.origin.cast<float>();
-  v.origin = make_float3(o.x(), o.y(), o.z());
-  return v;
-}
-
 // The profile force's largest reach in samples (the kernel's floor(search_depth / spacing), in float).
 int maxProfileReach(const ParamTable& t) {
   const int kDepth = t.indexOf("search_depth");

@@ -1,6 +1,6 @@
 // Host-side pieces of the engine's device mirror of a mesh store (cuda_engine.cpp): typed uploads,
-// the connectivity as the kernels read it, the global prolongation between levels, and the coarser
-// levels of the multi-resolution forces. Host C++ only; no device code.
+// image views, the connectivity as the kernels read it, the global prolongation between levels, and
+// the coarser levels of the multi-resolution forces. Host C++ only; no device code.
 #pragma once
 
 #include "cuda_check.h"
@@ -16,6 +16,21 @@ template <class T, class U>
 void uploadAs(DeviceArray<T>& dst, std::span<const U> src, cudaStream_t stream) {
   static_assert(sizeof(T) == sizeof(U));
   dst.upload(reinterpret_cast<const T*>(src.data()), src.size(), stream);
+}
+
+// A volume's world-to-index transform as the kernels take it: the same float matrix as Volume<T>
+// (the inverse in double, then cast).
+inline VolumeView viewOf(const ImageGeometry& g) {
+  VolumeView v{};
+  v.sx = g.size[0];
+  v.sy = g.size[1];
+  v.sz = g.size[2];
+  const Eigen::Matrix3f m = g.indexToWorldMatrix().inverse().cast<float>();
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) v.m[r * 3 + c] = m(r, c);
+  const Vec3 o = g.origin.cast<float>();
+  v.origin = make_float3(o.x(), o.y(), o.z());
+  return v;
 }
 
 // One prolongation for the whole store, from `level` to level + 1: global fine rows, global coarse
