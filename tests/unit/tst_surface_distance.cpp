@@ -56,6 +56,40 @@ private slots:
     QVERIFY(std::abs(q.distance(Vec3(2, 0.5f, 2)) - std::sqrt(2.0f)) < 1e-6f);
   }
 
+  // The hierarchy's search (surface-area-heuristic splits) against every triangle, on a smooth
+  // surface and on 300 copies of one triangle (every split costs the same there: splits that took
+  // one triangle off at a time would make a tree 300 deep, beyond the search's stack).
+  void searchEqualsEveryTriangle() {
+    TriangleMesh copies;
+    copies.points = {{0, 0, 0}, {4, 0, 0}, {0, 4, 1}};
+    for (int i = 0; i < 300; ++i) copies.triangles.push_back({0, 1, 2});
+    std::mt19937 random(5);
+    for (const TriangleMesh& mesh : {ellipsoidSurface(Vec3(1, 2, 3), Vec3(10, 6, 4), 4), copies}) {
+      const SurfaceDistanceQuery query(mesh);
+      const auto& nodes = query.bvh().nodes;
+      std::vector<int> depth(nodes.size(), 0);
+      int deepest = 0;
+      for (size_t k = 0; k < nodes.size(); ++k)  // children come after their parents
+        if (nodes[k].left >= 0) {
+          depth[nodes[k].left] = depth[nodes[k].right] = depth[k] + 1;
+          deepest = std::max(deepest, depth[k] + 1);
+        }
+      QVERIFY2(deepest < trianglebvh::kStackDepth - 1, qPrintable(QString("tree %1 deep").arg(deepest)));
+      std::uniform_real_distribution<float> coordinate(-12.0f, 12.0f);
+      for (int k = 0; k < 2000; ++k) {
+        const Vec3 p(coordinate(random), coordinate(random), coordinate(random));
+        float expected = 3.0e38f;
+        for (const auto& t : mesh.triangles) {
+          const collision::P3 q = collision::closestOnTriangle(asP3(p), asP3(mesh.points[t[0]]), asP3(mesh.points[t[1]]),
+                                                               asP3(mesh.points[t[2]]));
+          const collision::P3 d = collision::sub(asP3(p), q);
+          expected = std::min(expected, collision::dot3(d, d));
+        }
+        QCOMPARE(query.distance(p), std::sqrt(expected));
+      }
+    }
+  }
+
   void concentricSpheres() {
     // ASSD between spheres of radius 10 and 11 is 1 (both directions), up to tessellation error.
     const TriangleMesh a = icosphere(5, 10.0f), b = icosphere(5, 11.0f);

@@ -57,7 +57,7 @@ SINEW_HD float closestSquaredDistance(const View& v, int root, P3 p, float maxD2
     }
     const float dl = collision::squaredDistance(v.nodes[n.left].box, p);
     const float dr = collision::squaredDistance(v.nodes[n.right].box, p);
-    if (top + 2 > kStackDepth) continue;  // unreachable for median splits; never overrun
+    if (top + 2 > kStackDepth) continue;  // unreachable for TriangleBvh::build's trees; never overrun
     const bool leftFirst = dl < dr;
     if ((leftFirst ? dr : dl) < best) stack[top] = leftFirst ? n.right : n.left, near[top++] = leftFirst ? dr : dl;
     if ((leftFirst ? dl : dr) < best) stack[top] = leftFirst ? n.left : n.right, near[top++] = leftFirst ? dl : dr;
