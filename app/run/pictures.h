@@ -11,7 +11,8 @@ namespace sinew {
 
 inline void savePng(const QImage& image, const std::filesystem::path& path) {
   AtomicOutput out(path);
-  if (!image.save(QString::fromStdString(out.tempPath().string()), "PNG"))
+  // Quality 80: zlib level 2 instead of Qt's default 6, pictures 10-20 % larger, written faster.
+  if (!image.save(QString::fromStdString(out.tempPath().string()), "PNG", 80))
     throw InputError(path.string() + ": cannot write the picture");
   out.commit();
 }
