@@ -56,13 +56,21 @@ bool SampledError::prepare(MeshStore& store) {
   triangleStructure_.clear();
   meshTriangleOffsets_.assign(1, 0);
   const auto x = store.positions();
+  // The structures' trees side by side (appended in order afterwards, so the result does not depend
+  // on threads): built at each level's first sample, on the run's path, the device's run's too.
+  std::vector<TriangleBvh> trees(store.meshCount());
+  store.executor().forEach(
+      store.meshCount(),
+      [&](Index m) {
+        const MeshRange& r = store.range(m);
+        const auto local = store.mesh(x, m);
+        trees[m] = TriangleBvh::build(tessellate(store.topologyOf(m), std::vector<Vec3>(local.begin(), local.end())));
+        for (auto& tri : trees[m].triangles)  // local indices to the points' layout
+          for (Index& k : tri) k = k < r.vertexCount() ? r.vertexBegin + k : nv + r.cellBegin + (k - r.vertexCount());
+      },
+      1);
   for (Index m = 0; m < store.meshCount(); ++m) {
-    const MeshRange& r = store.range(m);
-    const auto local = store.mesh(x, m);
-    TriangleBvh bvh = TriangleBvh::build(tessellate(store.topologyOf(m), std::vector<Vec3>(local.begin(), local.end())));
-    for (auto& tri : bvh.triangles)  // local indices to the points' layout
-      for (Index& k : tri) k = k < r.vertexCount() ? r.vertexBegin + k : nv + r.cellBegin + (k - r.vertexCount());
-    meshRoots_.push_back(meshes_.append(bvh));
+    meshRoots_.push_back(meshes_.append(trees[m]));
     meshTriangleOffsets_.push_back(Index(meshes_.triangles.size()));
     triangleStructure_.resize(meshes_.triangles.size(), int(m));
   }
