@@ -109,7 +109,7 @@ TriangleBvh TriangleBvh::build(const TriangleMesh& mesh) {
   Builder b(mesh, bvh);
   b.build(0, int(mesh.triangles.size()), 0);
   bvh.corners.reserve(3 * mesh.triangles.size());
-  for (int t : b.sorted[0]) {
+  for (int t : b.sorted[0]) {  // every list holds each leaf's triangles together; any gives the leaf order
     bvh.triangles.push_back(mesh.triangles[t]);
     for (Index k : mesh.triangles[t]) bvh.corners.push_back(asP3(mesh.points[k]));
   }

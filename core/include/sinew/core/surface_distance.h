@@ -15,8 +15,9 @@ inline const collision::P3* asP3(std::span<const Vec3> v) { return reinterpret_c
 inline collision::P3 asP3(const Vec3& v) { return {v.x(), v.y(), v.z()}; }
 inline Vec3 asVec3(const collision::P3& p) { return {p.x, p.y, p.z}; }
 
-// The hierarchy of triangle_bvh.h, built on the host: median splits along the widest axis of the
-// triangles' centroids, down to leaves of at most trianglebvh::kLeafTriangles.
+// The hierarchy of triangle_bvh.h, built on the host: splits along the widest axis of the
+// triangles' centroids chosen by the surface area heuristic (medians from depth 32 down, so that a
+// tree stays within the search's stack), down to leaves of at most trianglebvh::kLeafTriangles.
 struct TriangleBvh {
   std::vector<trianglebvh::Node> nodes;          // pre-order, root first
   std::vector<trianglebvh::P3> corners;          // three per triangle, in leaf order
