@@ -17,7 +17,9 @@ nvidia-smi --query-gpu=name,driver_version,memory.total --format=csv,noheader
 out=${OUT:-/tmp/out}
 for c in ${CHECKS:-parity demo accuracy}; do
   case $c in
-    parity) "$build/tests/tst_cuda_parity" 2>&1 | tee "$out/parity.txt" | grep -E "PASS|FAIL|QINFO|Totals|SKIP" ;;
+    parity) for t in tst_cuda_parity tst_cuda_profile; do
+        "$build/tests/$t" 2>&1 | tee "$out/$t.txt" | grep -E "PASS|FAIL|QINFO|Totals|SKIP"
+      done ;;
     run) REPEATS=${RUN_REPEATS:-3} bash scripts/bench-run.sh "$build" /tmp/bench-run 2>&1 | tee "$out/bench-run.md"
       for b in cpu cuda; do "$build/app/sinew-run" /tmp/bench-run/scene.json -q -v --backend $b -o /tmp/bench-run/v-$b 2>&1 | tail -16; done ;;
     bench) "$build/tests/bench/bench_cuda" ${BENCH_ARGS:-5 2} 2>&1 | tee "$out/bench_cuda.txt" ;;

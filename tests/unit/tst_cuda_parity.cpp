@@ -5,8 +5,9 @@
 // host), so those are compared to the bit, or to a stated tolerance where the device sums in
 // another order. The intensity profile samples the image through the texture units on the device
 // (profile_kernels.cu): its tolerance is a share of vertices picking another offset in one step,
-// stated at profileForceAgreesWithTheCpu; the other tests leave it out.
+// stated in tst_cuda_profile; the tests here leave it out.
 #include "builtin_plugins.h"
+#include "parity_scene.h"
 #include "sinew/core/attachments.h"
 #include "sinew/cuda/cuda_engine.h"
 #include "surface_source.h"
@@ -25,33 +26,6 @@ using namespace sinew;
 using namespace sinew::testing;
 
 namespace {
-
-// configure: parameter changes before the scene starts (forces trained, layouts fixed).
-std::unique_ptr<Simulation> scene(const std::vector<std::string>& forces, int levels,
-                                  const std::string& integrator = "damped_verlet", double timeStep = 0.5,
-                                  const std::function<void(Simulation&)>& configure = {}) {
-  static const auto image = std::make_shared<Image3D>(ellipsoidImage({}));
-  EllipsoidImageSpec spec;
-  auto sim = std::make_unique<Simulation>(forceRegistry(), 0);
-  StructureSpec a = sphereStructure("ellipsoid", 3, 15.0f, spec.centre + Vec3(3, 0, 0), levels);
-  for (const Vec3& p : SimplexMesh::sphere(3, 1.0f).positions) a.referencePositions.push_back(onEllipsoid(p, spec.centre, spec.radii));
-  StructureSpec b = sphereStructure("ball", 2, 6.0f, spec.centre + Vec3(-4, 2, 1), levels);
-  b.referencePositions = withNoise(b.initialPositions, 0.2f, 4);
-  sim->addStructure(std::move(a));
-  sim->addStructure(std::move(b));
-  for (const auto& f : forces) {
-    ParamTable& t = sim->addForce(f);
-    if (f == "gradient") t.setAll("search_depth", 4.0);
-  }
-  sim->setIntegrator(integrator).set(0, "time_step", timeStep);
-  sim->scene().setTargetImage(image);
-  sim->scene().attractionPoints()[1].push_back(spec.centre + Vec3(-4, 2, 10));
-  // An include point 1.5 mm outside the first structure and an exclude point 1 mm inside it.
-  sim->scene().constraintPoints()[0] = {{spec.centre + Vec3(3, 0, 16.5f), true}, {spec.centre + Vec3(3, 0, -14), false}};
-  if (configure) configure(*sim);
-  sim->initialize();
-  return sim;
-}
 
 // The built-in forces plus the run-time plugins of the test builds: the balloon with its CUDA path
 // and test_constant without one.
@@ -89,20 +63,6 @@ double meanRadius(MeshStore& store, Index mesh, const Vec3& centre) {
   double sum = 0;
   for (const Vec3& p : store.mesh(store.positions(), mesh)) sum += (p - centre).norm();
   return sum / store.range(mesh).vertexCount();
-}
-
-// The CPU runs without the stability guard: the device has none, so both take the same steps.
-StabilityGuard noGuard() {
-  StabilityGuard g;
-  g.enabled = false;
-  g.maxRetries = 0;
-  return g;
-}
-
-double maxDifference(MeshStore& a, MeshStore& b) {
-  double worst = 0;
-  for (Index v = 0; v < a.vertexCount(); ++v) worst = std::max(worst, double((a.positions()[v] - b.positions()[v]).norm()));
-  return worst;
 }
 
 // `steps` steps of four copies of one scene: on the CPU, on the device in two batches, on the
@@ -259,118 +219,6 @@ private slots:
     engine.download();
     const double diff = maxDifference(cpu->store(), gpu->store());
     qInfo("two levels: max CPU-CUDA difference %.3g mm over %d vertices", diff, cpu->store().vertexCount());
-    QCOMPARE(diff, 0.0);
-  }
-
-  // The profile force's device kernels (profile_kernels.cu): the default layout (25 + 5 samples,
-  // reach <= 10 samples) at the sizes that pick 8, 4 and 2 lanes per vertex, each structure with its
-  // own search depth, and other layouts (the one-warp kernel), with both integrators. The device
-  // samples through the texture units (8-bit interpolation weights), so its NCC scores differ from
-  // the CPU's by rounding and a near tie can go the other way. The tolerance, for one step from the
-  // same state (the CPU's after 20 steps): at most 1 % of the vertices pick another offset than the
-  // CPU, at most 0.1 % one more than a sample away; with damped Verlet at least 98 % of the forces
-  // agree to the bit (the smoothing is bit-identical), and those vertices move to the CPU's
-  // positions to the bit (below 131,072 vertices the move runs in the profile kernel's pass). A
-  // wrong line, window or reach moves most vertices' picks. Run to run the device repeats itself
-  // exactly.
-  void profileForceAgreesWithTheCpu_data() {
-    QTest::addColumn<int>("level");
-    QTest::addColumn<int>("inside");
-    QTest::addColumn<double>("depth");
-    QTest::addColumn<QString>("integrator");
-    QTest::newRow("8 lanes, 6,400 vertices") << 1 << 25 << 5.0 << "damped_verlet";
-    QTest::newRow("4 lanes, 25,600 vertices") << 2 << 25 << 2.0 << "damped_verlet";
-    QTest::newRow("2 lanes, 409,600 vertices") << 4 << 25 << 1.0 << "damped_verlet";
-    QTest::newRow("one warp, 20 + 5 samples") << 0 << 20 << 5.0 << "damped_verlet";
-    QTest::newRow("one warp, reach 12") << 0 << 25 << 6.0 << "damped_verlet";
-    QTest::newRow("implicit Euler, 4 lanes") << 2 << 25 << 5.0 << "implicit_euler";
-  }
-  void profileForceAgreesWithTheCpu() {
-    QFETCH(int, level);
-    QFETCH(int, inside);
-    QFETCH(double, depth);
-    QFETCH(QString, integrator);
-    const auto make = [&] {
-      auto sim = scene({"smoothing", "intensity_profile"}, level + 1, integrator.toStdString(),
-                       integrator == "implicit_euler" ? 2.0 : 0.5, [&](Simulation& s) {
-                         ParamTable& t = s.forceParams("intensity_profile");
-                         t.setAll("inside_samples", inside);
-                         t.set(0, "search_depth", depth);
-                         t.set(1, "search_depth", depth / 2);
-                       });
-      for (int l = 0; l < level; ++l) sim->advanceLevel();
-      sim->setStabilityGuard(noGuard());
-      return sim;
-    };
-    auto cpu = make(), gpu = make(), again = make();
-    cpu->run(20);
-    for (Simulation* s : {gpu.get(), again.get()}) {
-      std::copy(cpu->store().positions().begin(), cpu->store().positions().end(), s->store().positionsForWrite().begin());
-      std::copy(cpu->store().previousPositions().begin(), cpu->store().previousPositions().end(),
-                s->store().previousPositions().begin());
-    }
-    cpu->run(1);
-    cuda::CudaEngine engine(*gpu), engine2(*again);
-    engine.run(1);
-    engine.download();
-    engine2.run(1);
-    engine2.download();
-    const ParamTable& t = cpu->forceParams("intensity_profile");
-    const double sample = t.getf(0, t.indexOf("spacing")) * t.getf(0, t.indexOf("weight"));  // one sample's pull
-    const Index n = cpu->store().vertexCount();
-    Index other = 0, far = 0, exact = 0, movedApart = 0;
-    double worst = 0, repeat = 0;
-    for (Index v = 0; v < n; ++v) {
-      const double d = (cpu->store().forces()[v] - gpu->store().forces()[v]).norm();
-      worst = std::max(worst, d);
-      other += d > 1e-5;
-      far += d > 1.01 * sample;
-      repeat = std::max(repeat, double((gpu->store().forces()[v] - again->store().forces()[v]).norm()));
-      // Damped Verlet moves a vertex of the same force to the same place, to the bit (on the device
-      // in the profile kernel's pass: the profile is the last force here).
-      exact += d == 0;
-      if (integrator == "damped_verlet" && d == 0)
-        movedApart += cpu->store().positions()[v] != gpu->store().positions()[v];
-    }
-    qInfo("profile force, %s: %lld of %lld vertices (%.3f %%) pick another offset than the CPU, %lld by more than "
-          "one sample (largest force difference %.3g, one sample %.3g); %lld forces the same to the bit",
-          qPrintable(integrator), qint64(other), qint64(n), 100.0 * other / n, qint64(far), worst, sample, qint64(exact));
-    QVERIFY2(other <= n / 100, "more than 1 % of the vertices pick another offset");
-    QVERIFY2(far <= n / 1000, "more than 0.1 % of the vertices pick an offset further than one sample away");
-    if (integrator == "damped_verlet") QVERIFY2(exact >= n * 98 / 100, "the vertices' forces should mostly agree to the bit");
-    QCOMPARE(movedApart, Index(0));
-    QCOMPARE(repeat, 0.0);
-  }
-
-  // Parameters changed between runs of one engine reach its captured graph: a structure's search
-  // depth raised past the register kernels' reach (the graph must switch kernels) and the other
-  // structure's profile weight set to 0. The engine that ran on must end where a fresh engine
-  // started from its state before the change does, to the bit (both on the device).
-  void profileChangesBetweenRunsReachTheGraph() {
-    const auto make = [] {
-      auto sim = scene({"smoothing", "intensity_profile"}, 2);
-      sim->advanceLevel();
-      return sim;
-    };
-    const auto change = [](Simulation& s) {
-      s.forceParams("intensity_profile").set(0, "search_depth", 6.0);
-      s.forceParams("intensity_profile").set(1, "weight", 0.0);
-    };
-    auto ranOn = make(), fresh = make(), init = make();
-    cuda::CudaEngine engine(*ranOn), before(*fresh);
-    engine.run(20);
-    before.run(20);
-    before.download();
-    change(*ranOn);
-    change(*fresh);
-    engine.run(20);
-    engine.download();
-    cuda::CudaEngine after(*fresh);  // uploads the state before the change
-    after.run(20);
-    after.download();
-    const double diff = maxDifference(ranOn->store(), fresh->store()), moved = maxDifference(ranOn->store(), init->store());
-    qInfo("profile parameters changed between runs: %.3g mm from a fresh engine (vertices moved up to %.3g mm)", diff, moved);
-    QVERIFY(moved > 0.1);
     QCOMPARE(diff, 0.0);
   }
 

@@ -1,0 +1,137 @@
+// The intensity-profile force on the CPU and CUDA backends (label gpu). The device samples the
+// image through the texture units (profile_kernels.cu), so this force alone is compared by a
+// stated tolerance, not to the bit (tst_cuda_parity covers the others). Skips without a GPU.
+#include "parity_scene.h"
+#include "sinew/cuda/cuda_engine.h"
+
+#include <QtTest>
+
+#include <algorithm>
+
+using namespace sinew;
+using namespace sinew::testing;
+
+class TestCudaProfile : public QObject {
+  Q_OBJECT
+private slots:
+  void initTestCase() {
+    const cuda::DeviceStatus st = cuda::probeDevice();
+    if (!st.usable) QSKIP(qPrintable("GPU profile tests need an NVIDIA GPU: " + QString::fromStdString(st.reason)));
+    qInfo("device: %s", st.description.c_str());
+  }
+
+  // The profile force's device kernels (profile_kernels.cu): the default layout (25 + 5 samples,
+  // reach <= 10 samples) at the sizes that pick 8, 4 and 2 lanes per vertex, each structure with its
+  // own search depth, and other layouts (the one-warp kernel), with both integrators. The device
+  // samples through the texture units (8-bit interpolation weights), so its NCC scores differ from
+  // the CPU's by rounding and a near tie can go the other way. The tolerance, for one step from the
+  // same state (the CPU's after 20 steps): at most 1 % of the vertices pick another offset than the
+  // CPU, at most 0.1 % one more than a sample away; with damped Verlet at least 98 % of the forces
+  // agree to the bit (the smoothing is bit-identical), and those vertices move to the CPU's
+  // positions to the bit (below 131,072 vertices the move runs in the profile kernel's pass). A
+  // wrong line, window or reach moves most vertices' picks. Run to run the device repeats itself
+  // exactly.
+  void profileForceAgreesWithTheCpu_data() {
+    QTest::addColumn<int>("level");
+    QTest::addColumn<int>("inside");
+    QTest::addColumn<double>("depth");
+    QTest::addColumn<QString>("integrator");
+    QTest::newRow("8 lanes, 6,400 vertices") << 1 << 25 << 5.0 << "damped_verlet";
+    QTest::newRow("4 lanes, 25,600 vertices") << 2 << 25 << 2.0 << "damped_verlet";
+    QTest::newRow("2 lanes, 409,600 vertices") << 4 << 25 << 1.0 << "damped_verlet";
+    QTest::newRow("one warp, 20 + 5 samples") << 0 << 20 << 5.0 << "damped_verlet";
+    QTest::newRow("one warp, reach 12") << 0 << 25 << 6.0 << "damped_verlet";
+    QTest::newRow("implicit Euler, 4 lanes") << 2 << 25 << 5.0 << "implicit_euler";
+  }
+  void profileForceAgreesWithTheCpu() {
+    QFETCH(int, level);
+    QFETCH(int, inside);
+    QFETCH(double, depth);
+    QFETCH(QString, integrator);
+    const auto make = [&] {
+      auto sim = scene({"smoothing", "intensity_profile"}, level + 1, integrator.toStdString(),
+                       integrator == "implicit_euler" ? 2.0 : 0.5, [&](Simulation& s) {
+                         ParamTable& t = s.forceParams("intensity_profile");
+                         t.setAll("inside_samples", inside);
+                         t.set(0, "search_depth", depth);
+                         t.set(1, "search_depth", depth / 2);
+                       });
+      for (int l = 0; l < level; ++l) sim->advanceLevel();
+      sim->setStabilityGuard(noGuard());
+      return sim;
+    };
+    auto cpu = make(), gpu = make(), again = make();
+    cpu->run(20);
+    for (Simulation* s : {gpu.get(), again.get()}) {
+      std::copy(cpu->store().positions().begin(), cpu->store().positions().end(), s->store().positionsForWrite().begin());
+      std::copy(cpu->store().previousPositions().begin(), cpu->store().previousPositions().end(),
+                s->store().previousPositions().begin());
+    }
+    cpu->run(1);
+    cuda::CudaEngine engine(*gpu), engine2(*again);
+    engine.run(1);
+    engine.download();
+    engine2.run(1);
+    engine2.download();
+    const ParamTable& t = cpu->forceParams("intensity_profile");
+    const double sample = t.getf(0, t.indexOf("spacing")) * t.getf(0, t.indexOf("weight"));  // one sample's pull
+    const Index n = cpu->store().vertexCount();
+    Index other = 0, far = 0, exact = 0, movedApart = 0;
+    double worst = 0, repeat = 0;
+    for (Index v = 0; v < n; ++v) {
+      const double d = (cpu->store().forces()[v] - gpu->store().forces()[v]).norm();
+      worst = std::max(worst, d);
+      other += d > 1e-5;
+      far += d > 1.01 * sample;
+      repeat = std::max(repeat, double((gpu->store().forces()[v] - again->store().forces()[v]).norm()));
+      // Damped Verlet moves a vertex of the same force to the same place, to the bit (on the device
+      // in the profile kernel's pass: the profile is the last force here).
+      exact += d == 0;
+      if (integrator == "damped_verlet" && d == 0)
+        movedApart += cpu->store().positions()[v] != gpu->store().positions()[v];
+    }
+    qInfo("profile force, %s: %lld of %lld vertices (%.3f %%) pick another offset than the CPU, %lld by more than "
+          "one sample (largest force difference %.3g, one sample %.3g); %lld forces the same to the bit",
+          qPrintable(integrator), qint64(other), qint64(n), 100.0 * other / n, qint64(far), worst, sample, qint64(exact));
+    QVERIFY2(other <= n / 100, "more than 1 % of the vertices pick another offset");
+    QVERIFY2(far <= n / 1000, "more than 0.1 % of the vertices pick an offset further than one sample away");
+    if (integrator == "damped_verlet") QVERIFY2(exact >= n * 98 / 100, "the vertices' forces should mostly agree to the bit");
+    QCOMPARE(movedApart, Index(0));
+    QCOMPARE(repeat, 0.0);
+  }
+
+  // Parameters changed between runs of one engine reach its captured graph: a structure's search
+  // depth raised past the register kernels' reach (the graph must switch kernels) and the other
+  // structure's profile weight set to 0. The engine that ran on must end where a fresh engine
+  // started from its state before the change does, to the bit (both on the device).
+  void profileChangesBetweenRunsReachTheGraph() {
+    const auto make = [] {
+      auto sim = scene({"smoothing", "intensity_profile"}, 2);
+      sim->advanceLevel();
+      return sim;
+    };
+    const auto change = [](Simulation& s) {
+      s.forceParams("intensity_profile").set(0, "search_depth", 6.0);
+      s.forceParams("intensity_profile").set(1, "weight", 0.0);
+    };
+    auto ranOn = make(), fresh = make(), init = make();
+    cuda::CudaEngine engine(*ranOn), before(*fresh);
+    engine.run(20);
+    before.run(20);
+    before.download();
+    change(*ranOn);
+    change(*fresh);
+    engine.run(20);
+    engine.download();
+    cuda::CudaEngine after(*fresh);  // uploads the state before the change
+    after.run(20);
+    after.download();
+    const double diff = maxDifference(ranOn->store(), fresh->store()), moved = maxDifference(ranOn->store(), init->store());
+    qInfo("profile parameters changed between runs: %.3g mm from a fresh engine (vertices moved up to %.3g mm)", diff, moved);
+    QVERIFY(moved > 0.1);
+    QCOMPARE(diff, 0.0);
+  }
+};
+
+QTEST_APPLESS_MAIN(TestCudaProfile)
+#include "tst_cuda_profile.moc"
