@@ -85,6 +85,7 @@ bool SampledError::prepare(MeshStore& store) {
   // (ASSD) with it, and to 0.0124 mm with one sample at every level.
   perTriangle_ = longest <= 1.25 * spacing_ * double(meshes_.triangles.size()) ? 1 : kSubTriangles;
   truthHint_.assign(perTriangle_ * meshes_.triangles.size(), -1);
+  planeHint_.assign(patchCentres_.size(), -1);
   return true;
 }
 
@@ -128,25 +129,29 @@ std::vector<std::optional<SurfaceDistanceStats>> SampledError::measure(MeshStore
           return;
         }
         const Index k = i - triangles;
-        planes_[k] = trianglebvh::closestTangentPlane(mesh, meshRoots_[patchStructure_[k]], patchCentres_[k]);
+        planes_[k] = trianglebvh::closestTangentPlane(mesh, meshRoots_[patchStructure_[k]], patchCentres_[k], &planeHint_[k]);
       },
       64);
   ex.forEach(Index(samples_.size()), [&](Index k) {
     const int patch = samplePatch_[k];
     fromTruth_[k] = {trianglebvh::planeDistance(planes_[patch], patchCentres_[patch], asP3(samples_[k].point)), samples_[k].area};
   });
-  return summarise(toTruth_, fromTruth_);
+  return summarise(toTruth_, fromTruth_, ex);
 }
 
 std::vector<std::optional<SurfaceDistanceStats>> SampledError::summarise(std::span<const WeightedDistance> toTruth,
-                                                                         std::span<const WeightedDistance> fromTruth) const {
+                                                                         std::span<const WeightedDistance> fromTruth,
+                                                                         const Executor& executor) const {
   std::vector<std::optional<SurfaceDistanceStats>> out(truthRoots_.size());
-  for (size_t m = 0; m < out.size(); ++m)
-    if (truthRoots_[m] >= 0) {
-      const Index a = perTriangle_ * meshTriangleOffsets_[m], b = perTriangle_ * meshTriangleOffsets_[m + 1];
-      out[m] = summariseBinned(toTruth.subspan(a, b - a),
-                               fromTruth.subspan(sampleOffsets_[m], sampleOffsets_[m + 1] - sampleOffsets_[m]), kBinMm);
-    }
+  executor.forEach(
+      Index(out.size()),
+      [&](Index m) {
+        if (truthRoots_[m] < 0) return;
+        const Index a = perTriangle_ * meshTriangleOffsets_[m], b = perTriangle_ * meshTriangleOffsets_[m + 1];
+        out[m] = summariseBinned(toTruth.subspan(a, b - a),
+                                 fromTruth.subspan(sampleOffsets_[m], sampleOffsets_[m + 1] - sampleOffsets_[m]), kBinMm);
+      },
+      1);
   return out;
 }
 

@@ -89,7 +89,7 @@ std::vector<std::optional<SurfaceDistanceStats>> DeviceSampledError::measure(Sam
   fromTruth_.download(hostFrom_.data(), hostFrom_.size(), stream);
   SINEW_CUDA(cudaStreamSynchronize(stream));
   SINEW_CUDA(cudaGetLastError());
-  return error.summarise(hostTo_, hostFrom_);
+  return error.summarise(hostTo_, hostFrom_, store.executor());
 }
 
 std::size_t DeviceSampledError::bytes() const {

@@ -71,10 +71,19 @@ SINEW_HD Box merge(Box a, const Box& b) {
   extend(a, b.hi);
   return a;
 }
+// max(m, 0). On the host as (m + |m|) / 2, the same value without a branch: GCC turns max(m, 0)
+// followed by squaring into a jump per axis, which mispredicts in half the box tests of a search.
+SINEW_HD float positivePart(float m) {
+#ifdef __CUDA_ARCH__
+  return fmax3(m, 0.0f);
+#else
+  return (m + std::fabs(m)) * 0.5f;
+#endif
+}
 SINEW_HD float squaredDistance(const Box& b, P3 p) {
-  const float dx = fmax3(fmax3(b.lo.x - p.x, p.x - b.hi.x), 0.0f);
-  const float dy = fmax3(fmax3(b.lo.y - p.y, p.y - b.hi.y), 0.0f);
-  const float dz = fmax3(fmax3(b.lo.z - p.z, p.z - b.hi.z), 0.0f);
+  const float dx = positivePart(fmax3(b.lo.x - p.x, p.x - b.hi.x));
+  const float dy = positivePart(fmax3(b.lo.y - p.y, p.y - b.hi.y));
+  const float dz = positivePart(fmax3(b.lo.z - p.z, p.z - b.hi.z));
   return dx * dx + (dy * dy + dz * dz);
 }
 

@@ -13,7 +13,8 @@
 // - truth to mesh: the truth sampled at a coarser spacing than the exact evaluation's (sampleSurface),
 //   the samples grouped into patches (cubes of kPatchMm, per structure); one search per patch, from
 //   its centre into a hierarchy of the tessellation (built once per level, refitted at each sample),
-//   gives the tessellation's tangent plane there, and each of the patch's samples is its distance to
+//   gives the tessellation's tangent plane there (starting, like the other direction, bounded by the
+//   distance to last time's nearest triangle), and each of the patch's samples is its distance to
 //   that plane (trianglebvh::planeDistance). The tessellation is smooth at this scale, unlike the
 //   truth (a label surface), so this direction is the one that can be approximated: on the demo the
 //   searches drop from 77,452 to 14,869 while the largest difference to the exact ASSD rises from
@@ -47,9 +48,10 @@ public:
   // below and hands them to summarise().
   bool prepare(MeshStore& store);
   // Mesh to truth: samplesPerTriangle() per tessellation triangle (meshes().triangles order);
-  // truth to mesh: one per truth sample (truthSamples() order).
+  // truth to mesh: one per truth sample (truthSamples() order). Structure by structure on `executor`.
   std::vector<std::optional<SurfaceDistanceStats>> summarise(std::span<const WeightedDistance> toTruth,
-                                                             std::span<const WeightedDistance> fromTruth) const;
+                                                             std::span<const WeightedDistance> fromTruth,
+                                                             const Executor& executor) const;
 
   const TriangleBvh& truth() const { return truth_; }
   const std::vector<int>& truthRoots() const { return truthRoots_; }  // -1: no truth
@@ -89,6 +91,7 @@ private:
   // Per mesh-to-truth sample, the truth triangle nearest to it at the last measure() (-1: none yet):
   // the next search starts bounded by the distance to it (exact: that triangle is one of the truth's).
   std::vector<int> truthHint_;
+  std::vector<int> planeHint_;  // per patch, the tessellation triangle nearest to its centre last time
 };
 
 // Both directions summarised as the exact evaluation does: ASSD the area-weighted mean of both;

@@ -44,7 +44,15 @@ SINEW_HD float closestSquaredDistance(const View& v, int root, P3 p, float maxD2
     const Node& n = v.nodes[stack[top]];
     if (n.left < 0) {
       for (int t = n.first; t < n.first + n.count; ++t) {
-        const P3 q = collision::closestOnTriangle(p, v.corners[3 * t], v.corners[3 * t + 1], v.corners[3 * t + 2]);
+        const P3 a = v.corners[3 * t], b = v.corners[3 * t + 1], c = v.corners[3 * t + 2];
+        // A triangle is no nearer than its plane: one dot product drops most of a leaf's triangles
+        // before the closest-point test and its branches (the sampled error's searches start with
+        // a tight bound). Equal distances only to rounding, which can change the pick between two
+        // triangles equally near; degenerate triangles (no plane) are always tested.
+        const P3 normal = collision::cross3(collision::sub(b, a), collision::sub(c, a));
+        const float height = collision::dot3(normal, collision::sub(p, a)), normal2 = collision::dot3(normal, normal);
+        if (normal2 > 0.0f && height * height >= best * normal2) continue;
+        const P3 q = collision::closestOnTriangle(p, a, b, c);
         const P3 d = collision::sub(p, q);
         const float d2 = collision::dot3(d, d);
         if (d2 < best) {
@@ -89,10 +97,20 @@ struct TangentPlane {
   P3 n;
   float d;
 };
-SINEW_HD TangentPlane closestTangentPlane(const View& v, int root, P3 c) {
+// `hint` (when not null): as closestSquaredDistanceFrom's, the triangle nearest to c last time
+// (-1: none), replaced by this time's.
+SINEW_HD TangentPlane closestTangentPlane(const View& v, int root, P3 c, int* hint = nullptr) {
   P3 q = c;
   int t = 0;
-  const float d = sqrtf(closestSquaredDistance(v, root, c, 3.0e38f, &q, &t));
+  float bound = 3.0e38f;
+  if (hint && *hint >= 0) {
+    t = *hint;
+    q = collision::closestOnTriangle(c, v.corners[3 * t], v.corners[3 * t + 1], v.corners[3 * t + 2]);
+    const P3 e = collision::sub(c, q);
+    bound = collision::dot3(e, e);
+  }
+  const float d = sqrtf(closestSquaredDistance(v, root, c, bound, &q, &t));
+  if (hint) *hint = t;
   if (d > 1.0e-4f) return {collision::scale(collision::sub(c, q), 1.0f / d), d};
   return {collision::unitNormal(v.corners[3 * t], v.corners[3 * t + 1], v.corners[3 * t + 2]), d};
 }
