@@ -11,6 +11,7 @@
 #include "device_radial.h"
 #include "device_store.h"
 #include "kernels.h"
+#include "step_graphs.h"
 
 #include <algorithm>
 #include <cmath>
@@ -80,7 +81,7 @@ struct CudaEngine::Impl {
   DeviceArray<float3> contourOut;
   DeviceArray<int> contourCount, contourBase;
   MeshView view;
-  std::map<int, cudaGraphExec_t> graphs;  // one per batch length
+  StepGraphs graphs;                       // the captured batches of steps
   std::vector<float> graphSignature;       // what the captured graphs baked in
 
   explicit Impl(Simulation& s) : sim(s) {}
@@ -245,7 +246,6 @@ struct CudaEngine::Impl {
   }
 
   void invalidateGraph() {
-    for (auto& [n, g] : graphs) cudaGraphExecDestroy(g);
     graphs.clear();
   }
 
@@ -394,7 +394,6 @@ struct CudaEngine::Impl {
       }
       fused.terms[fused.count++] = term;
     }
-    launchFusedForces(view, fused, stream);
     // Damped Verlet runs in the profile kernel's pass when the profile is the step's last force
     // and nothing else comes between the forces and the move.
     const auto activeAfter = [&](size_t i) {
@@ -408,6 +407,25 @@ struct CudaEngine::Impl {
       const ParamTable& ip = sim.integratorParams();
       move = {ip.getf(0, ip.indexOf("time_step")), 1.0f - ip.getf(0, ip.indexOf("damping"))};
     }
+    // When the profile is then the only force and the move joins it, the fused terms join that
+    // pass too (one launch instead of two); it writes the new positions aside, so x and prev swap.
+    size_t profile = next;
+    while (profile < forces.size() && !sim.forceParams(forces[profile].name).anyPositive(0)) ++profile;
+    bool gradientTerm = false;
+    for (int i = 0; i < fused.count; ++i) gradientTerm = gradientTerm || fused.terms[i].kind == FusedTerm::Gradient;
+    if (!moveAlone && !gradientTerm && profile < forces.size() && forces[profile].kind == Kind::Profile &&
+        !activeAfter(profile)) {
+      const ForceSlot& f = forces[profile];
+      const ParamTable& t = sim.forceParams(f.name);
+      if (profileTakesTerms(view.vertices, profileInside, profileOutside, maxProfileReach(t))) {
+        launchProfileAfterTerms(view, fused, ParamView{f.params.get(), f.count}, t.indexOf("search_depth"), imageView,
+                                imageTexture.get(), profiles.get(), profileInside, profileSpacing, maxProfileReach(t), move,
+                                stream);
+        std::swap(view.x, view.prev);
+        return;
+      }
+    }
+    launchFusedForces(view, fused, stream);
     bool moved = false;
     for (; next < forces.size(); ++next) {
       const ForceSlot& f = forces[next];
@@ -554,29 +572,12 @@ void CudaEngine::run(int iterations) {
   const int kBatch = std::clamp(4000 / (4 * cgIterations + 8), 1, 32);
   while (iterations > 0) {
     const int n = std::min(iterations, kBatch);
-    auto it = I.graphs.find(n);
-    if (it == I.graphs.end()) {
-      cudaGraph_t g;
-      cudaGraphExec_t exec;
-      SINEW_CUDA(cudaStreamBeginCapture(I.stream, cudaStreamCaptureModeThreadLocal));
-      try {
-        for (int i = 0; i < n; ++i) I.enqueueStep();
-      } catch (...) {
-        // A plugin's launch failed and invalidated the capture: end it and clear the error it left
-        // in this runtime, so that the stream and later engines stay usable.
-        g = nullptr;
-        if (cudaStreamEndCapture(I.stream, &g) == cudaSuccess && g) cudaGraphDestroy(g);
-        (void)cudaGetLastError();
-        throw;
-      }
-      SINEW_CUDA(cudaStreamEndCapture(I.stream, &g));
-      SINEW_CUDA(cudaGraphInstantiate(&exec, g, 0));
-      SINEW_CUDA(cudaGraphDestroy(g));
-      it = I.graphs.emplace(n, exec).first;
-    }
-    SINEW_CUDA(cudaGraphLaunch(it->second, I.stream));
+    I.graphs.enqueue(n, I.view, I.stream, [&] { I.enqueueStep(); });
     iterations -= n;
   }
+  // The current positions back in x, for everything between runs (downloads, drawing, sampling,
+  // the next level).
+  if (I.view.x != I.x.get()) std::swap(I.x, I.prev);
   SINEW_CUDA(cudaStreamSynchronize(I.stream));
   SINEW_CUDA(cudaGetLastError());
   I.sim.countExternalSteps(total);

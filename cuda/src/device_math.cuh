@@ -63,6 +63,12 @@ __device__ __forceinline__ void verletMove(const MeshView& m, int v, float3 f, f
   m.x[v] = current + keep * (current - m.prev[v]) + (dt * dt / m.mass[v]) * f;
   m.prev[v] = current;
 }
+// The same move with the new position written over prev[v] and x left as it was, for a pass in
+// which other vertices' forces still read x; the caller swaps x and prev after it.
+__device__ __forceinline__ void verletMoveAside(const MeshView& m, int v, float3 f, float dt, float keep) {
+  const float3 current = m.x[v];
+  m.prev[v] = current + keep * (current - m.prev[v]) + (dt * dt / m.mass[v]) * f;
+}
 
 // sinew::Volume<T>::sample with T = float or float3: border voxels extend outside.
 __device__ __forceinline__ float lerp(float a, float b, float t) { return a + (b - a) * t; }

@@ -67,6 +67,16 @@ struct VerletMove {
 void launchProfile(const MeshView& m, ParamView p, int kDepth, VolumeView volume, cudaTextureObject_t image,
                    const float* profiles, int inside, int outside, float spacing, int maxReach, const VerletMove* then,
                    cudaStream_t s);
+// Whether launchProfileAfterTerms can run for this layout and size: the register kernels, below the
+// size where the move leaves the profile's pass.
+bool profileTakesTerms(int vertices, int inside, int outside, int maxReach);
+// The fused terms (without a gradient term), the profile and the move in one pass: each vertex's
+// force is the terms' sum plus its profile term, written to m.force, and its new position is
+// written over m.prev (verletMoveAside), so that the pass's other vertices still read this step's
+// positions; the caller swaps m.x and m.prev afterwards. One launch instead of two.
+void launchProfileAfterTerms(const MeshView& m, const FusedTerms& terms, ParamView p, int kDepth, VolumeView volume,
+                             cudaTextureObject_t image, const float* profiles, int inside, float spacing, int maxReach,
+                             const VerletMove& move, cudaStream_t s);
 // The attraction_points force. points: every placed point; pointMesh: the structure of each;
 // pointKind: kAttractPoint, kIncludePoint or kExcludePoint; keys, windings: one of each per point;
 // constraints: whether any point is an include or exclude point (m.cellCentre is then required).

@@ -10,7 +10,7 @@
 // again. About one vertex in 500 then picks another offset than the CPU in a step, almost always
 // one sample away (tst_cuda_parity states the tolerance; docs/benchmarks.md). Run to run the kernels
 // repeat themselves exactly.
-#include "device_math.cuh"
+#include "force_terms.cuh"
 
 #include <cstdlib>
 
@@ -97,10 +97,13 @@ __device__ __forceinline__ void scoreWindows(const float (&w)[kCount + kLength -
 // for fewer shared-memory reads and registers per vertex (large ones). With `integrate`, the
 // vertex's first lane then moves it by damped Verlet (the step's force complete): a vertex's
 // position is read and written by its own lanes only, so the move needs no pass of its own.
-template <int kLength, int kMaxReach, int kLanes>
+// kWithTerms: the fused terms are summed here instead of read from m.force, and the move is
+// verletMoveAside (launchProfileAfterTerms).
+template <int kLength, int kMaxReach, int kLanes, bool kWithTerms>
 __global__ void __launch_bounds__(128, kLanes == 1 ? 0 : kLanes == 2 ? 7 : 8) profileLanes(MeshView m, ParamView p, int kDepth, VolumeView vol,
                                                     cudaTextureObject_t image, const float* __restrict__ profiles,
-                                                    int inside, float spacing, bool integrate, VerletMove move) {
+                                                    int inside, float spacing, bool integrate, VerletMove move,
+                                                    FusedTerms terms) {
   constexpr int kLine = kLength + 2 * kMaxReach, kPerWarp = 32 / kLanes, kWindows = 2 * kMaxReach + 1;
   constexpr int kTurns = (kWindows + kLanes - 1) / kLanes;  // windows per lane
   constexpr int kLocal = kTurns + kLength - 1;               // the slots one lane's windows cover
@@ -154,13 +157,14 @@ __global__ void __launch_bounds__(128, kLanes == 1 ? 0 : kLanes == 2 ? 7 : 8) pr
       bestJ = otherJ;
     }
   }
-  if (part != 0 || v >= m.vertices || (reach < 0 && !integrate)) return;
-  float3 f = m.force[v];
-  if (reach >= 0) {
-    f = f + (param(p, m.meshOf[v], 0) * (static_cast<float>(bestJ) * spacing)) * n;
-    m.force[v] = f;
-  }
-  if (integrate) verletMove(m, v, f, move.dt, move.keep);
+  if (part != 0 || v >= m.vertices || (reach < 0 && !integrate && !kWithTerms)) return;
+  float3 f;
+  if constexpr (kWithTerms) f = fusedSum<false>(m, terms, v);
+  else f = m.force[v];
+  if (reach >= 0) f = f + (param(p, m.meshOf[v], 0) * (static_cast<float>(bestJ) * spacing)) * n;
+  if (reach >= 0 || kWithTerms) m.force[v] = f;
+  if constexpr (kWithTerms) verletMoveAside(m, v, f, move.dt, move.keep);
+  else if (integrate) verletMove(m, v, f, move.dt, move.keep);
 }
 
 // Any other layout: one warp per vertex; the lanes sample the search line into shared memory
@@ -220,24 +224,35 @@ __global__ void profileWarp(MeshView m, ParamView p, int kDepth, VolumeView vol,
 // The layout the register kernels are built for: the default 25 + 5 samples, up to 10 each way.
 constexpr int kRegisterLength = 30, kRegisterReach = 10;
 
+// terms: when not null, the kWithTerms kernel (then must not be null).
 template <int kMaxReach, int kLanes>
 void launchProfileLanes(const MeshView& m, ParamView p, int kDepth, VolumeView vol, cudaTextureObject_t image,
-                        const float* profiles, int inside, float spacing, const VerletMove* then, cudaStream_t s) {
+                        const float* profiles, int inside, float spacing, const VerletMove* then, const FusedTerms* terms,
+                        cudaStream_t s) {
   constexpr int perBlock = 4 * (32 / kLanes);
-  profileLanes<kRegisterLength, kMaxReach, kLanes><<<(m.vertices + perBlock - 1) / perBlock, 128, 0, s>>>(
-      m, p, kDepth, vol, image, profiles, inside, spacing, then != nullptr, then ? *then : VerletMove{});
+  const unsigned grid = (m.vertices + perBlock - 1) / perBlock;
+  if (terms)
+    profileLanes<kRegisterLength, kMaxReach, kLanes, true><<<grid, 128, 0, s>>>(m, p, kDepth, vol, image, profiles, inside,
+                                                                              spacing, true, *then, *terms);
+  else
+    profileLanes<kRegisterLength, kMaxReach, kLanes, false><<<grid, 128, 0, s>>>(
+        m, p, kDepth, vol, image, profiles, inside, spacing, then != nullptr, then ? *then : VerletMove{}, FusedTerms{});
 }
 // The kernel for the scene's largest reach, rounded up to an even number of samples: a line is
 // sampled and scored for that reach, whatever a vertex's own.
 template <int kLanes>
 void launchForReach(int maxReach, const MeshView& m, ParamView p, int kDepth, VolumeView vol, cudaTextureObject_t image,
-                    const float* profiles, int inside, float spacing, const VerletMove* then, cudaStream_t s) {
-  if (maxReach <= 2) launchProfileLanes<2, kLanes>(m, p, kDepth, vol, image, profiles, inside, spacing, then, s);
-  else if (maxReach <= 4) launchProfileLanes<4, kLanes>(m, p, kDepth, vol, image, profiles, inside, spacing, then, s);
-  else if (maxReach <= 6) launchProfileLanes<6, kLanes>(m, p, kDepth, vol, image, profiles, inside, spacing, then, s);
-  else if (maxReach <= 8) launchProfileLanes<8, kLanes>(m, p, kDepth, vol, image, profiles, inside, spacing, then, s);
-  else launchProfileLanes<10, kLanes>(m, p, kDepth, vol, image, profiles, inside, spacing, then, s);
+                    const float* profiles, int inside, float spacing, const VerletMove* then, const FusedTerms* terms,
+                    cudaStream_t s) {
+  if (maxReach <= 2) launchProfileLanes<2, kLanes>(m, p, kDepth, vol, image, profiles, inside, spacing, then, terms, s);
+  else if (maxReach <= 4) launchProfileLanes<4, kLanes>(m, p, kDepth, vol, image, profiles, inside, spacing, then, terms, s);
+  else if (maxReach <= 6) launchProfileLanes<6, kLanes>(m, p, kDepth, vol, image, profiles, inside, spacing, then, terms, s);
+  else if (maxReach <= 8) launchProfileLanes<8, kLanes>(m, p, kDepth, vol, image, profiles, inside, spacing, then, terms, s);
+  else launchProfileLanes<10, kLanes>(m, p, kDepth, vol, image, profiles, inside, spacing, then, terms, s);
 }
+void launchRegisterKernel(const MeshView& m, ParamView p, int kDepth, VolumeView vol, cudaTextureObject_t image,
+                          const float* profiles, int inside, float spacing, int maxReach, const VerletMove* then,
+                          const FusedTerms* terms, cudaStream_t s);
 
 // Lanes per vertex by scene size, measured with bench_cuda case (a) on an H100 (docs/benchmarks.md,
 // 2026-11-25): 8 were best up to 10,624 vertices, 4 at 42,496, 2 from 169,984 up.
@@ -250,7 +265,31 @@ int lanesFor(int vertices) {
   if (fixed == 1 || fixed == 2 || fixed == 4 || fixed == 8) return fixed;
   return vertices < 16384 ? 8 : vertices < 131072 ? 4 : 2;
 }
+
+void launchRegisterKernel(const MeshView& m, ParamView p, int kDepth, VolumeView vol, cudaTextureObject_t image,
+                          const float* profiles, int inside, float spacing, int maxReach, const VerletMove* then,
+                          const FusedTerms* terms, cudaStream_t s) {
+  switch (lanesFor(m.vertices)) {
+    case 1: launchForReach<1>(maxReach, m, p, kDepth, vol, image, profiles, inside, spacing, then, terms, s); break;
+    case 2: launchForReach<2>(maxReach, m, p, kDepth, vol, image, profiles, inside, spacing, then, terms, s); break;
+    case 4: launchForReach<4>(maxReach, m, p, kDepth, vol, image, profiles, inside, spacing, then, terms, s); break;
+    default: launchForReach<8>(maxReach, m, p, kDepth, vol, image, profiles, inside, spacing, then, terms, s); break;
+  }
+}
+
+// From this many vertices the move leaves the profile's pass (launchProfile).
+constexpr int kSeparateMoveFrom = 131072;
 }  // namespace
+
+bool profileTakesTerms(int vertices, int inside, int outside, int maxReach) {
+  return vertices < kSeparateMoveFrom && inside + outside == kRegisterLength && maxReach <= kRegisterReach;
+}
+
+void launchProfileAfterTerms(const MeshView& m, const FusedTerms& terms, ParamView p, int kDepth, VolumeView vol,
+                             cudaTextureObject_t image, const float* profiles, int inside, float spacing, int maxReach,
+                             const VerletMove& move, cudaStream_t s) {
+  launchRegisterKernel(m, p, kDepth, vol, image, profiles, inside, spacing, maxReach, &move, &terms, s);
+}
 
 void launchProfile(const MeshView& m, ParamView p, int kDepth, VolumeView vol, cudaTextureObject_t image,
                    const float* profiles, int inside, int outside, float spacing, int maxReach, const VerletMove* then,
@@ -259,18 +298,13 @@ void launchProfile(const MeshView& m, ParamView p, int kDepth, VolumeView vol, c
   // vertices its scattered accesses (a vertex's first lane only) cost more than the separate,
   // coalesced pass (H200: 2,656 / 42,496 vertices 14.41 -> 12.96 / 24.44 -> 23.22 us a step,
   // 679,936 / 2.7 M 190.4 -> 193.8 / 686.6 -> 704.1).
-  if (then && m.vertices >= 131072) {
+  if (then && m.vertices >= kSeparateMoveFrom) {
     launchProfile(m, p, kDepth, vol, image, profiles, inside, outside, spacing, maxReach, nullptr, s);
     launchVerlet(m, then->dt, then->keep, s);
     return;
   }
   if (inside + outside == kRegisterLength && maxReach <= kRegisterReach) {
-    switch (lanesFor(m.vertices)) {
-      case 1: launchForReach<1>(maxReach, m, p, kDepth, vol, image, profiles, inside, spacing, then, s); break;
-      case 2: launchForReach<2>(maxReach, m, p, kDepth, vol, image, profiles, inside, spacing, then, s); break;
-      case 4: launchForReach<4>(maxReach, m, p, kDepth, vol, image, profiles, inside, spacing, then, s); break;
-      default: launchForReach<8>(maxReach, m, p, kDepth, vol, image, profiles, inside, spacing, then, s); break;
-    }
+    launchRegisterKernel(m, p, kDepth, vol, image, profiles, inside, spacing, maxReach, then, nullptr, s);
     return;
   }
   constexpr int warps = 8;  // lines[8][...] in the kernel

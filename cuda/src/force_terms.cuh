@@ -1,0 +1,78 @@
+// The per-vertex force terms of the fused pass (force_kernels.cu), shared with the profile kernel,
+// which takes them into its own pass when it also moves the vertices (profile_kernels.cu). Each is a
+// line-for-line mirror of its CPU plugin (plugins/forces/*).
+#pragma once
+
+#include "device_math.cuh"
+
+namespace sinew::cuda {
+
+// Per-vertex force terms; each returns what its CPU plugin adds to forces[v] (alpha included).
+__device__ __forceinline__ float3 smoothingTerm(const MeshView& m, const ParamView& p, int kElevation, int v,
+                                                float alpha) {
+  const int mesh = m.meshOf[v];
+  const int3 n = m.neighbours[v];
+  const float a0 = m.area[n.x], a1 = m.area[n.y], a2 = m.area[n.z];
+  const float total = a0 + a1 + a2;
+  const float3 x0 = m.x[n.x], x1 = m.x[n.y], x2 = m.x[n.z];
+  const float3 centre = total > 0.0f ? (a0 * x0 + a1 * x1 + a2 * x2) / total : (x0 + x1 + x2) / 3.0f;
+  const float lift = param(p, mesh, kElevation) * (m.elevation[n.x] + m.elevation[n.y] + m.elevation[n.z]) / 3.0f;
+  return alpha * (centre + lift * m.normal[v] - m.x[v]);
+}
+
+__device__ __forceinline__ float3 shapePriorTerm(const MeshView& m, const float4* __restrict__ ref, int v, float alpha) {
+  const int3 n = m.neighbours[v];
+  const float3 p1 = m.x[n.x], p2 = m.x[n.y], p3 = m.x[n.z], x = m.x[v];
+  const Frame f = neighbourFrame(p1, p2, p3);
+  const float4 r = ref[v];
+  const float eps3 = 1.0f - r.x - r.y;
+  const float3 foot = r.x * p1 + r.y * p2 + eps3 * p3;
+  float3 target = foot;
+  if (f.twiceArea > 0.0f) {
+    const float d2 = squaredNorm(foot - f.centre);
+    target = foot + elevationFromSinCos(f.radius, d2, r.z, r.w, dot(x - p1, f.normal)) * f.normal;
+  }
+  return alpha * (target - x);
+}
+
+__device__ __forceinline__ float3 gradientTerm(const MeshView& m, const ParamView& p, int kEps, int kDepth, int kStep,
+                                               const VolumeView& vol, const float3* __restrict__ grad, int v,
+                                               float alpha) {
+  const int mesh = m.meshOf[v];
+  const float eps = param(p, mesh, kEps), step = param(p, mesh, kStep);
+  const int reach = static_cast<int>(floorf(param(p, mesh, kDepth) / step));
+  const float3 n = m.normal[v], x = m.x[v];
+  float best = 3.402823466e+38f;
+  int bestJ = 0;
+  for (int j = -reach; j <= reach; ++j) {
+    const float e = eps * dot(sampleVolume(vol, grad, x + (static_cast<float>(j) * step) * n), n);
+    if (e < best || (e == best && abs(j) < abs(bestJ))) {
+      best = e;
+      bestJ = j;
+    }
+  }
+  return (alpha * (static_cast<float>(bestJ) * step)) * n;
+}
+
+// The fused terms' sum at v, in the scene's order (the CPU's order of additions).
+template <bool kWithGradient>
+__device__ __forceinline__ float3 fusedSum(const MeshView& m, const FusedTerms& t, int v) {
+  const int mesh = m.meshOf[v];
+  float3 f = make_float3(0, 0, 0);
+  for (int i = 0; i < t.count; ++i) {
+    const FusedTerm& term = t.terms[i];
+    const float alpha = param(term.params, mesh, 0);
+    if (!(alpha > 0.0f)) continue;
+    switch (term.kind) {
+      case FusedTerm::Smoothing: f = f + smoothingTerm(m, term.params, term.k0, v, alpha); break;
+      case FusedTerm::ShapePrior: f = f + shapePriorTerm(m, t.reference, v, alpha); break;
+      case FusedTerm::Gradient:
+        if constexpr (kWithGradient)
+          f = f + gradientTerm(m, term.params, term.k0, term.k1, term.k2, t.gradientVolume, t.gradient, v, alpha);
+        break;
+    }
+  }
+  return f;
+}
+
+}  // namespace sinew::cuda
