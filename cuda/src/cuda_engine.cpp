@@ -407,13 +407,17 @@ struct CudaEngine::Impl {
       const ParamTable& ip = sim.integratorParams();
       move = {ip.getf(0, ip.indexOf("time_step")), 1.0f - ip.getf(0, ip.indexOf("damping"))};
     }
-    // When the profile is then the only force and the move joins it, the fused terms join that
-    // pass too (one launch instead of two); it writes the new positions aside, so x and prev swap.
+    // When the fused terms are the only forces, the move joins their pass; when the profile is the
+    // only other one and the move joins it, the fused terms join that pass. One launch instead of
+    // two: the new positions are written aside, so x and prev swap.
     size_t profile = next;
     while (profile < forces.size() && !sim.forceParams(forces[profile].name).anyPositive(0)) ++profile;
-    bool gradientTerm = false;
-    for (int i = 0; i < fused.count; ++i) gradientTerm = gradientTerm || fused.terms[i].kind == FusedTerm::Gradient;
-    if (!moveAlone && !gradientTerm && profile < forces.size() && forces[profile].kind == Kind::Profile &&
+    if (!moveAlone && profile == forces.size()) {
+      launchFusedForcesAndMove(view, fused, move, stream);
+      std::swap(view.x, view.prev);
+      return;
+    }
+    if (!moveAlone && !hasGradientTerm(fused) && profile < forces.size() && forces[profile].kind == Kind::Profile &&
         !activeAfter(profile)) {
       const ForceSlot& f = forces[profile];
       const ParamTable& t = sim.forceParams(f.name);

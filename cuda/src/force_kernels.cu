@@ -36,11 +36,15 @@ __global__ void gradient(MeshView m, ParamView p, int kEps, int kDepth, int kSte
 // term the kernel is compiled without its image search and held to 48 registers (5 blocks of 256 per
 // SM, 8 bytes spilled): 4, 5, 6 and 8 blocks gave 282, 273, 278 and 325 us per step of smoothing +
 // shape prior at 2.7 M vertices (H100, 2026-11-24; docs/benchmarks.md).
-template <bool kWithGradient>
-__global__ void __launch_bounds__(kThreads, kWithGradient ? 0 : 5) fusedForces(MeshView m, FusedTerms t) {
+// kMove: the step's damped Verlet move in the same pass, written over prev (verletMoveAside), as
+// the pass's other vertices still read x (launchFusedForcesAndMove).
+template <bool kWithGradient, bool kMove>
+__global__ void __launch_bounds__(kThreads, kWithGradient ? 0 : 5) fusedForces(MeshView m, FusedTerms t, VerletMove move) {
   const int v = blockIdx.x * blockDim.x + threadIdx.x;
   if (v >= m.vertices) return;
-  m.force[v] = fusedSum<kWithGradient>(m, t, v);
+  const float3 f = fusedSum<kWithGradient>(m, t, v);
+  m.force[v] = f;
+  if constexpr (kMove) verletMoveAside(m, v, f, move.dt, move.keep);
 }
 
 __global__ void verlet(MeshView m, float dt, float keep) {
@@ -70,10 +74,12 @@ void launchGradient(const MeshView& m, ParamView p, int kEps, int kDepth, int kS
   gradient<<<blocks(m.vertices), kThreads, 0, s>>>(m, p, kEps, kDepth, kStep, vol, grad);
 }
 void launchFusedForces(const MeshView& m, const FusedTerms& t, cudaStream_t s) {
-  bool gradient = false;
-  for (int i = 0; i < t.count; ++i) gradient = gradient || t.terms[i].kind == FusedTerm::Gradient;
-  if (gradient) fusedForces<true><<<blocks(m.vertices), kThreads, 0, s>>>(m, t);
-  else fusedForces<false><<<blocks(m.vertices), kThreads, 0, s>>>(m, t);
+  if (hasGradientTerm(t)) fusedForces<true, false><<<blocks(m.vertices), kThreads, 0, s>>>(m, t, VerletMove{});
+  else fusedForces<false, false><<<blocks(m.vertices), kThreads, 0, s>>>(m, t, VerletMove{});
+}
+void launchFusedForcesAndMove(const MeshView& m, const FusedTerms& t, const VerletMove& move, cudaStream_t s) {
+  if (hasGradientTerm(t)) fusedForces<true, true><<<blocks(m.vertices), kThreads, 0, s>>>(m, t, move);
+  else fusedForces<false, true><<<blocks(m.vertices), kThreads, 0, s>>>(m, t, move);
 }
 void launchVerlet(const MeshView& m, float dt, float keep, cudaStream_t s) {
   verlet<<<blocks(m.vertices), kThreads, 0, s>>>(m, dt, keep);

@@ -44,6 +44,11 @@ struct FusedTerms {
   VolumeView gradientVolume{};
   const float3* gradient = nullptr;
 };
+inline bool hasGradientTerm(const FusedTerms& t) {
+  for (int i = 0; i < t.count; ++i)
+    if (t.terms[i].kind == FusedTerm::Gradient) return true;
+  return false;
+}
 
 void launchGeometry(const MeshView& m, cudaStream_t s);
 // Writes (not adds) the fused terms' sum to m.force, zero when no term is active.
@@ -67,6 +72,10 @@ struct VerletMove {
 void launchProfile(const MeshView& m, ParamView p, int kDepth, VolumeView volume, cudaTextureObject_t image,
                    const float* profiles, int inside, int outside, float spacing, int maxReach, const VerletMove* then,
                    cudaStream_t s);
+// The fused terms and the move in one pass, when no other force follows them: as
+// launchProfileAfterTerms, the new positions are written over m.prev and the caller swaps m.x and
+// m.prev afterwards.
+void launchFusedForcesAndMove(const MeshView& m, const FusedTerms& t, const VerletMove& move, cudaStream_t s);
 // Whether launchProfileAfterTerms can run for this layout and size: the register kernels, below the
 // size where the move leaves the profile's pass.
 bool profileTakesTerms(int vertices, int inside, int outside, int maxReach);
