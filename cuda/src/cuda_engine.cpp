@@ -245,9 +245,7 @@ struct CudaEngine::Impl {
     }
   }
 
-  void invalidateGraph() {
-    graphs.clear();
-  }
+  void invalidateGraph() { graphs.clear(); }
 
   // The gradient volume depends on the shared sigma; the CPU rebuilds it when sigma changes, so
   // does the engine.
@@ -574,14 +572,17 @@ void CudaEngine::run(int iterations) {
                                               0, I.sim.integratorParams().indexOf("cg_max_iterations")))
                                         : 0;
   const int kBatch = std::clamp(4000 / (4 * cgIterations + 8), 1, 32);
-  while (iterations > 0) {
-    const int n = std::min(iterations, kBatch);
-    I.graphs.enqueue(n, I.view, I.stream, [&] { I.enqueueStep(); });
-    iterations -= n;
+  // The current positions back in x after the batches, for everything between runs (downloads,
+  // drawing, sampling, the next level), also when a batch failed.
+  const auto currentInX = [&] { if (I.view.x != I.x.get()) std::swap(I.x, I.prev); };
+  try {
+    for (; iterations > 0; iterations -= std::min(iterations, kBatch))
+      I.graphs.enqueue(std::min(iterations, kBatch), I.view, I.stream, [&] { I.enqueueStep(); });
+  } catch (...) {
+    currentInX();
+    throw;
   }
-  // The current positions back in x, for everything between runs (downloads, drawing, sampling,
-  // the next level).
-  if (I.view.x != I.x.get()) std::swap(I.x, I.prev);
+  currentInX();
   SINEW_CUDA(cudaStreamSynchronize(I.stream));
   SINEW_CUDA(cudaGetLastError());
   I.sim.countExternalSteps(total);
