@@ -223,6 +223,9 @@ __global__ void profileWarp(MeshView m, ParamView p, int kDepth, VolumeView vol,
 
 // The layout the register kernels are built for: the default 25 + 5 samples, up to 10 each way.
 constexpr int kRegisterLength = 30, kRegisterReach = 10;
+bool registerLayout(int inside, int outside, int maxReach) {
+  return inside + outside == kRegisterLength && maxReach <= kRegisterReach;
+}
 
 // terms: when not null, the kWithTerms kernel (then must not be null).
 template <int kMaxReach, int kLanes>
@@ -250,9 +253,6 @@ void launchForReach(int maxReach, const MeshView& m, ParamView p, int kDepth, Vo
   else if (maxReach <= 8) launchProfileLanes<8, kLanes>(m, p, kDepth, vol, image, profiles, inside, spacing, then, terms, s);
   else launchProfileLanes<10, kLanes>(m, p, kDepth, vol, image, profiles, inside, spacing, then, terms, s);
 }
-void launchRegisterKernel(const MeshView& m, ParamView p, int kDepth, VolumeView vol, cudaTextureObject_t image,
-                          const float* profiles, int inside, float spacing, int maxReach, const VerletMove* then,
-                          const FusedTerms* terms, cudaStream_t s);
 
 // Lanes per vertex by scene size, measured with bench_cuda case (a) on an H100 (docs/benchmarks.md,
 // 2026-11-25): 8 were best up to 10,624 vertices, 4 at 42,496, 2 from 169,984 up.
@@ -282,7 +282,7 @@ constexpr int kSeparateMoveFrom = 131072;
 }  // namespace
 
 bool profileTakesTerms(int vertices, int inside, int outside, int maxReach) {
-  return vertices < kSeparateMoveFrom && inside + outside == kRegisterLength && maxReach <= kRegisterReach;
+  return vertices < kSeparateMoveFrom && registerLayout(inside, outside, maxReach);
 }
 
 void launchProfileAfterTerms(const MeshView& m, const FusedTerms& terms, ParamView p, int kDepth, VolumeView vol,
@@ -303,7 +303,7 @@ void launchProfile(const MeshView& m, ParamView p, int kDepth, VolumeView vol, c
     launchVerlet(m, then->dt, then->keep, s);
     return;
   }
-  if (inside + outside == kRegisterLength && maxReach <= kRegisterReach) {
+  if (registerLayout(inside, outside, maxReach)) {
     launchRegisterKernel(m, p, kDepth, vol, image, profiles, inside, spacing, maxReach, then, nullptr, s);
     return;
   }

@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <functional>
 #include <memory>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -49,10 +50,11 @@ inline StabilityGuard noGuard() {
   return g;
 }
 
-inline double maxDifference(MeshStore& a, MeshStore& b) {
+inline double maxDifference(std::span<const Vec3> a, std::span<const Vec3> b) {
   double worst = 0;
-  for (Index v = 0; v < a.vertexCount(); ++v) worst = std::max(worst, double((a.positions()[v] - b.positions()[v]).norm()));
+  for (size_t v = 0; v < a.size(); ++v) worst = std::max(worst, double((a[v] - b[v]).norm()));
   return worst;
 }
+inline double maxDifference(MeshStore& a, MeshStore& b) { return maxDifference(a.positions(), b.positions()); }
 
 }  // namespace sinew::testing

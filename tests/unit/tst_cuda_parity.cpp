@@ -107,12 +107,20 @@ private slots:
     std::vector<std::string> names;
     for (const QString& f : forces) names.push_back(f.toStdString());
     auto cpu = scene(names, 1), gpu = scene(names, 1);
-    cpu->run(100);
     cuda::CudaEngine engine(*gpu);
-    engine.run(100);
-    engine.download();
+    // 33 steps, then 67 (batches of 32 + 1, then 32 + 32 + 3), compared after each: where the move
+    // runs in the forces' pass, each step leaves the positions in the other buffer, and a run must
+    // hand back the positions and the previous ones as the CPU has them (after 33 steps they sit in
+    // the other buffer).
+    double diff = 0;
+    for (int steps : {33, 67}) {
+      cpu->run(steps);
+      engine.run(steps);
+      engine.download();
+      diff = std::max(diff, maxDifference(cpu->store(), gpu->store()));
+      QCOMPARE(maxDifference(cpu->store().previousPositions(), gpu->store().previousPositions()), 0.0);
+    }
     QCOMPARE(gpu->iteration(), 100L);
-    const double diff = maxDifference(cpu->store(), gpu->store());
     double moved = 0;
     auto init = scene(names, 1);
     moved = maxDifference(cpu->store(), init->store());

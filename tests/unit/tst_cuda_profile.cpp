@@ -28,9 +28,9 @@ private slots:
   // same state (the CPU's after 20 steps): at most 1 % of the vertices pick another offset than the
   // CPU, at most 0.1 % one more than a sample away; with damped Verlet at least 98 % of the forces
   // agree to the bit (the smoothing is bit-identical), and those vertices move to the CPU's
-  // positions to the bit (below 131,072 vertices the move runs in the profile kernel's pass). A
-  // wrong line, window or reach moves most vertices' picks. Run to run the device repeats itself
-  // exactly.
+  // positions to the bit (below 131,072 vertices the move, and the smoothing, run in the profile
+  // kernel's pass). A wrong line, window or reach moves most vertices' picks. Run to run the device
+  // repeats itself exactly.
   void profileForceAgreesWithTheCpu_data() {
     QTest::addColumn<int>("level");
     QTest::addColumn<int>("inside");

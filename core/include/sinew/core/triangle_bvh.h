@@ -77,12 +77,15 @@ SINEW_HD float closestSquaredDistance(const View& v, int root, P3 p, float maxD2
 // (when >= 0: one under `root`), so that it only looks for nearer ones; `hint` becomes the nearest
 // triangle. The distance is the same as without the hint; the walk is shorter when the hint is near
 // (the sampled error's searches from points that moved little: 8 % of its time on the demo).
+// The squared distance from p to triangle t, its closest point in q: a search's starting bound.
+SINEW_HD float squaredDistanceToTriangle(const View& v, int t, P3 p, P3& q) {
+  q = collision::closestOnTriangle(p, v.corners[3 * t], v.corners[3 * t + 1], v.corners[3 * t + 2]);
+  const P3 d = collision::sub(p, q);
+  return collision::dot3(d, d);
+}
 SINEW_HD float closestSquaredDistanceFrom(const View& v, int root, P3 p, int& hint) {
-  float bound = 3.0e38f;
-  if (hint >= 0) {
-    const P3 d = collision::sub(p, collision::closestOnTriangle(p, v.corners[3 * hint], v.corners[3 * hint + 1], v.corners[3 * hint + 2]));
-    bound = collision::dot3(d, d);
-  }
+  P3 q;
+  const float bound = hint >= 0 ? squaredDistanceToTriangle(v, hint, p, q) : 3.0e38f;
   int nearest = -1;
   const float d2 = closestSquaredDistance(v, root, p, bound, nullptr, &nearest);
   if (nearest >= 0) hint = nearest;
@@ -103,12 +106,7 @@ SINEW_HD TangentPlane closestTangentPlane(const View& v, int root, P3 c, int* hi
   P3 q = c;
   int t = 0;
   float bound = 3.0e38f;
-  if (hint && *hint >= 0) {
-    t = *hint;
-    q = collision::closestOnTriangle(c, v.corners[3 * t], v.corners[3 * t + 1], v.corners[3 * t + 2]);
-    const P3 e = collision::sub(c, q);
-    bound = collision::dot3(e, e);
-  }
+  if (hint && *hint >= 0) bound = squaredDistanceToTriangle(v, t = *hint, c, q);
   const float d = sqrtf(closestSquaredDistance(v, root, c, bound, &q, &t));
   if (hint) *hint = t;
   if (d > 1.0e-4f) return {collision::scale(collision::sub(c, q), 1.0f / d), d};
