@@ -76,59 +76,63 @@ __global__ void vertexBoxes(BvhView v, const P3* x, const P3* centres, const int
   if (i < vertices && *counter % every == 0) boxes[i] = vertexBox(v, i, x, centres);
 }
 
-// ... then every node's box. Nodes of at most kThreadNode vertices (the leaves among them) take a
-// thread each and nodes of at most kWarpNode a warp each, as the union of their vertices' boxes: no
-// node waits for another. The last block to finish then merges the few larger nodes' children
-// height by height (NodeLists::topNodes). At 20,352 vertices the two took 18 us of a step against
-// the climb's 31; at 325,632, 83 against 57, as every level below kWarpNode reads all the vertex
-// boxes again (docs/benchmarks.md).
+// ... then every node's box from its vertices' boxes, all nodes at once, none waiting for another:
+// nodes of at most kThreadNode vertices (the leaves among them) a thread each, of at most kWarpNode
+// a warp each, the larger ones (a structure's top few) a block each. Each vertex box is read once
+// per level of the tree (L2-resident at these sizes), four loads in flight per lane. (Until
+// 2026-11-26 the larger nodes were merged from their children height by height by the last block
+// to finish: 12.6 us of nodeBoxes at 20,352 vertices; docs/benchmarks.md.)
+constexpr unsigned kNodeThreads = 512;  // a larger node's block: a structure's root reads fewer boxes per thread
 __device__ Box warpUnion(Box b) {
   for (int o = 16; o > 0; o /= 2) {
-    b.lo = {fminf(b.lo.x, __shfl_xor_sync(0xffffffffu, b.lo.x, o)), fminf(b.lo.y, __shfl_xor_sync(0xffffffffu, b.lo.y, o)),
-            fminf(b.lo.z, __shfl_xor_sync(0xffffffffu, b.lo.z, o))};
-    b.hi = {fmaxf(b.hi.x, __shfl_xor_sync(0xffffffffu, b.hi.x, o)), fmaxf(b.hi.y, __shfl_xor_sync(0xffffffffu, b.hi.y, o)),
-            fmaxf(b.hi.z, __shfl_xor_sync(0xffffffffu, b.hi.z, o))};
+    const Box other{{__shfl_xor_sync(0xffffffffu, b.lo.x, o), __shfl_xor_sync(0xffffffffu, b.lo.y, o),
+                     __shfl_xor_sync(0xffffffffu, b.lo.z, o)},
+                    {__shfl_xor_sync(0xffffffffu, b.hi.x, o), __shfl_xor_sync(0xffffffffu, b.hi.y, o),
+                     __shfl_xor_sync(0xffffffffu, b.hi.z, o)}};
+    b = merge(b, other);
   }
   return b;
 }
-__global__ void nodeBoxes(BvhView v, const Box* vertexBox, NodeLists lists, unsigned* finished, const int* counter,
-                          int every) {
+// The union of boxes[first + k * stride] for first + k * stride < end (empty where there is none).
+__device__ Box unionStrided(const Box* boxes, int first, int end, int stride) {
+  Box b[4] = {emptyBox(), emptyBox(), emptyBox(), emptyBox()};
+  int j = first;
+  for (; j + 3 * stride < end; j += 4 * stride) {
+#pragma unroll
+    for (int u = 0; u < 4; ++u) b[u] = merge(b[u], boxes[j + u * stride]);
+  }
+  for (; j < end; j += stride) b[0] = merge(b[0], boxes[j]);
+  return merge(merge(b[0], b[1]), merge(b[2], b[3]));
+}
+__global__ void nodeBoxes(BvhView v, const Box* vertexBox, NodeLists lists, const int* counter, int every) {
   if (*counter % every != 0) return;
-  const int threadBlocks = (lists.threadCount + kThreads - 1) / kThreads;
-  if (int(blockIdx.x) < threadBlocks) {
-    const int t = blockIdx.x * blockDim.x + threadIdx.x;
-    if (t < lists.threadCount) {
-      const Node n = v.nodes[lists.threadNodes[t]];
-      Box b = emptyBox();
-      for (int j = n.first; j < n.first + n.count; ++j) b = merge(b, vertexBox[j]);
-      v.boxes[lists.threadNodes[t]] = b;
-    }
-  } else {
-    const int w = ((blockIdx.x - threadBlocks) * blockDim.x + threadIdx.x) / 32, lane = threadIdx.x % 32;
-    if (w < lists.warpCount) {  // the whole warp
-      const Node n = v.nodes[lists.warpNodes[w]];
-      Box b = emptyBox();
-      for (int j = n.first + lane; j < n.first + n.count; j += 32) b = merge(b, vertexBox[j]);
-      b = warpUnion(b);
-      if (lane == 0) v.boxes[lists.warpNodes[w]] = b;
-    }
-  }
-  // The last block to finish merges the larger nodes, children before parents.
-  __shared__ bool last;
-  __threadfence();
-  __syncthreads();
-  if (threadIdx.x == 0) last = atomicAdd(finished, 1u) == gridDim.x - 1;
-  __syncthreads();
-  if (!last) return;
-  for (int h = 0; h < lists.heights; ++h) {
-    for (int k = lists.topStart[h] + threadIdx.x; k < lists.topStart[h + 1]; k += blockDim.x) {
-      const Node n = v.nodes[lists.topNodes[k]];
-      v.boxes[lists.topNodes[k]] = merge(coherentBox(v.boxes, n.left), coherentBox(v.boxes, n.right));
-    }
-    __threadfence_block();
+  const int threadBlocks = int((lists.threadCount + kNodeThreads - 1) / kNodeThreads);
+  const int warpBlocks = int((lists.warpCount * 32 + kNodeThreads - 1) / kNodeThreads);
+  const int block = int(blockIdx.x), thread = int(threadIdx.x);
+  if (block < threadBlocks) {
+    const int t = block * int(kNodeThreads) + thread;
+    if (t >= lists.threadCount) return;
+    const Node n = v.nodes[lists.threadNodes[t]];
+    v.boxes[lists.threadNodes[t]] = unionStrided(vertexBox, n.first, n.first + n.count, 1);
+  } else if (block < threadBlocks + warpBlocks) {
+    const int w = ((block - threadBlocks) * int(kNodeThreads) + thread) / 32, lane = thread % 32;
+    if (w >= lists.warpCount) return;  // the whole warp
+    const Node n = v.nodes[lists.warpNodes[w]];
+    const Box b = warpUnion(unionStrided(vertexBox, n.first + lane, n.first + n.count, 32));
+    if (lane == 0) v.boxes[lists.warpNodes[w]] = b;
+  } else {  // a block per larger node
+    __shared__ Box warpBoxes[kNodeThreads / 32];
+    const int id = lists.blockNodes[block - threadBlocks - warpBlocks];
+    const Node n = v.nodes[id];
+    const Box b = warpUnion(unionStrided(vertexBox, n.first + thread, n.first + n.count, int(kNodeThreads)));
+    if (thread % 32 == 0) warpBoxes[thread / 32] = b;
     __syncthreads();
+    if (thread == 0) {
+      Box all = warpBoxes[0];
+      for (int k = 1; k < int(kNodeThreads / 32); ++k) all = merge(all, warpBoxes[k]);
+      v.boxes[id] = all;
+    }
   }
-  if (threadIdx.x == 0) *finished = 0;  // for the next refit
 }
 
 // collision::closestPoint with the warp's lanes testing each leaf's triangles side by side.
@@ -342,9 +346,9 @@ void launchCollision(const MeshView& m, ParamView p, const CollisionDevice& c, f
     vertexBoxes<<<(m.vertices + kThreads - 1) / kThreads, kThreads, 0, s>>>(
         v, x, centres, c.counter, every, m.vertices, c.last, c.moved, c.motion, c.vertexBoxes);
     const NodeLists& l = c.lists;
-    const int blocks = std::max(1, (l.threadCount + int(kThreads) - 1) / int(kThreads) +
-                                       (l.warpCount * 32 + int(kThreads) - 1) / int(kThreads));
-    nodeBoxes<<<blocks, kThreads, 0, s>>>(v, c.vertexBoxes, l, c.finished, c.counter, every);
+    const int n = int(kNodeThreads);
+    const int blocks = std::max(1, (l.threadCount + n - 1) / n + (l.warpCount * 32 + n - 1) / n + l.blockCount);
+    nodeBoxes<<<blocks, kNodeThreads, 0, s>>>(v, c.vertexBoxes, l, c.counter, every);
   }
   const int group = m.vertices >= 131072 ? 1 : m.vertices >= 32768 ? 4 : 16;
   const unsigned grid = static_cast<unsigned>((static_cast<size_t>(m.vertices) * group + kThreads - 1) / kThreads);

@@ -22,8 +22,6 @@ void DeviceCollision::build(MeshStore& store, const SceneData& scene, float marg
   } else {
     buildNodeLists(tree, stream);
     vertexBoxes_.resize(store.vertexCount());
-    finished_.resize(1);
-    SINEW_CUDA(cudaMemsetAsync(finished_.get(), 0, finished_.bytes(), stream));
   }
   stiffness_.resize(withStiffness ? size_t(store.vertexCount()) : 0);
   if (withStiffness) SINEW_CUDA(cudaMemsetAsync(stiffness_.get(), 0, stiffness_.bytes(), stream));
@@ -42,29 +40,16 @@ void DeviceCollision::build(MeshStore& store, const SceneData& scene, float marg
   SINEW_CUDA(cudaStreamSynchronize(stream));  // the host vectors go out of scope
 }
 
-// NodeLists: the nodes the refit computes from their vertices, then the larger ones by height.
+// NodeLists: the nodes the refit computes from their vertices, by size.
 void DeviceCollision::buildNodeLists(const CollisionTree& tree, cudaStream_t stream) {
-  std::vector<int> threadNodes, warpNodes, height(tree.nodes.size(), 0);
-  std::vector<std::vector<int>> top;
-  for (int id = int(tree.nodes.size()) - 1; id >= 0; --id) {  // children after parents: bottom up
-    const collision::Node& n = tree.nodes[id];
-    if (n.count <= kThreadNode) threadNodes.push_back(id);
-    else if (n.count <= kWarpNode) warpNodes.push_back(id);
-    else {
-      height[id] = 1 + std::max(height[n.left], height[n.right]);
-      if (int(top.size()) < height[id]) top.resize(height[id]);
-      top[height[id] - 1].push_back(id);
-    }
-  }
-  std::vector<int> topNodes, topStart{0};
-  for (const auto& level : top) {
-    topNodes.insert(topNodes.end(), level.begin(), level.end());
-    topStart.push_back(int(topNodes.size()));
+  std::vector<int> threadNodes, warpNodes, blockNodes;
+  for (int id = 0; id < int(tree.nodes.size()); ++id) {
+    const int count = tree.nodes[id].count;
+    (count <= kThreadNode ? threadNodes : count <= kWarpNode ? warpNodes : blockNodes).push_back(id);
   }
   threadNodes_.upload(threadNodes, stream);
   warpNodes_.upload(warpNodes, stream);
-  topNodes_.upload(topNodes, stream);
-  topStart_.upload(topStart, stream);
+  blockNodes_.upload(blockNodes, stream);
 }
 
 CollisionDevice DeviceCollision::view() const {
@@ -79,9 +64,8 @@ CollisionDevice DeviceCollision::view() const {
   c.visits = visits_.get();
   c.leafCount = int(leaves_.size());
   c.vertexBoxes = vertexBoxes_.get();
-  c.lists = {threadNodes_.get(), warpNodes_.get(), topNodes_.get(), topStart_.get(), int(threadNodes_.size()),
-             int(warpNodes_.size()), std::max(0, int(topStart_.size()) - 1)};
-  c.finished = finished_.get();
+  c.lists = {threadNodes_.get(), warpNodes_.get(), blockNodes_.get(), int(threadNodes_.size()), int(warpNodes_.size()),
+             int(blockNodes_.size())};
   c.stiffness = stiffness_.get();
   c.depth = depth_.get();
   c.counter = counter_.get();
@@ -98,8 +82,7 @@ CollisionDevice DeviceCollision::view() const {
 
 std::size_t DeviceCollision::bytes() const {
   return nodes_.bytes() + boxes_.bytes() + tris_.bytes() + order_.bytes() + roots_.bytes() + leaves_.bytes() +
-         visits_.bytes() + threadNodes_.bytes() + warpNodes_.bytes() + topNodes_.bytes() + topStart_.bytes() +
-         finished_.bytes() + vertexBoxes_.bytes() + stiffness_.bytes() + depth_.bytes() + counter_.bytes() +
+         visits_.bytes() + threadNodes_.bytes() + warpNodes_.bytes() + blockNodes_.bytes() + vertexBoxes_.bytes() + stiffness_.bytes() + depth_.bytes() + counter_.bytes() +
          hint_.bytes() + exempt_.bytes() + slack_.bytes() + moved_.bytes() + last_.bytes() + motion_.bytes();
 }
 

@@ -28,8 +28,7 @@ private:
   DeviceArray<collision::Box> boxes_;
   DeviceArray<collision::Tri> tris_;
   DeviceArray<collision::Box> vertexBoxes_;
-  DeviceArray<int> order_, roots_, leaves_, visits_, threadNodes_, warpNodes_, topNodes_, topStart_, hint_;
-  DeviceArray<unsigned> finished_;
+  DeviceArray<int> order_, roots_, leaves_, visits_, threadNodes_, warpNodes_, blockNodes_, hint_;
   DeviceArray<float> stiffness_, depth_, slack_, moved_;
   DeviceArray<float3> last_;
   DeviceArray<unsigned> motion_;

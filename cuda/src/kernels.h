@@ -143,16 +143,15 @@ void launchGather(const int* index, int count, const float3* from, float3* to, c
 void launchProlongAdd(const int* rows, const int* index, const float* weight, int count, const float3* coarse,
                       float3* fine, float scale, cudaStream_t s);
 
-// The collision refit's nodes by how it computes their boxes (collision_kernels.cu nodeBoxes): at most
-// kThreadNode vertices a thread each, at most kWarpNode a warp each (both from their vertices'
-// boxes), the rest from their children, height by height (topStart[h] .. topStart[h + 1]).
+// The collision refit's nodes by how it computes their boxes (collision_kernels.cu nodeBoxes), all
+// from their vertices' boxes: at most kThreadNode vertices a thread each, at most kWarpNode a warp
+// each, the larger ones a block each.
 constexpr int kThreadNode = 8, kWarpNode = 512, kClimbFrom = 131072;
 struct NodeLists {
   const int* threadNodes = nullptr;
   const int* warpNodes = nullptr;
-  const int* topNodes = nullptr;
-  const int* topStart = nullptr;
-  int threadCount = 0, warpCount = 0, heights = 0;
+  const int* blockNodes = nullptr;
+  int threadCount = 0, warpCount = 0, blockCount = 0;
 };
 // Collisions (collision_kernels.cu): the hierarchies of core/collision_tree.h in device memory.
 // stiffness (per vertex, may be null): each vertex's summed contact pull, for implicit Euler.
@@ -169,7 +168,6 @@ struct CollisionDevice {
   int* visits = nullptr;  // per node, the climb's arrival counters
   collision::Box* vertexBoxes = nullptr;  // per vertex in tree order
   NodeLists lists;
-  unsigned* finished = nullptr;  // nodeBoxes' blocks done this step
   float* stiffness = nullptr;
   float* depth = nullptr;  // per vertex, the last penetration (collision::contactResponse)
   int* counter = nullptr;  // the level's steps so far

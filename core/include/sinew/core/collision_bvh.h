@@ -66,10 +66,11 @@ SINEW_HD void extend(Box& b, P3 p) {
   b.lo = {fmin3(b.lo.x, p.x), fmin3(b.lo.y, p.y), fmin3(b.lo.z, p.z)};
   b.hi = {fmax3(b.hi.x, p.x), fmax3(b.hi.y, p.y), fmax3(b.hi.z, p.z)};
 }
-SINEW_HD Box merge(Box a, const Box& b) {
-  extend(a, b.lo);
-  extend(a, b.hi);
-  return a;
+// The union of two boxes, either of which may be empty (extending by b's corners would make an
+// empty b's corners, +-3e38, the union's).
+SINEW_HD Box merge(const Box& a, const Box& b) {
+  return {{fmin3(a.lo.x, b.lo.x), fmin3(a.lo.y, b.lo.y), fmin3(a.lo.z, b.lo.z)},
+          {fmax3(a.hi.x, b.hi.x), fmax3(a.hi.y, b.hi.y), fmax3(a.hi.z, b.hi.z)}};
 }
 // max(m, 0). On the host as (m + |m|) / 2, the same value without a branch: GCC turns max(m, 0)
 // followed by squaring into a jump per axis, which mispredicts in half the box tests of a search.
