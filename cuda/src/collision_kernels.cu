@@ -144,6 +144,48 @@ __global__ void nodeBoxes(BvhView v, const Box* vertexBox, NodeLists lists, cons
 __device__ P3 shuffle(P3 a, int src) {
   return {__shfl_sync(0xffffffffu, a.x, src), __shfl_sync(0xffffffffu, a.y, src), __shfl_sync(0xffffffffu, a.z, src)};
 }
+// testLeaf with the warp's lanes on a node's triangles (a leaf's; under an inner node, all its
+// vertices'), for the point q of lane `owner`: triangle k of the node's vertex j on lane
+// (3 j + k) % 32, 32 at a time. The owner takes the candidates in the triangles' order
+// (replacesBest), so its best is testLeaf's to the bit. Every lane of the warp calls it.
+__device__ void testNodeWarp(const BvhView& v, int id, P3 q, int owner, const P3* x, const P3* centres, Hit& best,
+                             bool& found) {
+  constexpr unsigned all = 0xffffffffu;
+  const int lane = threadIdx.x % 32;
+  const Node n = v.nodes[id];
+  for (int base = 0; base < 3 * n.count; base += 32) {
+    const int k = base + lane;
+    const bool triangle = k < 3 * n.count;
+    float d2 = 0.0f, side = 0.0f;
+    P3 at{0, 0, 0}, normal{0, 0, 0};
+    if (triangle) {
+      const Tri t = v.tris[3 * v.order[n.first + k / 3] + k % 3];
+      const P3 a = x[t.a], b = x[t.b], c = centres[t.cell];
+      at = closestOnTriangle(q, a, b, c);
+      const P3 d = sub(q, at);
+      d2 = dot3(d, d);
+      normal = unitNormal(a, b, c);
+      side = dot3(d, normal);
+    }
+    // Only triangles within the ties of the nearer of the round's nearest and the best so far can
+    // be the best once the round is done: one taken before the nearest is replaced by it (more
+    // than a tie nearer), one after it is not taken. Ties can raise the best a little (by at most
+    // 1e-4 of it) within a round: a looser filter. The owner then takes fewer candidates one by one
+    // (a first leaf or patch offered all of its triangles: nothing was found yet).
+    float nearest = triangle ? d2 : 3.0e38f;
+    for (int o = 16; o > 0; o /= 2) nearest = fminf(nearest, __shfl_xor_sync(all, nearest, o));
+    const float within = 1.01f * tieBound(fminf(nearest, __shfl_sync(all, best.d2, owner))) + 1e-10f;
+    for (unsigned c = __ballot_sync(all, triangle && d2 <= within); c; c &= c - 1) {
+      const int src = __ffs(c) - 1;
+      const float cd2 = __shfl_sync(all, d2, src), cside = __shfl_sync(all, side, src);
+      const P3 cat = shuffle(at, src), cnormal = shuffle(normal, src);
+      if (lane == owner && replacesBest(best, found, cd2, cside)) {
+        best = {cd2, cat, cnormal, cside, id};
+        found = true;
+      }
+    }
+  }
+}
 __device__ Hit closestPointWarp(const BvhView& v, int mesh, P3 p, const P3* x, const P3* centres, float maxD2, int hint,
                                 bool walks) {
   constexpr unsigned all = 0xffffffffu;
@@ -165,33 +207,7 @@ __device__ Hit closestPointWarp(const BvhView& v, int mesh, P3 p, const P3* x, c
     // Each leaf reached: triangle k of the leaf's vertex j on lane 3 j + k (at most 12 lanes).
     for (unsigned pending = __ballot_sync(all, leaf >= 0); pending; pending &= pending - 1) {
       const int owner = __ffs(pending) - 1;
-      const int id = __shfl_sync(all, leaf, owner);
-      const P3 q = shuffle(p, owner);
-      // Ties can raise the best a little (by at most 1e-4 of it) within a leaf: a looser filter.
-      const float within = 1.01f * __shfl_sync(all, found ? tieBound(best.d2) : best.d2, owner) + 1e-10f;
-      const Node n = v.nodes[id];
-      const bool triangle = lane < 3 * n.count;
-      float d2 = 0.0f, side = 0.0f;
-      P3 at{0, 0, 0}, normal{0, 0, 0};
-      if (triangle) {
-        const Tri t = v.tris[3 * v.order[n.first + lane / 3] + lane % 3];
-        const P3 a = x[t.a], b = x[t.b], c = centres[t.cell];
-        at = closestOnTriangle(q, a, b, c);
-        const P3 d = sub(q, at);
-        d2 = dot3(d, d);
-        normal = unitNormal(a, b, c);
-        side = dot3(d, normal);
-      }
-      // The owner takes the candidates in the triangles' order, as testLeaf does.
-      for (unsigned c = __ballot_sync(all, triangle && d2 <= within); c; c &= c - 1) {
-        const int src = __ffs(c) - 1;
-        const float cd2 = __shfl_sync(all, d2, src), cside = __shfl_sync(all, side, src);
-        const P3 cat = shuffle(at, src), cnormal = shuffle(normal, src);
-        if (lane == owner && replacesBest(best, found, cd2, cside)) {
-          best = {cd2, cat, cnormal, cside, id};
-          found = true;
-        }
-      }
+      testNodeWarp(v, __shfl_sync(all, leaf, owner), shuffle(p, owner), owner, x, centres, best, found);
     }
     leaf = -1;
     if (!__any_sync(all, top > 0)) break;
@@ -244,7 +260,8 @@ __device__ bool contactWithWarp(const BvhView& v, int own, int other, P3 p, floa
 // (docs/benchmarks.md). kWarpLeaves: the warp tests each reached leaf's triangles together
 // (contactWithWarp), which pays where few lanes walk at once (small scenes: the response took 50
 // instead of 78 us at 20,352 vertices, H100) and costs where many do (591 instead of 497 us at
-// 325,632).
+// 325,632). With kWarpLeaves the patch tests between full searches are the warp's too (H200: 51-57
+// -> 24 us a patch step at 20,352 vertices, 80-87 -> 46-49 at 81,408; docs/collisions.md).
 template <int kGroup, bool kWarpLeaves>
 __global__ void respondGroup(MeshView m, ParamView p, BvhView v, float margin, float damping, float reach,
                              const int* counter, int every, const float* moved, const unsigned* motion, float* depth,
@@ -292,6 +309,19 @@ __global__ void respondGroup(MeshView m, ParamView p, BvhView v, float margin, f
       }
     }
   for (int o = kGroup / 2; o > 0; o /= 2) clearance2 = fminf(clearance2, __shfl_xor_sync(mask, clearance2, o));
+  // Between full searches, the patch test (contactResponse's, the subtree two levels above the last
+  // contact's leaf) with the warp's lanes on each patch's triangles: one lane took 48 tests in a row.
+  Hit patchHit{3.0e38f, point, {0, 0, 0}, 0.0f, -1};
+  bool patchFound = false;
+  if constexpr (kWarpLeaves) {
+    const bool patch = active && g == 0 && !clear && !search && lastHint >= 0;
+    int patchNode = lastHint;
+    for (int up = 0; patch && up < 2 && v.nodes[patchNode].parent >= 0; ++up) patchNode = v.nodes[patchNode].parent;
+    for (unsigned pending = __ballot_sync(mask, patch); pending; pending &= pending - 1) {
+      const int owner = __ffs(pending) - 1;
+      testNodeWarp(v, __shfl_sync(mask, patchNode, owner), shuffle(point, owner), owner, x, centres, patchHit, patchFound);
+    }
+  }
   if (!active || g != 0) {
     if (valid && g == 0 && stiffness) stiffness[i] = 0.0f;
     return;
@@ -301,8 +331,14 @@ __global__ void respondGroup(MeshView m, ParamView p, BvhView v, float margin, f
     lastHint = sum.nearestLeaf;
     lastSlack = slackAfterSearch(lastDepth, clearance2, margin);
   } else if (!clear) {  // between full searches: the patch test (the clearance already paid for the step)
-    sum.stiffness = contactResponse(v, own, point, previous, alpha, margin, damping, reach, false, every, 0.0f, 0.0f,
-                                    lastDepth, lastHint, lastSlack, x, centres, sum.force);
+    if constexpr (kWarpLeaves) {  // contactResponse's patch branch, with the warp's tests above
+      float deepest = 0.0f;
+      if (patchFound) sum.stiffness = respondTo(patchHit, point, previous, alpha, margin, damping, deepest, sum.force);
+      lastDepth = deepest;
+    } else {
+      sum.stiffness = contactResponse(v, own, point, previous, alpha, margin, damping, reach, false, every, 0.0f, 0.0f,
+                                      lastDepth, lastHint, lastSlack, x, centres, sum.force);
+    }
   }
   depth[i] = lastDepth;
   hint[i] = lastHint;
