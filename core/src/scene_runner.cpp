@@ -443,14 +443,15 @@ void SceneRunner::initialise(std::vector<StructureSpec>& specs, const std::funct
 
 const InitialisationResult& SceneRunner::initialisation() const { return loaded_->init; }
 
-void SceneRunner::sample(RunReport& report, double seconds, ExecutionBackend* backend) {
+void SceneRunner::sample(RunReport& report, double seconds, ExecutionBackend* backend, bool withError) {
   Loaded& L = *loaded_;
   MeshStore& store = L.sim->store();
   const auto x = store.positions();
   const auto prev = store.previousPositions();
   const auto f = store.forces();
   const auto t0 = Clock::now();
-  const std::vector<std::optional<SurfaceDistanceStats>> error = sampledError(backend);
+  const std::vector<std::optional<SurfaceDistanceStats>> error =
+      withError ? sampledError(backend) : std::vector<std::optional<SurfaceDistanceStats>>(store.meshCount());
   for (Index i = 0; i < store.meshCount(); ++i) {
     const MeshRange& r = store.range(i);
     TimelineSample s;
@@ -550,7 +551,11 @@ RunReport SceneRunner::run() {
   // so that the stages add up to the run however the scheduler interrupts it between timers.
   const auto loopStart = Clock::now();
   const double samplingBefore = L.samplingSeconds;
-  sample(report, 0.0, backend.get());
+  // The timeline's first and last samples take the exact evaluation's scores of the same positions
+  // (the start's and the end's, computed anyway), filled in below: the curve ends on the final
+  // table's values, and two samples (a finest-level one the dearest) are not measured twice.
+  sample(report, 0.0, backend.get(), false);
+  bool lastSampleDeferred = false;
   for (int level = 0; level < levels && report.numericalFailure.empty(); ++level) {
     const LevelDesc& lv = scene_.schedule[level];
     if (level > 0) {
@@ -585,7 +590,8 @@ RunReport SceneRunner::run() {
       simSeconds += since(t0);
       it += chunk;
       done += chunk;
-      sample(report, simSeconds, backend.get());
+      lastSampleDeferred = (level + 1 == levels && it == lv.iterations) || !report.numericalFailure.empty();
+      sample(report, simSeconds, backend.get(), !lastSampleDeferred);
       if (options_.progress) options_.progress({level, levels, it, lv.iterations, done, total, simSeconds});
     }
     // The level's error is that of its last sample.
@@ -600,6 +606,9 @@ RunReport SceneRunner::run() {
   report.stageSeconds.emplace_back("sample_error", L.samplingSeconds);
   t0 = Clock::now();
   const double startScoring = startScores.get();
+  const size_t structures = size_t(sim.structureCount());
+  for (size_t i = 0; i < structures; ++i)  // the first sample (the start's positions)
+    report.timeline[i].assdMm = initial[i].assdFinalMm, report.timeline[i].hd95Mm = initial[i].hd95Mm;
   if (scoredBeside) {
     report.stageSeconds.emplace_back("evaluate_start_wait", since(t0));
     report.backgroundSeconds.emplace_back("evaluate_start", startScoring);
@@ -625,6 +634,12 @@ RunReport SceneRunner::run() {
     r.seconds = simSeconds;
     report.structures.push_back(std::move(r));
   }
+  if (lastSampleDeferred)  // the last sample and its level's error: the end's positions
+    for (size_t i = 0; i < structures; ++i) {
+      TimelineSample& s = report.timeline[report.timeline.size() - structures + i];
+      s.assdMm = report.structures[i].assdFinalMm, s.hd95Mm = report.structures[i].hd95Mm;
+      report.stages.back().assdMm[i] = s.assdMm;
+    }
   report.stageSeconds.emplace_back("evaluate_end", since(t0));
   if (sim.structureCount() > 1) {
     t0 = Clock::now();

@@ -105,6 +105,15 @@ private slots:
           worstHd95);
     QVERIFY2(worstAssd <= 0.02, qPrintable(QString::number(worstAssd)));
     QVERIFY2(worstHd95 <= 0.05, qPrintable(QString::number(worstHd95)));
+    // The first and the last sample are the exact evaluation's scores of the start and the end (the
+    // run computes those anyway): the curve ends on the final table's values.
+    for (size_t i = 0; i < n; ++i) {
+      const StructureResult& r = report.structures[i];
+      QCOMPARE(report.timeline[i].assdMm, r.assdInitialMm);
+      QCOMPARE(report.timeline[report.timeline.size() - n + i].assdMm, r.assdFinalMm);
+      QCOMPARE(report.timeline[report.timeline.size() - n + i].hd95Mm, r.hd95Mm);
+      QCOMPARE(report.stages.back().assdMm[i], r.assdFinalMm);
+    }
   }
 };
 

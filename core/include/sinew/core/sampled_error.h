@@ -1,6 +1,7 @@
-// The error against the ground truth while a run goes on (every report sample): ASSD and HD95 per
-// structure at a small fraction of the cost of the exact evaluation (surface_distance.h), which
-// stays for the final result and is this method's test oracle.
+// The error against the ground truth while a run goes on (every report sample but the first and
+// the last, which SceneRunner takes from the exact evaluation of the start and the end): ASSD and
+// HD95 per structure at a small fraction of the cost of the exact evaluation (surface_distance.h),
+// which stays for the final result and is this method's test oracle.
 //
 // The distances are exact; there are fewer of them, and no hierarchy is built per sample:
 // - mesh to truth: samples of each triangle of the Fig. 1b tessellation (the output surface) into

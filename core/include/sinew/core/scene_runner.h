@@ -168,7 +168,9 @@ private:
                        const std::function<void()>& reload);
   struct Loaded;
   // backend: where the state is (may be null: the host); the host store must be current.
-  void sample(RunReport& report, double seconds, ExecutionBackend* backend);
+  // withError false: the sample's ASSD and HD95 are left NaN, for the run's exact evaluation of
+  // the same positions to fill in (the first and the last sample).
+  void sample(RunReport& report, double seconds, ExecutionBackend* backend, bool withError = true);
   void initialise(std::vector<StructureSpec>& specs, const std::function<void(const std::string&)>& log);
   // The exact evaluation in two parts: the surface (reads the store's topology), then its scores
   // against the truth (reads only what load() left, so it may run beside the simulation).
