@@ -311,6 +311,8 @@ __global__ void respondGroup(MeshView m, ParamView p, BvhView v, float margin, f
   for (int o = kGroup / 2; o > 0; o /= 2) clearance2 = fminf(clearance2, __shfl_xor_sync(mask, clearance2, o));
   // Between full searches, the patch test (contactResponse's, the subtree two levels above the last
   // contact's leaf) with the warp's lanes on each patch's triangles: one lane took 48 tests in a row.
+  // The patch and the response below repeat contactResponse's patch branch (core/collision_bvh.h);
+  // tst_cuda_parity's full-search-every-4 row holds the two to the CPU's result.
   Hit patchHit{3.0e38f, point, {0, 0, 0}, 0.0f, -1};
   bool patchFound = false;
   if constexpr (kWarpLeaves) {

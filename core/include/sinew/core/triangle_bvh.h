@@ -73,16 +73,17 @@ SINEW_HD float closestSquaredDistance(const View& v, int root, P3 p, float maxD2
   return best;
 }
 
-// closestSquaredDistance, the search bounded from the start by the distance to triangle `hint`
-// (when >= 0: one under `root`), so that it only looks for nearer ones; `hint` becomes the nearest
-// triangle. The distance is the same as without the hint; the walk is shorter when the hint is near
-// (the sampled error's searches from points that moved little: 8 % of its time on the demo).
 // The squared distance from p to triangle t, its closest point in q: a search's starting bound.
 SINEW_HD float squaredDistanceToTriangle(const View& v, int t, P3 p, P3& q) {
   q = collision::closestOnTriangle(p, v.corners[3 * t], v.corners[3 * t + 1], v.corners[3 * t + 2]);
   const P3 d = collision::sub(p, q);
   return collision::dot3(d, d);
 }
+
+// closestSquaredDistance, the search bounded from the start by the distance to triangle `hint`
+// (when >= 0: one under `root`), so that it only looks for nearer ones; `hint` becomes the nearest
+// triangle. The distance is the same as without the hint; the walk is shorter when the hint is near
+// (the sampled error's searches from points that moved little: 8 % of its time on the demo).
 SINEW_HD float closestSquaredDistanceFrom(const View& v, int root, P3 p, int& hint) {
   P3 q;
   const float bound = hint >= 0 ? squaredDistanceToTriangle(v, hint, p, q) : 3.0e38f;
