@@ -263,9 +263,9 @@ __device__ bool contactWithWarp(const BvhView& v, int own, int other, P3 p, floa
 // 325,632). With kWarpLeaves the patch tests between full searches are the warp's too (H200: 51-57
 // -> 24 us a patch step at 20,352 vertices, 80-87 -> 46-49 at 81,408; docs/collisions.md).
 template <int kGroup, bool kWarpLeaves>
-__global__ void respondGroup(MeshView m, ParamView p, BvhView v, float margin, float damping, float reach,
-                             const int* counter, int every, const float* moved, const unsigned* motion, float* depth,
-                             int* hint, float* slack, float* stiffness) {
+__global__ void respondGroup(MeshView m, ParamView p, BvhView v, ContactSettings settings, const int* counter, int every,
+                             const float* moved, const unsigned* motion, float* depth, int* hint, float* slack,
+                             float* stiffness) {
   const int t = blockIdx.x * blockDim.x + threadIdx.x;
   const int i = t / kGroup, g = t % kGroup;
   const bool valid = i < m.vertices;  // every lane stays for the shuffles
@@ -275,6 +275,7 @@ __global__ void respondGroup(MeshView m, ParamView p, BvhView v, float margin, f
   const P3* centres = reinterpret_cast<const P3*>(m.cellCentre);
   const P3 point = active ? x[i] : P3{0, 0, 0};
   const P3 previous = active ? reinterpret_cast<const P3*>(m.prev)[i] : P3{0, 0, 0};
+  const P3 ownNormal = active ? reinterpret_cast<const P3*>(m.normal)[i] : P3{0, 0, 0};
   const float alpha = active ? param(p, own, 0) * m.mass[i] : 0.0f;
   float lastDepth = active ? depth[i] : 0.0f;
   int lastHint = active ? hint[i] : -1;
@@ -282,7 +283,7 @@ __global__ void respondGroup(MeshView m, ParamView p, BvhView v, float margin, f
   const bool clear = active && clearOfContacts(lastDepth, moved[i], __uint_as_float(*motion), lastSlack);
   // Every lane runs every round (the shuffles need the whole warp); only a full search searches.
   const bool search = active && !clear && (*counter % every == 0 || lastDepth >= kUnknownDepth);
-  const float maxD2 = fullSearchBound(lastDepth, margin, reach, every, point, previous);
+  const float maxD2 = fullSearchBound(lastDepth, settings.margin, settings.reach, every, point, previous);
   ContactSum sum;
   const unsigned mask = 0xffffffffu;
   const int leader = (threadIdx.x % 32) - g;
@@ -292,10 +293,10 @@ __global__ void respondGroup(MeshView m, ParamView p, BvhView v, float margin, f
       Hit h{};
       bool found;
       if constexpr (kWarpLeaves)
-        found = contactWithWarp(v, own, base + g, point, margin, maxD2, lastHint, x, centres, search, h, clearance2);
+        found = contactWithWarp(v, own, base + g, point, settings.margin, maxD2, lastHint, x, centres, search, h, clearance2);
       else
         found = search && base + g < v.meshes &&
-                contactWith(v, own, base + g, point, margin, maxD2, lastHint, x, centres, h, clearance2);
+                contactWith(v, own, base + g, point, settings.margin, maxD2, lastHint, x, centres, h, clearance2);
       for (int q = 0; q < kGroup; ++q) {
         const int src = leader + q;
         Hit c;
@@ -305,7 +306,7 @@ __global__ void respondGroup(MeshView m, ParamView p, BvhView v, float margin, f
                     __shfl_sync(mask, h.normal.z, src)};
         c.side = __shfl_sync(mask, h.side, src);
         c.leaf = __shfl_sync(mask, h.leaf, src);
-        if (__shfl_sync(mask, found, src) && g == 0) addContact(c, point, previous, alpha, margin, damping, sum);
+        if (__shfl_sync(mask, found, src) && g == 0) addContact(c, point, previous, ownNormal, alpha, settings, sum);
       }
     }
   for (int o = kGroup / 2; o > 0; o /= 2) clearance2 = fminf(clearance2, __shfl_xor_sync(mask, clearance2, o));
@@ -331,14 +332,14 @@ __global__ void respondGroup(MeshView m, ParamView p, BvhView v, float margin, f
   if (search) {
     lastDepth = sum.deepest;
     lastHint = sum.nearestLeaf;
-    lastSlack = slackAfterSearch(lastDepth, clearance2, margin);
+    lastSlack = slackAfterSearch(lastDepth, clearance2, settings.margin);
   } else if (!clear) {  // between full searches: the patch test (the clearance already paid for the step)
     if constexpr (kWarpLeaves) {  // contactResponse's patch branch, with the warp's tests above
       float deepest = 0.0f;
-      if (patchFound) sum.stiffness = respondTo(patchHit, point, previous, alpha, margin, damping, deepest, sum.force);
+      if (patchFound) sum.stiffness = respondTo(patchHit, point, previous, ownNormal, alpha, settings, deepest, sum.force);
       lastDepth = deepest;
     } else {
-      sum.stiffness = contactResponse(v, own, point, previous, alpha, margin, damping, reach, false, every, 0.0f, 0.0f,
+      sum.stiffness = contactResponse(v, own, point, previous, ownNormal, alpha, settings, false, every, 0.0f, 0.0f,
                                       lastDepth, lastHint, lastSlack, x, centres, sum.force);
     }
   }
@@ -372,8 +373,8 @@ void launchContactSprings(const MeshView& m, ParamView p, const int* partner, co
   contactSprings<<<(m.vertices + kThreads - 1) / kThreads, kThreads, 0, s>>>(m, p, partner, offset, stiffness);
 }
 
-void launchCollision(const MeshView& m, ParamView p, const CollisionDevice& c, float margin, float damping, float reach,
-                     int every, cudaStream_t s) {
+void launchCollision(const MeshView& m, ParamView p, const CollisionDevice& c, const ContactSettings& settings, int every,
+                     cudaStream_t s) {
   BvhView v{c.nodes, c.boxes, c.tris, c.order, c.roots, c.exempt, c.meshes, c.nodeCount};
   const P3* x = reinterpret_cast<const P3*>(m.x);
   const P3* centres = reinterpret_cast<const P3*>(m.cellCentre);
@@ -391,11 +392,11 @@ void launchCollision(const MeshView& m, ParamView p, const CollisionDevice& c, f
   const int group = m.vertices >= 131072 ? 1 : m.vertices >= 32768 ? 4 : 16;
   const unsigned grid = static_cast<unsigned>((static_cast<size_t>(m.vertices) * group + kThreads - 1) / kThreads);
   if (group == 1)
-    respondGroup<1, false><<<grid, kThreads, 0, s>>>(m, p, v, margin, damping, reach, c.counter, every, c.moved, c.motion, c.depth, c.hint, c.slack, c.stiffness);
+    respondGroup<1, false><<<grid, kThreads, 0, s>>>(m, p, v, settings, c.counter, every, c.moved, c.motion, c.depth, c.hint, c.slack, c.stiffness);
   else if (group == 4)
-    respondGroup<4, true><<<grid, kThreads, 0, s>>>(m, p, v, margin, damping, reach, c.counter, every, c.moved, c.motion, c.depth, c.hint, c.slack, c.stiffness);
+    respondGroup<4, true><<<grid, kThreads, 0, s>>>(m, p, v, settings, c.counter, every, c.moved, c.motion, c.depth, c.hint, c.slack, c.stiffness);
   else
-    respondGroup<16, true><<<grid, kThreads, 0, s>>>(m, p, v, margin, damping, reach, c.counter, every, c.moved, c.motion, c.depth, c.hint, c.slack, c.stiffness);
+    respondGroup<16, true><<<grid, kThreads, 0, s>>>(m, p, v, settings, c.counter, every, c.moved, c.motion, c.depth, c.hint, c.slack, c.stiffness);
   advance<<<1, 1, 0, s>>>(c.counter, c.motion);
 }
 

@@ -451,8 +451,9 @@ struct CudaEngine::Impl {
           break;
         case Kind::Collision:
           if (collision.built())
-            launchCollision(view, p, collision.view(), t.getf(0, t.indexOf("margin_mm")),
-                            t.getf(0, t.indexOf("contact_damping")), t.getf(0, t.indexOf("reach_mm")),
+            launchCollision(view, p, collision.view(),
+                            {t.getf(0, t.indexOf("margin_mm")), t.getf(0, t.indexOf("contact_damping")),
+                             t.getf(0, t.indexOf("reach_mm")), t.getf(0, t.indexOf("retreat_mm"))},
                             std::max(1, int(t.get(0, t.indexOf("full_search_every")))), stream);
           break;
         case Kind::Contacts:

@@ -11,6 +11,7 @@ struct Node;
 struct Box;
 struct Tri;
 struct P3;
+struct ContactSettings;
 }  // namespace sinew::collision
 namespace sinew::trianglebvh {
 struct Node;
@@ -183,9 +184,9 @@ struct CollisionDevice {
 // to m.force for each vertex i with a partner j; stiffness (may be null) gets alpha m_i, or 0.
 void launchContactSprings(const MeshView& m, ParamView p, const int* partner, const float3* offset, float* stiffness,
                           cudaStream_t s);
-// Refits the hierarchies (needs m.cellCentre) and adds the contact response to m.force.
+// Refits the hierarchies (needs m.cellCentre) and adds the contact response to m.force (needs m.normal).
 // every: a full search every this many steps (collision::contactResponse).
-void launchCollision(const MeshView& m, ParamView p, const CollisionDevice& c, float margin, float damping, float reach,
+void launchCollision(const MeshView& m, ParamView p, const CollisionDevice& c, const collision::ContactSettings& settings,
                      int every, cudaStream_t s);
 
 // The radial force (radial_kernels.cu; device_radial.h): the medial surfaces of the structures

@@ -197,6 +197,24 @@ private slots:
     QVERIFY(sim->stabilityEvents().empty());
   }
 
+  // Two spheres overlapping by more than half their radius (centres 8 mm apart, radius 10): every
+  // vertex inside the other sphere has that sphere's far side as its nearest surface, whose normal
+  // faces the way of its own. Pulled to that nearest point, each sphere's cap is pushed on through
+  // the other: the overlap grows (as Caudate_L/Putamen_L on demo seed 6, docs/collisions.md).
+  // Moving back into their own structure instead, the caps separate.
+  void deepOverlapRetreatsInsteadOfPassingThrough() {
+    auto sim = twoSpheres(8.0f, 1.0f);
+    const double before = overlap(*sim);
+    const std::vector<double> blocks = largestStepPerHundred(*sim, 6);
+    for (const Vec3& p : sim->store().positions()) QVERIFY(p.allFinite());
+    const double after = overlap(*sim);
+    qInfo("deep overlap: %.1f -> %.2f mm^3; largest step per 100 steps: %.3g %.3g %.3g %.3g %.3g %.3g mm", before, after,
+          blocks[0], blocks[1], blocks[2], blocks[3], blocks[4], blocks[5]);
+    QVERIFY(before > 1500.0);
+    QVERIFY(after < 0.01 * before);
+    QVERIFY(sim->stabilityEvents().empty());
+  }
+
   // Deforming contacts (paper 001 section 2.2): two spheres 1 mm apart in their reference; the
   // second starts 3 mm further away. Springs between the vertices within distance_mm of the other
   // structure in the reference bring the gap back to about 1 mm on both integrators, where without
@@ -302,7 +320,7 @@ private slots:
     auto sim = twoSpheres(21.0f, 1.0f);  // 1 mm apart
     MeshStore& store = sim->store();
     CollisionTree tree = CollisionTree::build(store);
-    const float margin = 0.25f, reach = 0.25f;
+    const collision::ContactSettings settings{0.25f, 0.0f, 0.25f, 0.25f};
     const Index n = store.vertexCount();
     const auto meshOf = store.meshOfVertex();
     std::vector<float> depthKept(n, collision::kUnknownDepth), depthEvery(n, collision::kUnknownDepth);
@@ -320,14 +338,15 @@ private slots:
       const collision::BvhView view = tree.view();
       const collision::P3* p = asP3(store.positions());
       const collision::P3* c = asP3(store.cellCentres());
+      const collision::P3* normals = asP3(store.normals());
       for (Index v = 0; v < n; ++v) {
         float probe = slack[v];  // what contactResponse will decide, on a copy
         const bool clear = collision::clearOfContacts(depthKept[v], moved[v], motion, probe);
         collision::P3 kept{0, 0, 0}, every{0, 0, 0};
-        const float kKept = collision::contactResponse(view, int(meshOf[v]), p[v], asP3(last[v]), 1.0f, margin, 0.0f, reach, true, 1,
+        const float kKept = collision::contactResponse(view, int(meshOf[v]), p[v], asP3(last[v]), normals[v], 1.0f, settings, true, 1,
                                                        moved[v], motion, depthKept[v], hintKept[v], slack[v], p, c, kept);
         float never = -1.0f;  // no slack: searches every step
-        const float kEvery = collision::contactResponse(view, int(meshOf[v]), p[v], asP3(last[v]), 1.0f, margin, 0.0f, reach, true,
+        const float kEvery = collision::contactResponse(view, int(meshOf[v]), p[v], asP3(last[v]), normals[v], 1.0f, settings, true,
                                                         1, moved[v], motion, depthEvery[v], hintEvery[v], never, p, c, every);
         // The same contacts. Where triangles tie for the closest point (an edge, a corner), which one
         // gives the normal depends on the leaf a search starts from (the kept hint is older when a

@@ -2,7 +2,8 @@
 // and response are core/collision_bvh.h, the code the CUDA backend runs too: each structure's box
 // (broad phase), then its hierarchy over the coarse proxy down to the Fig. 1b triangles (narrow
 // phase), refitted every step. A vertex inside another structure, or closer than the margin, is
-// pulled to the point `margin` outside that surface (optionally with extra damping while it touches).
+// pulled to the point `margin` outside that surface (optionally with extra damping while it touches);
+// one that has gone past that structure's middle moves back into its own (collision::respondTo).
 #include "sinew/core/collision_tree.h"
 #include "sinew/core/registry.h"
 
@@ -15,7 +16,7 @@ namespace {
 class CollisionForce final : public Force {
 public:
   Requirements requirements() const override {
-    return {.attributes = {Attribute::PreviousPosition, Attribute::CellCentre, Attribute::Mass}};
+    return {.attributes = {Attribute::PreviousPosition, Attribute::CellCentre, Attribute::Mass, Attribute::Normal}};
   }
 
   // The tree is built for the level's topology; a scene with one structure allocates nothing.
@@ -47,21 +48,23 @@ public:
     const int every = std::max(1, int(ctx.params.get(0, ctx.params.indexOf("full_search_every"))));
     const bool full = step_++ % every == 0;
     if (full) tree_.refit(s.positions(), s.cellCentres(), ctx.executor);  // only full searches read the boxes
-    const float damping = ctx.params.getf(0, ctx.params.indexOf("contact_damping"));
-    const float reach = ctx.params.getf(0, ctx.params.indexOf("reach_mm"));
+    const collision::ContactSettings settings{margin, ctx.params.getf(0, ctx.params.indexOf("contact_damping")),
+                                              ctx.params.getf(0, ctx.params.indexOf("reach_mm")),
+                                              ctx.params.getf(0, ctx.params.indexOf("retreat_mm"))};
     const collision::BvhView view = tree_.view();
     const collision::P3* x = asP3(s.positions());
     const collision::P3* centres = asP3(s.cellCentres());
     const auto previous = s.previousPositions();
     const auto meshOf = s.meshOfVertex();
     const auto mass = s.masses();
+    const auto normals = s.normals();
     const float motion = trackMotion(s.positions(), ctx.executor);
     stiffness_.assign(s.vertexCount(), 0.0f);
     forActiveVertices(ctx, [&](Index v, float alpha) {
       collision::P3 f{0, 0, 0};
-      stiffness_[v] = collision::contactResponse(view, int(meshOf[v]), x[v], asP3(previous[v]), alpha * mass[v], margin, damping,
-                                                 reach, full, every, moved_[v], motion, depth_[v], hint_[v], slack_[v], x,
-                                                 centres, f);
+      stiffness_[v] = collision::contactResponse(view, int(meshOf[v]), x[v], asP3(previous[v]), asP3(normals[v]),
+                                                 alpha * mass[v], settings, full, every, moved_[v], motion, depth_[v],
+                                                 hint_[v], slack_[v], x, centres, f);
       forces[v] += asVec3(f);
     });
   }
@@ -105,10 +108,12 @@ private:
 void registerCollisionForce(Registry& registry) {
   registry.addForce({"collision",
                      "keeps structures out of each other: a vertex inside another structure (or within the margin "
-                     "of it) is pulled to the margin outside its surface",
+                     "of it) is pulled to the margin outside its surface; one past the middle of that structure moves back "
+                     "into its own",
                      {{"margin_mm", 0.25, 0.0, 5.0, "mm", "distance kept between the surfaces of two structures", false},
                       {"contact_damping", 0.0, 0.0, 2.0, "", "damping of a touching vertex's motion (per step), on top of the integrator's", false},
                       {"reach_mm", 0.25, 0.05, 5.0, "mm", "how far beyond its last penetration a vertex looks for contacts each step (on top of twice its last step)", false},
+                      {"retreat_mm", 0.25, 0.0, 5.0, "mm", "how far a vertex that has gone past the middle of another structure (its nearest surface there faces the way its own does) moves back into its own structure per step, instead of being pulled on through", false},
                       {"full_search_every", 1, 1, 16, "steps", "a full contact search every this many steps; in between, each vertex tests only the patch of its last nearest contact", false},
                       {"ignore_enclosed", 0.0, 0.0, 1.0, "", "1: a structure lying inside another by design (nested labels) is left out of collisions with it; 0: such a pair stops the run with the reason", false}},
                      [] { return std::make_unique<CollisionForce>(); }});

@@ -215,14 +215,34 @@ SINEW_HD Hit closestPoint(const BvhView& v, int mesh, P3 p, const P3* x, const P
 // unbounded, so that deep penetrations are seen.
 constexpr float kUnknownDepth = 1.0e30f;
 
+// The collision force's settings that shape the response (its parameters, docs/collisions.md).
+struct ContactSettings {
+  float margin = 0.0f;   // distance kept from the other surface
+  float damping = 0.0f;  // extra damping of a touching vertex's own motion
+  float reach = 0.0f;    // how far beyond its last penetration a full search looks
+  float retreat = 0.0f;  // how far a vertex past the middle of another structure moves back, per step
+};
+
 // The pull of one contact found by the search (h within the search radius) into force, deepest
 // and the returned stiffness: when the vertex is inside or closer than the margin.
-SINEW_HD float respondTo(const Hit& h, P3 p, P3 previous, float alpha, float margin, float damping, float& deepest,
-                         P3& force) {
-  if (h.side >= margin) return 0.0f;
-  deepest = fmax3(deepest, margin - h.side);
-  const P3 target = add(h.point, scale(h.normal, margin));
-  force = add(force, sub(scale(sub(target, p), alpha), scale(sub(p, previous), alpha * damping)));
+// A contact whose surface faces the way the vertex's own does (normals at less than 90 degrees) is
+// the other structure's far side: the vertex has gone past that structure's middle, and the pull to
+// the nearest point would push it on through, dragging its surface along (demo seed 6:
+// Caudate_L/Putamen_L went from 136 to 941 mm^3 of overlap over the last two levels). Such a vertex
+// instead moves back into its own structure by `retreat` a step while it is inside, until its
+// contact faces it or it is out; it is not pulled (no stiffness) and, outside, left alone.
+SINEW_HD float respondTo(const Hit& h, P3 p, P3 previous, P3 ownNormal, float alpha, const ContactSettings& s,
+                         float& deepest, P3& force) {
+  if (h.side >= s.margin) return 0.0f;
+  if (dot3(h.normal, ownNormal) > 0.0f) {
+    if (h.side >= 0.0f) return 0.0f;
+    deepest = fmax3(deepest, s.margin - h.side);
+    force = add(force, scale(ownNormal, -alpha * s.retreat));
+    return 0.0f;
+  }
+  deepest = fmax3(deepest, s.margin - h.side);
+  const P3 target = add(h.point, scale(h.normal, s.margin));
+  force = add(force, sub(scale(sub(target, p), alpha), scale(sub(p, previous), alpha * s.damping)));
   return alpha;
 }
 
@@ -259,9 +279,10 @@ struct ContactSum {
   int nearestLeaf = -1;
   P3 force{0, 0, 0};
 };
-SINEW_HD void addContact(const Hit& h, P3 p, P3 previous, float alpha, float margin, float damping, ContactSum& sum) {
+SINEW_HD void addContact(const Hit& h, P3 p, P3 previous, P3 ownNormal, float alpha, const ContactSettings& s,
+                         ContactSum& sum) {
   if (h.d2 < sum.nearest) sum.nearest = h.d2, sum.nearestLeaf = h.leaf;
-  sum.stiffness += respondTo(h, p, previous, alpha, margin, damping, sum.deepest, sum.force);
+  sum.stiffness += respondTo(h, p, previous, ownNormal, alpha, s, sum.deepest, sum.force);
 }
 
 // Clearance. A vertex that touched nothing at its last search knows how far every other surface
@@ -284,7 +305,9 @@ SINEW_HD float slackAfterSearch(float depth, float clearance2, float margin) {
 // The response at one vertex of structure `own`. For every other structure whose box (grown by the
 // margin) holds the vertex: if the vertex is inside that structure or closer than the margin to it
 // (by the side of the closest triangle), a pull to the point `margin` outside its surface, plus
-// `damping` (0 by default) of the vertex's own motion while it touches. `alpha` is the weight times
+// `damping` (0 by default) of the vertex's own motion while it touches; a vertex past the other
+// structure's middle (its nearest surface facing the way of `ownNormal`) retreats instead
+// (respondTo). `alpha` is the weight times
 // the vertex's mass, so every vertex moves alike: under the weight alone a light vertex overshot.
 // Adds to `force`; returns the summed pull stiffness (the implicit integrator's self block is
 // minus that times I).
@@ -299,9 +322,9 @@ SINEW_HD float slackAfterSearch(float depth, float clearance2, float margin) {
 // 0.529 against 0.538 / 0.573 mm. The first step of a level (depth kUnknownDepth) is always a full
 // search, without bound. `ownMotion`, `motion`, `slack` (in/out): the clearance above; a vertex
 // still clear of every other structure returns at once.
-SINEW_HD float contactResponse(const BvhView& v, int own, P3 p, P3 previous, float alpha, float margin, float damping,
-                               float reach, bool full, int every, float ownMotion, float motion, float& depth,
-                               int& hint, float& slack, const P3* x, const P3* centres, P3& force) {
+SINEW_HD float contactResponse(const BvhView& v, int own, P3 p, P3 previous, P3 ownNormal, float alpha,
+                               const ContactSettings& s, bool full, int every, float ownMotion, float motion,
+                               float& depth, int& hint, float& slack, const P3* x, const P3* centres, P3& force) {
   if (clearOfContacts(depth, ownMotion, motion, slack)) return 0.0f;
   float deepest = 0.0f, stiffness = 0.0f;
   if (!full && depth < kUnknownDepth) {
@@ -311,22 +334,22 @@ SINEW_HD float contactResponse(const BvhView& v, int own, P3 p, P3 previous, flo
       Hit h{3.0e38f, p, {0, 0, 0}, 0.0f, -1};
       bool found = false;
       testLeaf(v, patch, p, x, centres, h, found);
-      if (found) stiffness = respondTo(h, p, previous, alpha, margin, damping, deepest, force);
+      if (found) stiffness = respondTo(h, p, previous, ownNormal, alpha, s, deepest, force);
     }
     depth = deepest;
     return stiffness;
   }
   ContactSum sum;
   sum.force = force;
-  const float maxD2 = fullSearchBound(depth, margin, reach, every, p, previous);
+  const float maxD2 = fullSearchBound(depth, s.margin, s.reach, every, p, previous);
   for (int other = 0; other < v.meshes; ++other) {
     Hit h{};
-    if (contactWith(v, own, other, p, margin, maxD2, hint, x, centres, h, sum.clearance2))
-      addContact(h, p, previous, alpha, margin, damping, sum);
+    if (contactWith(v, own, other, p, s.margin, maxD2, hint, x, centres, h, sum.clearance2))
+      addContact(h, p, previous, ownNormal, alpha, s, sum);
   }
   depth = sum.deepest;
   hint = sum.nearestLeaf;
-  slack = slackAfterSearch(depth, sum.clearance2, margin);
+  slack = slackAfterSearch(depth, sum.clearance2, s.margin);
   force = sum.force;
   return sum.stiffness;
 }
