@@ -9,6 +9,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cstdio>
 #include <exception>
 #include <functional>
 #include <optional>
@@ -670,7 +671,13 @@ bool SceneRunner::enterNextLevel() {
     applyParams(scene_, sim.forceParams(name), values, -1, "/schedule/" + std::to_string(next) + "/forces/" + name);
   sim.setAffineRegularisation(float(scene_.schedule[next].affineRegularisation));
   sim.setCoarseForceWeight(float(scene_.schedule[next].coarseForces));
-  return sim.advanceLevel();
+  if (!sim.advanceLevel()) return false;
+  if (sim.restoredTimeStep() > 0.0 && options_.log) {
+    char text[96];
+    std::snprintf(text, sizeof text, "stability guard: level %d starts again at time step %g", next, sim.restoredTimeStep());
+    options_.log(text);
+  }
+  return true;
 }
 
 std::string cpuDescription(int threads) {

@@ -92,9 +92,13 @@ public:
   std::string checkStep(std::span<const Vec3> before);
   // Restores the good state, halves "time_step" (rescaling goodPrevious with it, so the velocity is
   // kept) and records the event (attempt: how many recoveries in a row before this one). Throws
-  // NumericalError, the good state restored, when the guard has no retry left.
+  // NumericalError, the good state restored, when the guard has no retry left. The halved step
+  // holds for the rest of the level: advanceLevel() goes back to the step the level started with.
   void recover(std::span<const Vec3> goodPositions, std::vector<Vec3>& goodPrevious, const std::string& problem,
                int attempt);
+  // The time step advanceLevel() went back to (halvings of the level before undone), or 0 when the
+  // last level change found none.
+  double restoredTimeStep() const { return restoredTimeStep_; }
   // Every rollback so far, in order.
   const std::vector<StabilityEvent>& stabilityEvents() const { return events_; }
   // How often each force was evaluated (a force weighted 0 everywhere is skipped).
@@ -126,6 +130,8 @@ private:
   bool initialized_ = false;
   StabilityGuard guard_;
   std::vector<StabilityEvent> events_;
+  double levelTimeStep_ = 0.0;     // the step before the level's first halving; 0 while none
+  double restoredTimeStep_ = 0.0;  // what the last level change went back to, or 0
   JacobianBlocks jacobian_;
   float affineShare_ = 0.0f;
   std::vector<Vec3> imageForces_;  // the image forces alone, while the affine regularisation is on
