@@ -57,7 +57,7 @@ void SceneRunner::runGuarded(ExecutionBackend& backend, int chunk, RunReport& re
     backend.download();
     // A whole chunk may move a vertex no farther than one step may on the CPU: legitimate motion is
     // far slower, and a looser bound would let oscillation just below the explosion through.
-    const std::string problem = sim.checkStep(chunkStart_.positions);
+    const std::string problem = sim.checkStep(chunkStart_.positions, chunk);
     if (problem.empty()) return;
     sim.countExternalSteps(-chunk);  // the chunk is undone
     try {

@@ -279,7 +279,7 @@ void Simulation::regulariseImageForces(std::span<Vec3> forces) {
   });
 }
 
-std::string Simulation::checkStep(std::span<const Vec3> before) {
+std::string Simulation::checkStep(std::span<const Vec3> before, int steps) {
   const auto x = store_.positions();
   // The worst vertex: non-finite first, then the longest move (ties to the lower index).
   struct Worst {
@@ -301,8 +301,11 @@ std::string Simulation::checkStep(std::span<const Vec3> before) {
   const Index m = store_.meshOfVertex()[w.v];
   const std::string where = "structure '" + structures_[m].name + "', vertex " + std::to_string(w.v - store_.range(m).vertexBegin);
   if (!x[w.v].allFinite()) return "non-finite position (" + where + ")";
-  char moved[64];
-  std::snprintf(moved, sizeof moved, "moved %.3g mm in one step (limit %.3g)", double(w.score), guard_.maxStepMm);
+  char moved[96];
+  if (steps > 1)
+    std::snprintf(moved, sizeof moved, "moved %.3g mm in %d steps (limit %.3g, one step's, for the chunk)", double(w.score),
+                  steps, guard_.maxStepMm);
+  else std::snprintf(moved, sizeof moved, "moved %.3g mm in one step (limit %.3g)", double(w.score), guard_.maxStepMm);
   return std::string(moved) + " (" + where + ")";
 }
 

@@ -88,8 +88,8 @@ public:
   const StabilityGuard& stabilityGuard() const { return guard_; }
   // Why the current positions are not an acceptable step from `before` (non-finite, or a vertex
   // farther than maxStepMm), or "" when they are. Also used for steps run elsewhere (a backend's
-  // chunk is held to the one-step limit).
-  std::string checkStep(std::span<const Vec3> before);
+  // chunk of `steps` steps is held to the one-step limit; the reason says over how many steps).
+  std::string checkStep(std::span<const Vec3> before, int steps = 1);
   // Restores the good state, halves "time_step" (rescaling goodPrevious with it, so the velocity is
   // kept) and records the event (attempt: how many recoveries in a row before this one). Throws
   // NumericalError, the good state restored, when the guard has no retry left. The halved step
