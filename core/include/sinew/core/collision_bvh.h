@@ -307,8 +307,8 @@ SINEW_HD float slackAfterSearch(float depth, float clearance2, float margin) {
 // (by the side of the closest triangle), a pull to the point `margin` outside its surface, plus
 // `damping` (0 by default) of the vertex's own motion while it touches; a vertex past the other
 // structure's middle (its nearest surface facing the way of `ownNormal`) retreats instead
-// (respondTo). `alpha` is the weight times
-// the vertex's mass, so every vertex moves alike: under the weight alone a light vertex overshot.
+// (respondTo). `alpha` is the weight times the vertex's mass, so every vertex moves alike: under
+// the weight alone a light vertex overshot.
 // Adds to `force`; returns the summed pull stiffness (the implicit integrator's self block is
 // minus that times I).
 // A full search reaches `reach` plus twice the vertex's last step for each of the `every` steps
