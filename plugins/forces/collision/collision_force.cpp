@@ -113,7 +113,7 @@ void registerCollisionForce(Registry& registry) {
                      {{"margin_mm", 0.25, 0.0, 5.0, "mm", "distance kept between the surfaces of two structures", false},
                       {"contact_damping", 0.0, 0.0, 2.0, "", "damping of a touching vertex's motion (per step), on top of the integrator's", false},
                       {"reach_mm", 0.25, 0.05, 5.0, "mm", "how far beyond its last penetration a vertex looks for contacts each step (on top of twice its last step)", false},
-                      {"retreat_mm", 0.25, 0.0, 5.0, "mm", "how far a vertex that has gone past the middle of another structure (its nearest surface there faces the way its own does) moves back into its own structure per step, instead of being pulled on through", false},
+                      {"retreat_mm", 0.25, 0.0, 5.0, "mm", "a vertex that has gone past the middle of another structure (its nearest surface there faces the way its own does) is pushed back into its own structure, as if pulled toward a point this far behind it along its normal, instead of on through", false},
                       {"full_search_every", 1, 1, 16, "steps", "a full contact search every this many steps; in between, each vertex tests only the patch of its last nearest contact", false},
                       {"ignore_enclosed", 0.0, 0.0, 1.0, "", "1: a structure lying inside another by design (nested labels) is left out of collisions with it; 0: such a pair stops the run with the reason", false}},
                      [] { return std::make_unique<CollisionForce>(); }});

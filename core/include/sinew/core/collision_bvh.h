@@ -220,7 +220,7 @@ struct ContactSettings {
   float margin = 0.0f;   // distance kept from the other surface
   float damping = 0.0f;  // extra damping of a touching vertex's own motion
   float reach = 0.0f;    // how far beyond its last penetration a full search looks
-  float retreat = 0.0f;  // how far a vertex past the middle of another structure moves back, per step
+  float retreat = 0.0f;  // a vertex past another structure's middle is pushed back as if pulled this far
 };
 
 // The pull of one contact found by the search (h within the search radius) into force, deepest
@@ -229,8 +229,9 @@ struct ContactSettings {
 // the other structure's far side: the vertex has gone past that structure's middle, and the pull to
 // the nearest point would push it on through, dragging its surface along (demo seed 6:
 // Caudate_L/Putamen_L went from 136 to 941 mm^3 of overlap over the last two levels). Such a vertex
-// instead moves back into its own structure by `retreat` a step while it is inside, until its
-// contact faces it or it is out; it is not pulled (no stiffness) and, outside, left alone.
+// is instead pushed back into its own structure, as the pull would push it toward a point `retreat`
+// behind it, while it is inside, until its contact faces it or it is out; the push is constant (no
+// stiffness), and outside the vertex is left alone.
 SINEW_HD float respondTo(const Hit& h, P3 p, P3 previous, P3 ownNormal, float alpha, const ContactSettings& s,
                          float& deepest, P3& force) {
   if (h.side >= s.margin) return 0.0f;
