@@ -1,5 +1,6 @@
 #include "sinew/core/simulation.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -50,6 +51,7 @@ ParamTable& Simulation::setIntegrator(std::string_view name) {
   integrator_ = d.create();
   integratorName_ = d.name;
   integratorParams_ = ParamTable(d.params, 1);
+  unhalvedTimeStep_ = guardTimeStep_ = restoredTimeStep_ = 0.0;
   return integratorParams_;
 }
 
@@ -81,6 +83,7 @@ int Simulation::levelCount() const {
 
 void Simulation::initialize() {
   if (!integrator_) throw InputError("the scene names no integrator");
+  unhalvedTimeStep_ = guardTimeStep_ = restoredTimeStep_ = 0.0;
   if (structures_.empty()) throw InputError("the scene has no structure");
   std::vector<const SimplexTopology*> topologies;
   for (const auto& s : structures_) topologies.push_back(&s.levels.levels[0]);
@@ -364,7 +367,8 @@ void Simulation::recover(std::span<const Vec3> goodPositions, std::vector<Vec3>&
     throw NumericalError(problem + " at iteration " + std::to_string(iteration_) + "; " + why +
                          "; the state is the last good one");
   }
-  if (levelTimeStep_ == 0.0) levelTimeStep_ = e.timeStep;
+  if (unhalvedTimeStep_ == 0.0 || e.timeStep != guardTimeStep_) unhalvedTimeStep_ = e.timeStep;
+  guardTimeStep_ = halved;
   integratorParams_.set(0, kStep, halved);
   IntegratorContext ictx{store_, integratorParams_, executor_, &jacobian_};
   integrator_->timeStepScaled(ictx, 0.5f);
@@ -405,14 +409,24 @@ bool Simulation::advanceLevel() {
   applyDensities();
   prepareForces();
   if (!attachments_.empty()) attachments_.build(store_, executor_);
-  // A rollback's halved step held for the rest of its level; the new level, a new mesh, starts
-  // again from the step the old one started with. A single spike (a light vertex's jump) no longer
-  // slows every later level: demo seed 9 on the device lost 0.07 mm of mean ASSD that way
-  // (docs/stability.md). The positions' step-to-step motion is kept as it is, so the motion slows
-  // (the level change restarts the dynamics anyway) rather than doubling.
-  restoredTimeStep_ = levelTimeStep_;
-  if (levelTimeStep_ > 0.0) integratorParams_.set(0, integratorParams_.indexOf("time_step"), levelTimeStep_);
-  levelTimeStep_ = 0.0;
+  // A rollback's halved step held for the rest of its level; each new level, a new mesh, doubles it
+  // back once, up to the step before the first halving, so that a single spike (a light vertex's
+  // jump) does not slow every later level (demo seed 9 on the device lost 0.07 mm of mean ASSD that
+  // way, docs/stability.md) and a step too long for the scene costs at most one rollback a level.
+  // The step-to-step motion is carried over as it is (both backends prolong the previous positions
+  // themselves), so the velocity drops by the factor. A step set by hand since is left alone.
+  restoredTimeStep_ = 0.0;
+  if (unhalvedTimeStep_ > 0.0) {
+    const int k = integratorParams_.indexOf("time_step");
+    const double now = integratorParams_.get(0, k);
+    if (now == guardTimeStep_ && now < unhalvedTimeStep_) {
+      restoredTimeStep_ = std::min(unhalvedTimeStep_, 2.0 * now);
+      integratorParams_.set(0, k, restoredTimeStep_);
+      guardTimeStep_ = restoredTimeStep_;
+    } else {
+      unhalvedTimeStep_ = 0.0;
+    }
+  }
   return true;
 }
 

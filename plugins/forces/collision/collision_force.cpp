@@ -69,7 +69,8 @@ public:
     });
   }
 
-  // A touching vertex is pulled toward a point held fixed over the step.
+  // A touching vertex is pulled toward a point held fixed over the step (a retreating vertex's push
+  // is constant: no stiffness).
   bool addJacobian(ForceContext& ctx, JacobianBlocks& jacobian) override {
     addFixedPointPullJacobian(ctx, stiffness_, jacobian);
     return true;

@@ -93,11 +93,11 @@ public:
   // Restores the good state, halves "time_step" (rescaling goodPrevious with it, so the velocity is
   // kept) and records the event (attempt: how many recoveries in a row before this one). Throws
   // NumericalError, the good state restored, when the guard has no retry left. The halved step
-  // holds for the rest of the level: advanceLevel() goes back to the step the level started with.
+  // holds for the rest of the level: advanceLevel() doubles it back, once per level, up to the step
+  // before the first halving (unless the step was set by hand since).
   void recover(std::span<const Vec3> goodPositions, std::vector<Vec3>& goodPrevious, const std::string& problem,
                int attempt);
-  // The time step advanceLevel() went back to (halvings of the level before undone), or 0 when the
-  // last level change found none.
+  // The time step the last advanceLevel() doubled back to, or 0 when it changed none.
   double restoredTimeStep() const { return restoredTimeStep_; }
   // Every rollback so far, in order.
   const std::vector<StabilityEvent>& stabilityEvents() const { return events_; }
@@ -130,8 +130,10 @@ private:
   bool initialized_ = false;
   StabilityGuard guard_;
   std::vector<StabilityEvent> events_;
-  double levelTimeStep_ = 0.0;     // the step before the level's first halving; 0 while none
-  double restoredTimeStep_ = 0.0;  // what the last level change went back to, or 0
+  // The guard's time step: the step before its first halving (0 while none) and the value it set
+  // last (a different value means the step was set by hand, which the guard then leaves alone).
+  double unhalvedTimeStep_ = 0.0, guardTimeStep_ = 0.0;
+  double restoredTimeStep_ = 0.0;  // what the last level change doubled back to, or 0
   JacobianBlocks jacobian_;
   float affineShare_ = 0.0f;
   std::vector<Vec3> imageForces_;  // the image forces alone, while the affine regularisation is on
