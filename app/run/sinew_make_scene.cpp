@@ -30,7 +30,7 @@ int main(int argc, char** argv) {
   bool subject = false;
   unsigned seed = 1;
   double maxRotation = 8.0, maxTranslation = 3.0, scaleMin = 0.9, scaleMax = 1.1, coarseSpacing = 4.0;
-  double collisionWeight = 1.0, collisionMargin = 0.25;
+  double collisionWeight = 1.0, collisionMargin = 0.15;
   int collisionLevels = 0;
   cli.add_option("--atlas", atlas, "atlas label map: reference shapes (and, in demo mode, the ground truth)");
   cli.add_option("--labels", labelList, "label list of the atlas, 'value name' per line");

@@ -320,6 +320,11 @@ void Simulation::step() {
     computeForces();
     if (!attachments_.empty()) attachments_.shareForces(store_);
     integrator_->step(ictx);
+    for (auto& slot : forces_)
+      if (slot->params.anyPositive(0)) {
+        ForceContext ctx{store_, slot->params, scene_, executor_};
+        slot->force->constrain(ctx);
+      }
     if (!attachments_.empty()) attachments_.project(store_);
   };
   if (!guard_.enabled) {

@@ -265,7 +265,7 @@ __device__ bool contactWithWarp(const BvhView& v, int own, int other, P3 p, floa
 template <int kGroup, bool kWarpLeaves>
 __global__ void respondGroup(MeshView m, ParamView p, BvhView v, ContactSettings settings, const int* counter, int every,
                              const float* moved, const unsigned* motion, float* depth, int* hint, float* slack,
-                             float* stiffness) {
+                             float* stiffness, float4* hold) {
   const int t = blockIdx.x * blockDim.x + threadIdx.x;
   const int i = t / kGroup, g = t % kGroup;
   const bool valid = i < m.vertices;  // every lane stays for the shuffles
@@ -285,6 +285,8 @@ __global__ void respondGroup(MeshView m, ParamView p, BvhView v, ContactSettings
   const bool search = active && !clear && (*counter % every == 0 || lastDepth >= kUnknownDepth);
   const float maxD2 = fullSearchBound(lastDepth, settings.margin, settings.reach, every, point, previous);
   ContactSum sum;
+  HoldPlane plane;
+  HoldPlane* const holdPlane = hold && settings.hold >= 0.0f ? &plane : nullptr;
   const unsigned mask = 0xffffffffu;
   const int leader = (threadIdx.x % 32) - g;
   float clearance2 = 3.0e38f;
@@ -306,7 +308,7 @@ __global__ void respondGroup(MeshView m, ParamView p, BvhView v, ContactSettings
                     __shfl_sync(mask, h.normal.z, src)};
         c.side = __shfl_sync(mask, h.side, src);
         c.leaf = __shfl_sync(mask, h.leaf, src);
-        if (__shfl_sync(mask, found, src) && g == 0) addContact(c, point, previous, ownNormal, alpha, settings, sum);
+        if (__shfl_sync(mask, found, src) && g == 0) addContact(c, point, previous, ownNormal, alpha, settings, sum, holdPlane);
       }
     }
   for (int o = kGroup / 2; o > 0; o /= 2) clearance2 = fminf(clearance2, __shfl_xor_sync(mask, clearance2, o));
@@ -327,6 +329,7 @@ __global__ void respondGroup(MeshView m, ParamView p, BvhView v, ContactSettings
   }
   if (!active || g != 0) {
     if (valid && g == 0 && stiffness) stiffness[i] = 0.0f;
+    if (valid && g == 0 && hold && settings.hold >= 0.0f) hold[i] = make_float4(0.0f, 0.0f, 0.0f, 0.0f);
     return;
   }
   if (search) {
@@ -343,6 +346,9 @@ __global__ void respondGroup(MeshView m, ParamView p, BvhView v, ContactSettings
                                       lastDepth, lastHint, lastSlack, x, centres, sum.force);
     }
   }
+  if (holdPlane)
+    hold[i] = plane.side < 3.0e38f ? make_float4(plane.normal.x, plane.normal.y, plane.normal.z, plane.offset)
+                                   : make_float4(0.0f, 0.0f, 0.0f, 0.0f);
   depth[i] = lastDepth;
   hint[i] = lastHint;
   slack[i] = lastSlack;
@@ -361,6 +367,19 @@ __global__ void contactSprings(MeshView m, ParamView p, const int* partner, cons
     m.force[i] = m.force[i] + k * ((m.x[j] + offset[i]) - m.x[i]);
   }
   if (stiffness) stiffness[i] = k;
+}
+// CollisionForce::constrain's arithmetic.
+__global__ void holdOut(MeshView m, const float4* hold) {
+  const int i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i >= m.vertices) return;
+  const float4 h = hold[i];
+  if (h.x == 0.0f && h.y == 0.0f && h.z == 0.0f) return;
+  P3* x = reinterpret_cast<P3*>(m.x);
+  P3* previous = reinterpret_cast<P3*>(m.prev);
+  P3 p = x[i], q = previous[i];
+  collision::holdOut({h.x, h.y, h.z}, h.w, p, q);
+  x[i] = p;
+  previous[i] = q;
 }
 __global__ void advance(int* counter, unsigned* motion) {
   ++*counter;
@@ -392,12 +411,19 @@ void launchCollision(const MeshView& m, ParamView p, const CollisionDevice& c, c
   const int group = m.vertices >= 131072 ? 1 : m.vertices >= 32768 ? 4 : 16;
   const unsigned grid = static_cast<unsigned>((static_cast<size_t>(m.vertices) * group + kThreads - 1) / kThreads);
   if (group == 1)
-    respondGroup<1, false><<<grid, kThreads, 0, s>>>(m, p, v, settings, c.counter, every, c.moved, c.motion, c.depth, c.hint, c.slack, c.stiffness);
+    respondGroup<1, false><<<grid, kThreads, 0, s>>>(m, p, v, settings, c.counter, every, c.moved, c.motion, c.depth, c.hint, c.slack,
+                                                c.stiffness, c.hold);
   else if (group == 4)
-    respondGroup<4, true><<<grid, kThreads, 0, s>>>(m, p, v, settings, c.counter, every, c.moved, c.motion, c.depth, c.hint, c.slack, c.stiffness);
+    respondGroup<4, true><<<grid, kThreads, 0, s>>>(m, p, v, settings, c.counter, every, c.moved, c.motion, c.depth, c.hint, c.slack,
+                                                c.stiffness, c.hold);
   else
-    respondGroup<16, true><<<grid, kThreads, 0, s>>>(m, p, v, settings, c.counter, every, c.moved, c.motion, c.depth, c.hint, c.slack, c.stiffness);
+    respondGroup<16, true><<<grid, kThreads, 0, s>>>(m, p, v, settings, c.counter, every, c.moved, c.motion, c.depth, c.hint, c.slack,
+                                                c.stiffness, c.hold);
   advance<<<1, 1, 0, s>>>(c.counter, c.motion);
+}
+
+void launchCollisionHold(const MeshView& m, const CollisionDevice& c, cudaStream_t s) {
+  holdOut<<<(m.vertices + kThreads - 1) / kThreads, kThreads, 0, s>>>(m, c.hold);
 }
 
 }  // namespace sinew::cuda

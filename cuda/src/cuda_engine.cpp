@@ -429,6 +429,7 @@ struct CudaEngine::Impl {
     }
     launchFusedForces(view, fused, stream);
     bool moved = false;
+    float hold = -1.0f;  // the collision force's hold_mm, when it ran (negative: no hold)
     for (; next < forces.size(); ++next) {
       const ForceSlot& f = forces[next];
       const ParamTable& t = sim.forceParams(f.name);
@@ -450,11 +451,13 @@ struct CudaEngine::Impl {
           placedPoints.launch(view, p, t.indexOf("ring"), t.indexOf("margin_mm"), meshBegin.get(), meshEnd.get(), stream);
           break;
         case Kind::Collision:
-          if (collision.built())
+          if (collision.built()) {
+            hold = t.getf(0, t.indexOf("hold_mm"));
             launchCollision(view, p, collision.view(),
                             {t.getf(0, t.indexOf("margin_mm")), t.getf(0, t.indexOf("contact_damping")),
-                             t.getf(0, t.indexOf("reach_mm")), t.getf(0, t.indexOf("retreat_mm"))},
+                             t.getf(0, t.indexOf("reach_mm")), t.getf(0, t.indexOf("retreat_mm")), hold},
                             std::max(1, int(t.get(0, t.indexOf("full_search_every")))), stream);
+          }
           break;
         case Kind::Contacts:
           contactLinks.launch(view, p, stream);
@@ -469,6 +472,12 @@ struct CudaEngine::Impl {
     if (!coarseLevels.empty()) enqueueCoarseForces(sim.coarseForceWeight());
     if (!attachments.empty()) launchAttachmentShare(view, attachments.view(), stream);
     if (!moved) enqueueIntegrator();
+    // The forces' constraints after the move (Force::constrain), in force order.
+    for (const ForceSlot& f : forces) {
+      if (f.kind == Kind::Collision && hold >= 0.0f) launchCollisionHold(view, collision.view(), stream);
+      if (f.kind == Kind::Plugin && sim.forceParams(f.name).anyPositive(0))
+        checkPlugin(f, f.device->constrain(pluginContext(f)), "constrain");
+    }
     if (!attachments.empty()) launchAttachmentProject(view, attachments.view(), stream);
   }
 

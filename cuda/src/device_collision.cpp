@@ -32,6 +32,7 @@ void DeviceCollision::build(MeshStore& store, const SceneData& scene, float marg
   moved_.resize(store.vertexCount());  // written by every step's refit before the response reads it
   const auto x = store.positions();
   last_.upload(reinterpret_cast<const float3*>(x.data()), x.size(), stream);
+  hold_.resize(store.vertexCount());  // written by every response before the hold reads it
   motion_.resize(1);
   SINEW_CUDA(cudaMemsetAsync(motion_.get(), 0, motion_.bytes(), stream));
   counter_.resize(1);
@@ -75,6 +76,7 @@ CollisionDevice DeviceCollision::view() const {
   c.moved = moved_.get();
   c.last = last_.get();
   c.motion = motion_.get();
+  c.hold = hold_.get();
   c.meshes = meshes_;
   c.nodeCount = int(nodes_.size());
   return c;
@@ -84,7 +86,7 @@ std::size_t DeviceCollision::bytes() const {
   return nodes_.bytes() + boxes_.bytes() + tris_.bytes() + order_.bytes() + roots_.bytes() + leaves_.bytes() +
          visits_.bytes() + threadNodes_.bytes() + warpNodes_.bytes() + blockNodes_.bytes() + vertexBoxes_.bytes() +
          stiffness_.bytes() + depth_.bytes() + counter_.bytes() + hint_.bytes() + exempt_.bytes() + slack_.bytes() +
-         moved_.bytes() + last_.bytes() + motion_.bytes();
+         moved_.bytes() + last_.bytes() + motion_.bytes() + hold_.bytes();
 }
 
 }  // namespace sinew::cuda

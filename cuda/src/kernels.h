@@ -178,6 +178,9 @@ struct CollisionDevice {
   float3* last = nullptr;  // the positions the last step saw
   unsigned* motion = nullptr;  // the step's largest move (a float's bits: atomicMax orders them)
   const unsigned char* exempt = nullptr;  // pairs left out (meshes x meshes), or null
+  // per vertex, the plane its contacts hold it out of after the step (collision::HoldPlane: normal,
+  // offset; a zero normal for none), or null when the hold is off
+  float4* hold = nullptr;
   int meshes = 0, nodeCount = 0, leafCount = 0;
 };
 // Deforming contacts (collision_kernels.cu; core/contact_links.h): adds alpha m_i (x_j + o_i - x_i)
@@ -188,6 +191,9 @@ void launchContactSprings(const MeshView& m, ParamView p, const int* partner, co
 // every: a full search every this many steps (collision::contactResponse).
 void launchCollision(const MeshView& m, ParamView p, const CollisionDevice& c, const collision::ContactSettings& settings,
                      int every, cudaStream_t s);
+// After the step's move: each vertex below its hold plane (c.hold, written by launchCollision when
+// settings.hold >= 0) moves out along its normal onto it (CollisionForce::constrain).
+void launchCollisionHold(const MeshView& m, const CollisionDevice& c, cudaStream_t s);
 
 // The radial force (radial_kernels.cu; device_radial.h): the medial surfaces of the structures
 // laid out globally. Surface vertex v: its medial points surfaceMedial[surfaceOffsets[v] ..

@@ -287,7 +287,10 @@ private Q_SLOTS:
     const std::vector<unsigned char> mask = session.contactMask(0.0);
     QVERIFY(std::count(mask.begin(), mask.end(), 1) > 0);
     session.syncHost();
-    QVERIFY(mask == contactMask(session.simulation().store(), session.simulation().scene(), 0.25f));
+    // The demo scene has the collision force: the mask is drawn at its margin.
+    const ParamTable& collision = session.simulation().forceParams("collision");
+    const float margin = collision.getf(0, collision.indexOf("margin_mm"));
+    QVERIFY(mask == contactMask(session.simulation().store(), session.simulation().scene(), margin));
     // Structure 1 taken back off structure 0: the contacts change, but within the interval asked for
     // the session keeps the last mask; asked with none, it recomputes.
     session.syncHost();
@@ -297,7 +300,7 @@ private Q_SLOTS:
     if (session.backend()) session.backend()->reload();
     session.step(1);
     session.syncHost();
-    const std::vector<unsigned char> now = contactMask(session.simulation().store(), session.simulation().scene(), 0.25f);
+    const std::vector<unsigned char> now = contactMask(session.simulation().store(), session.simulation().scene(), margin);
     QVERIFY(now != mask);
     QVERIFY(session.contactMask(1e9) == mask);  // throttled: the last mask
     QVERIFY(session.contactMask(0.0) == now);

@@ -466,23 +466,26 @@ private slots:
     QTest::addColumn<QString>("integrator");
     QTest::addColumn<int>("steps");
     QTest::addColumn<int>("every");
-    QTest::addColumn<float>("gap");  // between the spheres' centres (radius 10 mm)
-    QTest::newRow("damped_verlet") << "damped_verlet" << 100 << 1 << 15.0f;
-    QTest::newRow("implicit_euler") << "implicit_euler" << 20 << 1 << 15.0f;
-    QTest::newRow("damped_verlet, full search every 4") << "damped_verlet" << 100 << 4 << 15.0f;
+    QTest::addColumn<float>("gap");   // between the spheres' centres (radius 10 mm)
+    QTest::addColumn<float>("hold");  // hold_mm: 0 (the default) holds touching vertices out after each step
+    QTest::newRow("damped_verlet") << "damped_verlet" << 100 << 1 << 15.0f << 0.0f;
+    QTest::newRow("damped_verlet, no hold") << "damped_verlet" << 100 << 1 << 15.0f << -1.0f;
+    QTest::newRow("implicit_euler") << "implicit_euler" << 20 << 1 << 15.0f << 0.0f;
+    QTest::newRow("damped_verlet, full search every 4") << "damped_verlet" << 100 << 4 << 15.0f << 0.0f;
     // Centres 8 mm apart: the vertices inside the other sphere have its far side as their contact
     // and retreat (collision::respondTo), by the full search and by the patch tests between. Not
     // with implicit Euler: there the solver's float differences (1e-5 mm) meet the jumps of a deep
     // vertex's nearest point across the other sphere's middle, and the backends were 0.15-0.25 mm
     // apart after 20 steps (H200, 2026-11-26; docs/collisions.md).
-    QTest::newRow("damped_verlet, past the middle") << "damped_verlet" << 100 << 1 << 8.0f;
-    QTest::newRow("damped_verlet, past the middle, every 4") << "damped_verlet" << 100 << 4 << 8.0f;
+    QTest::newRow("damped_verlet, past the middle") << "damped_verlet" << 100 << 1 << 8.0f << 0.0f;
+    QTest::newRow("damped_verlet, past the middle, every 4") << "damped_verlet" << 100 << 4 << 8.0f << 0.0f;
   }
   void collisionMatchesTheCpu() {
     QFETCH(QString, integrator);
     QFETCH(int, steps);
     QFETCH(int, every);
     QFETCH(float, gap);
+    QFETCH(float, hold);
     auto make = [&](int structures, float weight) {
       auto sim = std::make_unique<Simulation>(forceRegistry(), 0);
       for (int i = 0; i < structures; ++i) {
@@ -494,13 +497,14 @@ private slots:
       ParamTable& collision = sim->addForce("collision");
       collision.setAll("weight", weight);
       collision.setAll("full_search_every", every);
+      collision.setAll("hold_mm", hold);
       sim->setIntegrator(integrator.toStdString()).set(0, "time_step", integrator == "implicit_euler" ? 2.0 : 0.5);
       sim->initialize();
       return sim;
     };
     const ParityRun r = runOnBoth([&] { return make(2, 0.5f); }, steps);
-    qInfo("collision, %s, centres %g mm apart: max CPU-CUDA difference %.3g mm after %d steps (vertices pushed up to %.3g mm)",
-          qPrintable(integrator), double(gap), r.cpuCuda, steps, r.moved);
+    qInfo("collision, %s, centres %g mm apart, hold %g: max CPU-CUDA difference %.3g mm after %d steps (vertices pushed up "
+          "to %.3g mm)", qPrintable(integrator), double(gap), double(hold), r.cpuCuda, steps, r.moved);
     QVERIFY(r.moved > 1.0);
     QVERIFY2(r.cpuCuda < (integrator == "implicit_euler" ? 1e-2 : 1e-3), qPrintable(QString::number(r.cpuCuda)));
     QCOMPARE(r.deviceRepeat, 0.0);

@@ -50,7 +50,8 @@ public:
     if (full) tree_.refit(s.positions(), s.cellCentres(), ctx.executor);  // only full searches read the boxes
     const collision::ContactSettings settings{margin, ctx.params.getf(0, ctx.params.indexOf("contact_damping")),
                                               ctx.params.getf(0, ctx.params.indexOf("reach_mm")),
-                                              ctx.params.getf(0, ctx.params.indexOf("retreat_mm"))};
+                                              ctx.params.getf(0, ctx.params.indexOf("retreat_mm")),
+                                              ctx.params.getf(0, ctx.params.indexOf("hold_mm"))};
     const collision::BvhView view = tree_.view();
     const collision::P3* x = asP3(s.positions());
     const collision::P3* centres = asP3(s.cellCentres());
@@ -60,11 +61,13 @@ public:
     const auto normals = s.normals();
     const float motion = trackMotion(s.positions(), ctx.executor);
     stiffness_.assign(s.vertexCount(), 0.0f);
+    const bool holding = settings.hold >= 0.0f;
+    hold_.assign(holding ? s.vertexCount() : 0, collision::HoldPlane{});
     forActiveVertices(ctx, [&](Index v, float alpha) {
       collision::P3 f{0, 0, 0};
       stiffness_[v] = collision::contactResponse(view, int(meshOf[v]), x[v], asP3(previous[v]), asP3(normals[v]),
                                                  alpha * mass[v], settings, full, every, moved_[v], motion, depth_[v],
-                                                 hint_[v], slack_[v], x, centres, f);
+                                                 hint_[v], slack_[v], x, centres, f, holding ? &hold_[v] : nullptr);
       forces[v] += asVec3(f);
     });
   }
@@ -74,6 +77,23 @@ public:
   bool addJacobian(ForceContext& ctx, JacobianBlocks& jacobian) override {
     addFixedPointPullJacobian(ctx, stiffness_, jacobian);
     return true;
+  }
+
+  // The hold: a vertex the step's contacts pulled is moved out along the contact's normal to at least
+  // hold_mm outside the plane of that contact (found before the step), whatever the other forces
+  // did; its motion inward leaves the velocity (collision::holdOut).
+  void constrain(ForceContext& ctx) override {
+    if (hold_.size() != size_t(ctx.store.vertexCount())) return;
+    auto x = ctx.store.positionsForWrite();
+    auto previous = ctx.store.previousPositions();
+    ctx.executor.forEach(ctx.store.vertexCount(), [&](Index v) {
+      const collision::HoldPlane& h = hold_[v];
+      if (h.side >= 3.0e38f) return;
+      collision::P3 p = asP3(x[v]), q = asP3(previous[v]);
+      collision::holdOut(h.normal, h.offset, p, q);
+      x[v] = asVec3(p);
+      previous[v] = asVec3(q);
+    }, 4096);
   }
 
 private:
@@ -97,6 +117,7 @@ private:
   Index builtFor_ = -1;
   bool checked_ = false;
   std::vector<float> stiffness_;
+  std::vector<collision::HoldPlane> hold_;  // per vertex, from the last step's contacts (empty: no hold)
   std::vector<float> depth_;  // each vertex's last penetration (collision::contactResponse)
   std::vector<int> hint_;     // each vertex's last nearest contact leaf
   std::vector<float> slack_;  // each vertex's clearance of the other structures beyond the margin
@@ -111,10 +132,11 @@ void registerCollisionForce(Registry& registry) {
                      "keeps structures out of each other: a vertex inside another structure (or within the margin "
                      "of it) is pulled to the margin outside its surface; one past the middle of that structure moves back "
                      "into its own",
-                     {{"margin_mm", 0.25, 0.0, 5.0, "mm", "distance kept between the surfaces of two structures", false},
+                     {{"margin_mm", 0.15, 0.0, 5.0, "mm", "distance kept between the surfaces of two structures", false},
                       {"contact_damping", 0.0, 0.0, 2.0, "", "damping of a touching vertex's motion (per step), on top of the integrator's", false},
                       {"reach_mm", 0.25, 0.05, 5.0, "mm", "how far beyond its last penetration a vertex looks for contacts each step (on top of twice its last step)", false},
                       {"retreat_mm", 0.25, 0.0, 5.0, "mm", "a vertex that has gone past the middle of another structure (its nearest surface there faces the way its own does) is pushed back into its own structure, as if pulled toward a point this far behind it along its normal, instead of on through", false},
+                      {"hold_mm", 0.0, -1.0, 5.0, "mm", "after each step, a vertex pulled by a contact is moved out to at least this far outside the plane of that contact; negative: no hold", false},
                       {"full_search_every", 1, 1, 16, "steps", "a full contact search every this many steps; in between, each vertex tests only the patch of its last nearest contact", false},
                       {"ignore_enclosed", 0.0, 0.0, 1.0, "", "1: a structure lying inside another by design (nested labels) is left out of collisions with it; 0: such a pair stops the run with the reason", false}},
                      [] { return std::make_unique<CollisionForce>(); }});

@@ -221,6 +221,7 @@ struct ContactSettings {
   float damping = 0.0f;  // extra damping of a touching vertex's own motion
   float reach = 0.0f;    // how far beyond its last penetration a full search looks
   float retreat = 0.0f;  // a vertex past another structure's middle is pushed back as if pulled this far
+  float hold = -1.0f;    // how far outside its contact's plane a pulled vertex is held after the step; < 0: no hold
 };
 
 // The pull of one contact found by the search (h within the search radius) into force, deepest
@@ -236,11 +237,21 @@ struct ContactSettings {
 // last bits of a normal (CPU and CUDA 0.25 mm apart after 20 implicit Euler steps). (The angle also
 // passes next to where two surfaces cross at more than 90 degrees; there too the push takes over.)
 constexpr float kFacingBlend = 0.25f;
+// The plane a touching vertex is held out of after the step (the collision force's hold): of the
+// contacts that pull it (its own normal facing the other surface's), the one it is deepest in,
+// moved `hold` outside along its normal.
+struct HoldPlane {
+  P3 normal{0, 0, 0};
+  float offset = 0.0f;   // x is held to dot(normal, x) >= offset
+  float side = 3.0e38f;  // the vertex's side of the contact when found; 3e38: no plane
+};
 SINEW_HD float respondTo(const Hit& h, P3 p, P3 previous, P3 ownNormal, float alpha, const ContactSettings& s,
-                         float& deepest, P3& force) {
+                         float& deepest, P3& force, HoldPlane* hold = nullptr) {
   if (h.side >= s.margin) return 0.0f;
   deepest = fmax3(deepest, s.margin - h.side);
   const float passed = fmin3(fmax3(dot3(h.normal, ownNormal) / kFacingBlend, 0.0f), 1.0f);
+  if (hold && passed == 0.0f && h.side < hold->side)
+    *hold = {h.normal, dot3(h.normal, h.point) + s.hold, h.side};
   const float pull = alpha * (1.0f - passed);
   if (pull > 0.0f) {
     const P3 target = add(h.point, scale(h.normal, s.margin));
@@ -248,6 +259,20 @@ SINEW_HD float respondTo(const Hit& h, P3 p, P3 previous, P3 ownNormal, float al
   }
   if (passed > 0.0f && h.side < 0.0f) force = add(force, scale(ownNormal, -alpha * passed * fmin3(s.retreat, -h.side)));
   return pull;
+}
+
+// The hold itself: x moves out along the plane's normal onto it. The previous position moves with
+// it as far as the move exceeds the motion into the plane (the step's x - previous, its normal part
+// when negative): the hold takes the motion inward out of the velocity and never adds motion
+// outward. A vertex moved out of a deep contact at once kept that jump as velocity, and a small
+// sphere half inside another trembled by 0.1 mm a step.
+SINEW_HD void holdOut(P3 normal, float offset, P3& x, P3& previous) {
+  const float below = offset - dot3(normal, x);
+  if (!(below > 0.0f)) return;
+  const float inward = fmin3(dot3(normal, sub(x, previous)), 0.0f);
+  x = add(x, scale(normal, below));
+  const float carried = fmax3(below + inward, 0.0f);
+  previous = add(previous, scale(normal, carried));
 }
 
 // The full search's squared radius. Twice the vertex's own last step, per step until the next full
@@ -284,9 +309,9 @@ struct ContactSum {
   P3 force{0, 0, 0};
 };
 SINEW_HD void addContact(const Hit& h, P3 p, P3 previous, P3 ownNormal, float alpha, const ContactSettings& s,
-                         ContactSum& sum) {
+                         ContactSum& sum, HoldPlane* hold = nullptr) {
   if (h.d2 < sum.nearest) sum.nearest = h.d2, sum.nearestLeaf = h.leaf;
-  sum.stiffness += respondTo(h, p, previous, ownNormal, alpha, s, sum.deepest, sum.force);
+  sum.stiffness += respondTo(h, p, previous, ownNormal, alpha, s, sum.deepest, sum.force, hold);
 }
 
 // Clearance. A vertex that touched nothing at its last search knows how far every other surface
@@ -325,10 +350,15 @@ SINEW_HD float slackAfterSearch(float depth, float clearance2, float margin) {
 // steps) left 36.5 / 98 mm^3 of overlap against the patch's 5.8 / 5.5, at a mean ASSD of 0.526 /
 // 0.529 against 0.538 / 0.573 mm. The first step of a level (depth kUnknownDepth) is always a full
 // search, without bound. `ownMotion`, `motion`, `slack` (in/out): the clearance above; a vertex
-// still clear of every other structure returns at once.
+// still clear of every other structure returns at once. `hold` (may be null): the plane the full
+// search's contacts hold the vertex out of (HoldPlane). A patch test offers none: its nearest
+// triangle need not be the surface's nearest, and held on its plane the vertex went astray (CPU,
+// subjects 201-205 with a full search every 4 steps: mean ASSD 0.4860 mm, against 0.4700 with the
+// hold from full searches only; docs/collisions.md).
 SINEW_HD float contactResponse(const BvhView& v, int own, P3 p, P3 previous, P3 ownNormal, float alpha,
                                const ContactSettings& s, bool full, int every, float ownMotion, float motion,
-                               float& depth, int& hint, float& slack, const P3* x, const P3* centres, P3& force) {
+                               float& depth, int& hint, float& slack, const P3* x, const P3* centres, P3& force,
+                               HoldPlane* hold = nullptr) {
   if (clearOfContacts(depth, ownMotion, motion, slack)) return 0.0f;
   float deepest = 0.0f, stiffness = 0.0f;
   if (!full && depth < kUnknownDepth) {
@@ -338,7 +368,7 @@ SINEW_HD float contactResponse(const BvhView& v, int own, P3 p, P3 previous, P3 
       Hit h{3.0e38f, p, {0, 0, 0}, 0.0f, -1};
       bool found = false;
       testLeaf(v, patch, p, x, centres, h, found);
-      if (found) stiffness = respondTo(h, p, previous, ownNormal, alpha, s, deepest, force);
+      if (found) stiffness = respondTo(h, p, previous, ownNormal, alpha, s, deepest, force);  // no hold: see below
     }
     depth = deepest;
     return stiffness;
@@ -349,7 +379,7 @@ SINEW_HD float contactResponse(const BvhView& v, int own, P3 p, P3 previous, P3 
   for (int other = 0; other < v.meshes; ++other) {
     Hit h{};
     if (contactWith(v, own, other, p, s.margin, maxD2, hint, x, centres, h, sum.clearance2))
-      addContact(h, p, previous, ownNormal, alpha, s, sum);
+      addContact(h, p, previous, ownNormal, alpha, s, sum, hold);
   }
   depth = sum.deepest;
   hint = sum.nearestLeaf;

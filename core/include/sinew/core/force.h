@@ -49,6 +49,9 @@ public:
   // be symmetric (block (v, u) = block (u, v) transposed) and negative semi-definite. Returns false
   // when the force has none; it is then integrated explicitly.
   virtual bool addJacobian(ForceContext&, JacobianBlocks&) { return false; }
+  // After the integrator's step: moves positions the force constrains (a projection, paper 002's
+  // constraint correction). Most forces have none.
+  virtual void constrain(ForceContext&) {}
   // The force's CUDA path, for the CUDA backend (a run-time plugin's force provides one by also
   // deriving from cuda::DeviceForce). Null: the force runs on the CPU backend only.
   virtual cuda::DeviceForce* deviceForce() { return nullptr; }

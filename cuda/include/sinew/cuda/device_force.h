@@ -65,6 +65,8 @@ public:
   // calls are captured into a CUDA graph once and replayed (captured again when a parameter shared
   // by all structures or a force's on/off state changes).
   virtual cudaError_t enqueue(const DeviceForceContext& ctx) = 0;
+  // After the step's move: the device side of Force::constrain (moves mesh.x), enqueued the same way.
+  virtual cudaError_t constrain(const DeviceForceContext&) { return cudaSuccess; }
 };
 
 }  // namespace sinew::cuda
