@@ -265,7 +265,7 @@ __device__ bool contactWithWarp(const BvhView& v, int own, int other, P3 p, floa
 template <int kGroup, bool kWarpLeaves>
 __global__ void respondGroup(MeshView m, ParamView p, BvhView v, ContactSettings settings, const int* counter, int every,
                              const float* moved, const unsigned* motion, float* depth, int* hint, float* slack,
-                             float* stiffness, float4* hold) {
+                             float* stiffness, HoldPlane* hold) {
   const int t = blockIdx.x * blockDim.x + threadIdx.x;
   const int i = t / kGroup, g = t % kGroup;
   const bool valid = i < m.vertices;  // every lane stays for the shuffles
@@ -329,7 +329,7 @@ __global__ void respondGroup(MeshView m, ParamView p, BvhView v, ContactSettings
   }
   if (!active || g != 0) {
     if (valid && g == 0 && stiffness) stiffness[i] = 0.0f;
-    if (valid && g == 0 && hold && settings.hold >= 0.0f) hold[i] = make_float4(0.0f, 0.0f, 0.0f, 0.0f);
+    if (valid && g == 0 && hold && settings.hold >= 0.0f) hold[i] = HoldPlane{};
     return;
   }
   if (search) {
@@ -346,9 +346,7 @@ __global__ void respondGroup(MeshView m, ParamView p, BvhView v, ContactSettings
                                       lastDepth, lastHint, lastSlack, x, centres, sum.force);
     }
   }
-  if (holdPlane)
-    hold[i] = plane.side < 3.0e38f ? make_float4(plane.normal.x, plane.normal.y, plane.normal.z, plane.offset)
-                                   : make_float4(0.0f, 0.0f, 0.0f, 0.0f);
+  if (holdPlane) hold[i] = plane;
   depth[i] = lastDepth;
   hint[i] = lastHint;
   slack[i] = lastSlack;
@@ -369,15 +367,15 @@ __global__ void contactSprings(MeshView m, ParamView p, const int* partner, cons
   if (stiffness) stiffness[i] = k;
 }
 // CollisionForce::constrain's arithmetic.
-__global__ void holdOut(MeshView m, const float4* hold) {
+__global__ void holdOut(MeshView m, const HoldPlane* hold) {
   const int i = blockIdx.x * blockDim.x + threadIdx.x;
   if (i >= m.vertices) return;
-  const float4 h = hold[i];
-  if (h.x == 0.0f && h.y == 0.0f && h.z == 0.0f) return;
+  const HoldPlane h = hold[i];
+  if (!(h.side < 3.0e38f)) return;
   P3* x = reinterpret_cast<P3*>(m.x);
   P3* previous = reinterpret_cast<P3*>(m.prev);
   P3 p = x[i], q = previous[i];
-  collision::holdOut({h.x, h.y, h.z}, h.w, p, q);
+  collision::holdOut(h, p, q);
   x[i] = p;
   previous[i] = q;
 }

@@ -31,7 +31,7 @@ private:
   DeviceArray<int> order_, roots_, leaves_, visits_, threadNodes_, warpNodes_, blockNodes_, hint_;
   DeviceArray<float> stiffness_, depth_, slack_, moved_;
   DeviceArray<float3> last_;
-  DeviceArray<float4> hold_;  // CollisionDevice::hold
+  DeviceArray<collision::HoldPlane> hold_;  // CollisionDevice::hold
   DeviceArray<unsigned> motion_;
   DeviceArray<int> counter_;  // the level's steps so far (full searches every full_search_every)
   DeviceArray<unsigned char> exempt_;

@@ -12,6 +12,7 @@ struct Box;
 struct Tri;
 struct P3;
 struct ContactSettings;
+struct HoldPlane;
 }  // namespace sinew::collision
 namespace sinew::trianglebvh {
 struct Node;
@@ -178,9 +179,7 @@ struct CollisionDevice {
   float3* last = nullptr;  // the positions the last step saw
   unsigned* motion = nullptr;  // the step's largest move (a float's bits: atomicMax orders them)
   const unsigned char* exempt = nullptr;  // pairs left out (meshes x meshes), or null
-  // per vertex, the plane its contacts hold it out of after the step (collision::HoldPlane: normal,
-  // offset; a zero normal for none), or null when the hold is off
-  float4* hold = nullptr;
+  collision::HoldPlane* hold = nullptr;  // per vertex, the plane the hold moves it out of after the step
   int meshes = 0, nodeCount = 0, leafCount = 0;
 };
 // Deforming contacts (collision_kernels.cu; core/contact_links.h): adds alpha m_i (x_j + o_i - x_i)

@@ -87,10 +87,9 @@ public:
     auto x = ctx.store.positionsForWrite();
     auto previous = ctx.store.previousPositions();
     ctx.executor.forEach(ctx.store.vertexCount(), [&](Index v) {
-      const collision::HoldPlane& h = hold_[v];
-      if (h.side >= 3.0e38f) return;
+      if (!(hold_[v].side < 3.0e38f)) return;
       collision::P3 p = asP3(x[v]), q = asP3(previous[v]);
-      collision::holdOut(h.normal, h.offset, p, q);
+      collision::holdOut(hold_[v], p, q);
       x[v] = asVec3(p);
       previous[v] = asVec3(q);
     }, 4096);
@@ -132,7 +131,7 @@ void registerCollisionForce(Registry& registry) {
                      "keeps structures out of each other: a vertex inside another structure (or within the margin "
                      "of it) is pulled to the margin outside its surface; one past the middle of that structure moves back "
                      "into its own",
-                     {{"margin_mm", 0.15, 0.0, 5.0, "mm", "distance kept between the surfaces of two structures", false},
+                     {{"margin_mm", 0.15, 0.0, 5.0, "mm", "distance outside the other structure's surface that a touching vertex is pulled to", false},
                       {"contact_damping", 0.0, 0.0, 2.0, "", "damping of a touching vertex's motion (per step), on top of the integrator's", false},
                       {"reach_mm", 0.25, 0.05, 5.0, "mm", "how far beyond its last penetration a vertex looks for contacts each step (on top of twice its last step)", false},
                       {"retreat_mm", 0.25, 0.0, 5.0, "mm", "a vertex that has gone past the middle of another structure (its nearest surface there faces the way its own does) is pushed back into its own structure, as if pulled toward a point this far behind it along its normal, instead of on through", false},

@@ -238,21 +238,22 @@ struct ContactSettings {
 // passes next to where two surfaces cross at more than 90 degrees; there too the push takes over.)
 constexpr float kFacingBlend = 0.25f;
 // The plane a touching vertex is held out of after the step (the collision force's hold): of the
-// contacts that pull it (its own normal facing the other surface's), the one it is deepest in,
-// moved `hold` outside along its normal.
+// contacts that pull it, the one it is deepest in, moved `hold` outside along its normal. `weight`
+// is the pull's share (1 - passed, below): a contact turning past 90 degrees gives way to the
+// retreat gradually in the hold too, so that no last bit of a normal switches a jump on or off.
 struct HoldPlane {
   P3 normal{0, 0, 0};
   float offset = 0.0f;   // x is held to dot(normal, x) >= offset
   float side = 3.0e38f;  // the vertex's side of the contact when found; 3e38: no plane
+  float weight = 0.0f;   // the share of the way back to the plane that the hold moves x
 };
 SINEW_HD float respondTo(const Hit& h, P3 p, P3 previous, P3 ownNormal, float alpha, const ContactSettings& s,
                          float& deepest, P3& force, HoldPlane* hold = nullptr) {
   if (h.side >= s.margin) return 0.0f;
   deepest = fmax3(deepest, s.margin - h.side);
   const float passed = fmin3(fmax3(dot3(h.normal, ownNormal) / kFacingBlend, 0.0f), 1.0f);
-  if (hold && passed == 0.0f && h.side < hold->side)
-    *hold = {h.normal, dot3(h.normal, h.point) + s.hold, h.side};
   const float pull = alpha * (1.0f - passed);
+  if (hold && pull > 0.0f && h.side < hold->side) *hold = {h.normal, dot3(h.normal, h.point) + s.hold, h.side, 1.0f - passed};
   if (pull > 0.0f) {
     const P3 target = add(h.point, scale(h.normal, s.margin));
     force = add(force, sub(scale(sub(target, p), pull), scale(sub(p, previous), pull * s.damping)));
@@ -261,18 +262,19 @@ SINEW_HD float respondTo(const Hit& h, P3 p, P3 previous, P3 ownNormal, float al
   return pull;
 }
 
-// The hold itself: x moves out along the plane's normal onto it. The previous position moves with
-// it as far as the move exceeds the motion into the plane (the step's x - previous, its normal part
-// when negative): the hold takes the motion inward out of the velocity and never adds motion
-// outward. A vertex moved out of a deep contact at once kept that jump as velocity, and a small
-// sphere half inside another trembled by 0.1 mm a step.
-SINEW_HD void holdOut(P3 normal, float offset, P3& x, P3& previous) {
-  const float below = offset - dot3(normal, x);
+// The hold itself: x moves out along the plane's normal onto it (the weight's share of the way).
+// The previous position moves by as much, less the step's motion into the plane (the normal part
+// of x - previous, when negative), in the same share: the hold takes the motion inward out of the
+// velocity and adds none outward (the new normal velocity is max(v.n, 0) at weight 1). With the
+// previous position left where it was, a vertex moved out of a deep contact at once kept that jump
+// as velocity, and a small sphere half inside another trembled by 0.1 mm a step.
+SINEW_HD void holdOut(const HoldPlane& h, P3& x, P3& previous) {
+  if (!(h.side < 3.0e38f)) return;
+  const float below = h.offset - dot3(h.normal, x);
   if (!(below > 0.0f)) return;
-  const float inward = fmin3(dot3(normal, sub(x, previous)), 0.0f);
-  x = add(x, scale(normal, below));
-  const float carried = fmax3(below + inward, 0.0f);
-  previous = add(previous, scale(normal, carried));
+  const float inward = fmin3(dot3(h.normal, sub(x, previous)), 0.0f);
+  x = add(x, scale(h.normal, h.weight * below));
+  previous = add(previous, scale(h.normal, h.weight * (below + inward)));
 }
 
 // The full search's squared radius. Twice the vertex's own last step, per step until the next full
