@@ -329,7 +329,7 @@ __global__ void respondGroup(MeshView m, ParamView p, BvhView v, ContactSettings
   }
   if (!active || g != 0) {
     if (valid && g == 0 && stiffness) stiffness[i] = 0.0f;
-    if (valid && g == 0 && hold && settings.hold >= 0.0f) hold[i] = HoldPlane{};
+    if (valid && g == 0 && holdPlane) hold[i] = plane;  // none: nothing searched
     return;
   }
   if (search) {
@@ -371,7 +371,7 @@ __global__ void holdOut(MeshView m, const HoldPlane* hold) {
   const int i = blockIdx.x * blockDim.x + threadIdx.x;
   if (i >= m.vertices) return;
   const HoldPlane h = hold[i];
-  if (!(h.side < 3.0e38f)) return;
+  if (!(h.side < 3.0e38f)) return;  // most vertices: no plane, and no loads of x and prev
   P3* x = reinterpret_cast<P3*>(m.x);
   P3* previous = reinterpret_cast<P3*>(m.prev);
   P3 p = x[i], q = previous[i];

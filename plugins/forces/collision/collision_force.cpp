@@ -87,7 +87,6 @@ public:
     auto x = ctx.store.positionsForWrite();
     auto previous = ctx.store.previousPositions();
     ctx.executor.forEach(ctx.store.vertexCount(), [&](Index v) {
-      if (!(hold_[v].side < 3.0e38f)) return;
       collision::P3 p = asP3(x[v]), q = asP3(previous[v]);
       collision::holdOut(hold_[v], p, q);
       x[v] = asVec3(p);
