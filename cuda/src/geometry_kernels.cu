@@ -10,10 +10,23 @@ constexpr unsigned kThreads = 256;
 __device__ __forceinline__ float triangleArea(float3 a, float3 b, float3 c) { return 0.5f * norm(cross(b - a, c - a)); }
 __device__ __forceinline__ int pick(const int3& v, int k) { return k == 0 ? v.x : (k == 1 ? v.y : v.z); }
 
+// A cell's first kCellUnrolled vertices are loaded at once, then summed in order (the CPU's sum,
+// bit for bit); a loop over the cell's vertices left each load waiting for the last (H200, one
+// step of smoothing + shape prior at 2,656 vertices: 9.47 -> 8.70-8.75 us; docs/benchmarks.md).
+constexpr int kCellUnrolled = 8;
 __device__ __forceinline__ float3 centreOf(const MeshView& m, int c) {
-  float3 sum = make_float3(0, 0, 0);
   const int b = m.cellOffsets[c], e = m.cellOffsets[c + 1];
-  for (int i = b; i < e; ++i) sum = sum + m.x[m.cellVertices[i]];
+  int id[kCellUnrolled];
+#pragma unroll
+  for (int k = 0; k < kCellUnrolled; ++k) id[k] = b + k < e ? m.cellVertices[b + k] : 0;
+  float3 corner[kCellUnrolled];
+#pragma unroll
+  for (int k = 0; k < kCellUnrolled; ++k) corner[k] = b + k < e ? m.x[id[k]] : make_float3(0, 0, 0);
+  float3 sum = make_float3(0, 0, 0);
+#pragma unroll
+  for (int k = 0; k < kCellUnrolled; ++k)
+    if (b + k < e) sum = sum + corner[k];
+  for (int i = b + kCellUnrolled; i < e; ++i) sum = sum + m.x[m.cellVertices[i]];
   return sum / static_cast<float>(e - b);
 }
 
@@ -63,6 +76,51 @@ __global__ void vertexGeometry(MeshView m) {
   }
 }
 
+// The smallest scenes: four lanes a vertex, lanes 0-2 each computing one of its cells' centres
+// (and writing it as vertexGeometry<true> does), lane 0 then the rest from the three centres in
+// vertexGeometry's order (the same values). The centres' loads, the chain that sets these launches'
+// time, run side by side (H200, smoothing + shape prior at 2,656 / 10,624 vertices 8.7 -> 7.6-7.7 /
+// 8.8 -> 8.2 us a step; at 42,496 11.0-11.1 against 10.2: there the threads outnumber the work).
+__global__ void vertexGeometryLanes(MeshView m) {
+  const int t = blockIdx.x * blockDim.x + threadIdx.x;
+  const int v = t / 4, part = t % 4;
+  const bool real = v < m.vertices;  // every lane takes part in the shuffles below
+  int3 n{};
+  float3 p{}, p1{}, p2{}, p3{};
+  if (real && part == 0) {  // in flight beside the centres
+    n = m.neighbours[v];
+    p = m.x[v], p1 = m.x[n.x], p2 = m.x[n.y], p3 = m.x[n.z];
+  }
+  float3 mine = make_float3(0, 0, 0);
+  if (real && part < 3) {
+    const int c = pick(m.vertexCells[v], part);
+    mine = centreOf(m, c);
+    if (m.cellVertices[m.cellOffsets[c]] == v) m.cellCentre[c] = mine;
+  }
+  float3 centre[3];
+#pragma unroll
+  for (int j = 0; j < 3; ++j) {
+    const int from = (threadIdx.x % 32 & ~3) + j;
+    centre[j] = make_float3(__shfl_sync(0xffffffffu, mine.x, from), __shfl_sync(0xffffffffu, mine.y, from),
+                            __shfl_sync(0xffffffffu, mine.z, from));
+  }
+  if (!real || part != 0) return;
+  const Frame f = neighbourFrame(p1, p2, p3);
+  if (m.normal) m.normal[v] = f.normal;
+  if (m.elevation) m.elevation[v] = dot(p - p1, f.normal);
+  float a = 0.0f;
+  const float3 q[3] = {p1, p2, p3};
+#pragma unroll
+  for (int j = 0; j < 3; ++j) a += triangleArea(p, q[j], centre[j]) + triangleArea(p, q[j], centre[(j + 1) % 3]);
+  m.area[v] = a;
+  if (m.mass) {
+    const int mesh = m.meshOf[v];
+    const float mass = a * m.density[mesh];
+    m.mass[v] = m.massFloor && m.massFloor[mesh] > mass ? m.massFloor[mesh] : mass;  // as std::max on the host
+  }
+}
+constexpr int kLanesBelow = 16384;
+
 // Below this many vertices the centres are computed inside vertexGeometry: H100, 2026-11-24,
 // smoothing + shape prior per step 11.3 against 12.2 us at 42,496 vertices, equal at 169,984, and
 // 296 against 273 us at 2.7 M, where recomputing each centre three times costs more than its pass.
@@ -71,6 +129,10 @@ constexpr int kOwnCentresBelow = 131072;
 
 void launchGeometry(const MeshView& m, cudaStream_t s) {
   const unsigned vertexBlocks = (m.vertices + kThreads - 1) / kThreads;
+  if (m.area && m.cellCentre && m.vertices < kLanesBelow) {
+    vertexGeometryLanes<<<(4 * m.vertices + kThreads - 1) / kThreads, kThreads, 0, s>>>(m);
+    return;
+  }
   if (m.area && m.cellCentre && m.vertices < kOwnCentresBelow) {
     vertexGeometry<true><<<vertexBlocks, kThreads, 0, s>>>(m);
     return;

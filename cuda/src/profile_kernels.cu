@@ -254,8 +254,11 @@ void launchForReach(int maxReach, const MeshView& m, ParamView p, int kDepth, Vo
   else launchProfileLanes<10, kLanes>(m, p, kDepth, vol, image, profiles, inside, spacing, then, terms, s);
 }
 
-// Lanes per vertex by scene size, measured with bench_cuda case (a) on an H100 (docs/benchmarks.md,
-// 2026-11-25): 8 were best up to 10,624 vertices, 4 at 42,496, 2 from 169,984 up.
+// Lanes per vertex by scene size, measured with bench_cuda case (a) (docs/benchmarks.md): on an H100
+// (2026-11-25) 8 were best up to 10,624 vertices, 4 at 42,496, 2 from 169,984 up; on an H200 with the
+// terms and the move in the pass (2026-11-26) 8 / 4 / 2 / 1 lanes took 11.74 / 11.90-11.97 /
+// 13.36-13.43 / 16.04-16.26 us at 10,624 vertices and 26.99 / 22.97-23.01 / 21.91-22.14 / 24.91 us
+// at 42,496: 2 from 32,768 (between the two, unmeasured, the larger count's side was chosen).
 // SINEW_PROFILE_LANES (1, 2, 4 or 8) fixes it, for such sweeps.
 int lanesFor(int vertices) {
   static const int fixed = [] {
@@ -263,7 +266,7 @@ int lanesFor(int vertices) {
     return e ? std::atoi(e) : 0;
   }();
   if (fixed == 1 || fixed == 2 || fixed == 4 || fixed == 8) return fixed;
-  return vertices < 16384 ? 8 : vertices < 131072 ? 4 : 2;
+  return vertices < 16384 ? 8 : vertices < 32768 ? 4 : 2;
 }
 
 void launchRegisterKernel(const MeshView& m, ParamView p, int kDepth, VolumeView vol, cudaTextureObject_t image,

@@ -38,6 +38,7 @@ private slots:
     QTest::addColumn<QString>("integrator");
     QTest::newRow("8 lanes, 6,400 vertices") << 1 << 25 << 5.0 << "damped_verlet";
     QTest::newRow("4 lanes, 25,600 vertices") << 2 << 25 << 2.0 << "damped_verlet";
+    QTest::newRow("2 lanes with the move, 102,400 vertices") << 3 << 25 << 2.0 << "damped_verlet";
     QTest::newRow("2 lanes, 409,600 vertices") << 4 << 25 << 1.0 << "damped_verlet";
     QTest::newRow("one warp, 20 + 5 samples") << 0 << 20 << 5.0 << "damped_verlet";
     QTest::newRow("one warp, reach 12") << 0 << 25 << 6.0 << "damped_verlet";
