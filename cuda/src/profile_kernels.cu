@@ -98,9 +98,11 @@ __device__ __forceinline__ void scoreWindows(const float (&w)[kCount + kLength -
 // vertex's first lane then moves it by damped Verlet (the step's force complete): a vertex's
 // position is read and written by its own lanes only, so the move needs no pass of its own.
 // kWithTerms: the fused terms are summed here instead of read from m.force, and the move is
-// verletMoveAside (launchProfileAfterTerms).
+// verletMoveAside (launchProfileAfterTerms). Two lanes a vertex are held to 6 blocks an SM (80
+// registers): at 7 (72) the kernel with the terms spilled 40 bytes (H200, case (a): 42,496 vertices
+// 21.6 -> 20.9-21.1 us a step, 2,719,744 vertices 699-702 -> 681-682).
 template <int kLength, int kMaxReach, int kLanes, bool kWithTerms>
-__global__ void __launch_bounds__(128, kLanes == 1 ? 0 : kLanes == 2 ? 7 : 8) profileLanes(MeshView m, ParamView p, int kDepth, VolumeView vol,
+__global__ void __launch_bounds__(128, kLanes == 1 ? 0 : kLanes == 2 ? 6 : 8) profileLanes(MeshView m, ParamView p, int kDepth, VolumeView vol,
                                                     cudaTextureObject_t image, const float* __restrict__ profiles,
                                                     int inside, float spacing, bool integrate, VerletMove move,
                                                     FusedTerms terms) {
@@ -121,17 +123,19 @@ __global__ void __launch_bounds__(128, kLanes == 1 ? 0 : kLanes == 2 ? 7 : 8) pr
     if (i < count * kLength) refs[warp][(i / kLength) * kRefRow + i % kLength] = profiles[static_cast<size_t>(first) * kLength + i];
   }
   int reach = -1;  // -1: nothing to do for this vertex
-  float3 n = make_float3(0, 0, 0);
+  float3 n = make_float3(0, 0, 0), at = n;
   if (v < m.vertices) {
+    // Loaded before the weight is known, beside the structure's index: one round trip fewer before
+    // the line's fetches (H200, case (a): 2,656 vertices 9.50 -> 9.18-9.29 us a step, 2,719,744
+    // vertices 699-702 -> 680-686).
+    n = m.normal[v];
+    at = m.x[v];
     const int mesh = m.meshOf[v];
-    if (param(p, mesh, 0) > 0.0f) {
-      reach = profileReach(p, mesh, kDepth, spacing);  // <= kMaxReach (the launch checks)
-      n = m.normal[v];
-    }
+    if (param(p, mesh, 0) > 0.0f) reach = profileReach(p, mesh, kDepth, spacing);  // <= kMaxReach (the launch checks)
   }
   if (reach >= 0) {
     // This lane's slots part, part + kLanes, ...: unrolled, every fetch in flight at once.
-    const Line path = searchLine(vol, m.x[v], n, static_cast<float>(part - kMaxReach - inside) + 0.5f, spacing);
+    const Line path = searchLine(vol, at, n, static_cast<float>(part - kMaxReach - inside) + 0.5f, spacing);
     float* line = &lines[warp][mine * kRow + part];
 #pragma unroll
     for (int k = 0; k < (kLine + kLanes - 1) / kLanes; ++k)
