@@ -189,7 +189,6 @@ __device__ void testNodeWarp(const BvhView& v, int id, P3 q, int owner, const P3
 __device__ Hit closestPointWarp(const BvhView& v, int mesh, P3 p, const P3* x, const P3* centres, float maxD2, int hint,
                                 bool walks) {
   constexpr unsigned all = 0xffffffffu;
-  const int lane = threadIdx.x % 32;
   Hit best{maxD2, p, {0, 0, 0}, 0.0f, -1};
   bool found = false;
   struct Entry {
