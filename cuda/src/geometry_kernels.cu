@@ -36,43 +36,49 @@ __global__ void cellCentres(MeshView m) {
   m.cellCentre[c] = centreOf(m, c);
 }
 
+// Cell c's centre as one of its vertices v computes it, written back when v is the cell's first
+// vertex, so that later kernels of the step find every centre, each written once.
+__device__ __forceinline__ float3 ownCentre(const MeshView& m, int c, int v) {
+  const float3 centre = centreOf(m, c);
+  if (m.cellVertices[m.cellOffsets[c]] == v) m.cellCentre[c] = centre;
+  return centre;
+}
+// Vertex v's normal and elevation from its neighbours q (when required).
+__device__ __forceinline__ void storeFrame(const MeshView& m, int v, float3 p, const float3 (&q)[3]) {
+  const Frame f = neighbourFrame(q[0], q[1], q[2]);
+  if (m.normal) m.normal[v] = f.normal;
+  if (m.elevation) m.elevation[v] = dot(p - q[0], f.normal);
+}
+// Vertex v's area (the Fig. 1b triangles with its neighbours q and its cells' centres) and mass.
+__device__ __forceinline__ void storeAreaAndMass(const MeshView& m, int v, float3 p, const float3 (&q)[3],
+                                                 const float3 (&centre)[3]) {
+  float a = 0.0f;
+#pragma unroll
+  for (int j = 0; j < 3; ++j) a += triangleArea(p, q[j], centre[j]) + triangleArea(p, q[j], centre[(j + 1) % 3]);
+  m.area[v] = a;
+  if (m.mass) {
+    const int mesh = m.meshOf[v];
+    const float mass = a * m.density[mesh];
+    m.mass[v] = m.massFloor && m.massFloor[mesh] > mass ? m.massFloor[mesh] : mass;  // as std::max on the host
+  }
+}
+
 // kOwnCentres: each vertex computes its three cells' centres itself (the same sums as
-// cellCentres) instead of reading them from the pass before, and writes those of the cells it is the
-// first vertex of, so that later kernels of the step find every centre. One launch fewer, for
+// cellCentres) instead of reading them from the pass before (ownCentre). One launch fewer, for
 // scenes small enough that launches, not memory, set the step's time (launchGeometry).
 template <bool kOwnCentres>
 __global__ void vertexGeometry(MeshView m) {
   const int v = blockIdx.x * blockDim.x + threadIdx.x;
   if (v >= m.vertices) return;
   const int3 n = m.neighbours[v];
-  const float3 p = m.x[v], p1 = m.x[n.x], p2 = m.x[n.y], p3 = m.x[n.z];
-  const Frame f = neighbourFrame(p1, p2, p3);
-  if (m.normal) m.normal[v] = f.normal;
-  if (m.elevation) m.elevation[v] = dot(p - p1, f.normal);
+  const float3 p = m.x[v], q[3] = {m.x[n.x], m.x[n.y], m.x[n.z]};
+  storeFrame(m, v, p, q);
   if (m.area) {
     const int3 c = m.vertexCells[v];
     float3 centre[3];
 #pragma unroll
-    for (int j = 0; j < 3; ++j) {
-      if constexpr (kOwnCentres) {
-        centre[j] = centreOf(m, pick(c, j));
-        if (m.cellVertices[m.cellOffsets[pick(c, j)]] == v) m.cellCentre[pick(c, j)] = centre[j];
-      } else {
-        centre[j] = m.cellCentre[pick(c, j)];
-      }
-    }
-    float a = 0.0f;
-#pragma unroll
-    for (int j = 0; j < 3; ++j) {
-      const float3 q = m.x[pick(n, j)];
-      a += triangleArea(p, q, centre[j]) + triangleArea(p, q, centre[(j + 1) % 3]);
-    }
-    m.area[v] = a;
-    if (m.mass) {
-      const int mesh = m.meshOf[v];
-      const float mass = a * m.density[mesh];
-      m.mass[v] = m.massFloor && m.massFloor[mesh] > mass ? m.massFloor[mesh] : mass;  // as std::max on the host
-    }
+    for (int j = 0; j < 3; ++j) centre[j] = kOwnCentres ? ownCentre(m, pick(c, j), v) : m.cellCentre[pick(c, j)];
+    storeAreaAndMass(m, v, p, q, centre);
   }
 }
 
@@ -85,18 +91,12 @@ __global__ void vertexGeometryLanes(MeshView m) {
   const int t = blockIdx.x * blockDim.x + threadIdx.x;
   const int v = t / 4, part = t % 4;
   const bool real = v < m.vertices;  // every lane takes part in the shuffles below
-  int3 n{};
-  float3 p{}, p1{}, p2{}, p3{};
+  float3 p{}, q[3]{};
   if (real && part == 0) {  // in flight beside the centres
-    n = m.neighbours[v];
-    p = m.x[v], p1 = m.x[n.x], p2 = m.x[n.y], p3 = m.x[n.z];
+    const int3 n = m.neighbours[v];
+    p = m.x[v], q[0] = m.x[n.x], q[1] = m.x[n.y], q[2] = m.x[n.z];
   }
-  float3 mine = make_float3(0, 0, 0);
-  if (real && part < 3) {
-    const int c = pick(m.vertexCells[v], part);
-    mine = centreOf(m, c);
-    if (m.cellVertices[m.cellOffsets[c]] == v) m.cellCentre[c] = mine;
-  }
+  const float3 mine = real && part < 3 ? ownCentre(m, pick(m.vertexCells[v], part), v) : make_float3(0, 0, 0);
   float3 centre[3];
 #pragma unroll
   for (int j = 0; j < 3; ++j) {
@@ -105,19 +105,8 @@ __global__ void vertexGeometryLanes(MeshView m) {
                             __shfl_sync(0xffffffffu, mine.z, from));
   }
   if (!real || part != 0) return;
-  const Frame f = neighbourFrame(p1, p2, p3);
-  if (m.normal) m.normal[v] = f.normal;
-  if (m.elevation) m.elevation[v] = dot(p - p1, f.normal);
-  float a = 0.0f;
-  const float3 q[3] = {p1, p2, p3};
-#pragma unroll
-  for (int j = 0; j < 3; ++j) a += triangleArea(p, q[j], centre[j]) + triangleArea(p, q[j], centre[(j + 1) % 3]);
-  m.area[v] = a;
-  if (m.mass) {
-    const int mesh = m.meshOf[v];
-    const float mass = a * m.density[mesh];
-    m.mass[v] = m.massFloor && m.massFloor[mesh] > mass ? m.massFloor[mesh] : mass;  // as std::max on the host
-  }
+  storeFrame(m, v, p, q);
+  storeAreaAndMass(m, v, p, q, centre);
 }
 constexpr int kLanesBelow = 16384;
 
