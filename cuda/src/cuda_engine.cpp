@@ -227,7 +227,7 @@ struct CudaEngine::Impl {
   void enqueueCoarseForces(float weight) {
     for (auto& c : coarseLevels) {
       launchGather(c->gatherIndex.get(), c->view.vertices, view.x, c->view.x, stream);
-      launchGeometry(c->view, stream);
+      launchGeometry(c->view, c->topology.cellSpans.get(), stream);
       SINEW_CUDA(cudaMemsetAsync(c->force.get(), 0, c->force.bytes(), stream));
       for (const ForceSlot& f : forces) {
         const ParamTable& t = sim.forceParams(f.name);
@@ -354,7 +354,7 @@ struct CudaEngine::Impl {
   // One step, as Simulation::step: geometry, forces with a positive weight somewhere, Verlet. The
   // leading per-vertex forces run fused in one kernel; the others follow in order.
   void enqueueStep() {
-    launchGeometry(view, stream);
+    launchGeometry(view, topology.cellSpans.get(), stream);
     // With the affine regularisation on, the image forces add into their own buffer (the gradient
     // then runs apart from the fused kernel), which is regularised into the force at the end.
     const float share = sim.affineRegularisation();

@@ -101,7 +101,7 @@ void DeviceRadial::upload(const MeshStore& s, const std::vector<int>& fresh, con
   // The fresh structures' medial vertices start from the votes of the surface as it is now.
   DeviceArray<int> freshOnDevice;
   freshOnDevice.upload(fresh, stream);
-  launchGeometry(view, stream);
+  launchGeometry(view, nullptr, stream);  // once, when the medial vertices are placed
   launchRadialVotes(view, device(), freshOnDevice.get(), q_.get(), stream);
   SINEW_CUDA(cudaGetLastError());
   SINEW_CUDA(cudaStreamSynchronize(stream));

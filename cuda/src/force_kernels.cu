@@ -12,14 +12,14 @@ __global__ void smoothing(MeshView m, ParamView p, int kElevation) {
   const int v = blockIdx.x * blockDim.x + threadIdx.x;
   if (v >= m.vertices) return;
   const float alpha = param(p, m.meshOf[v], 0);
-  if (alpha > 0.0f) m.force[v] = m.force[v] + smoothingTerm(m, p, kElevation, v, alpha);
+  if (alpha > 0.0f) m.force[v] = m.force[v] + smoothingTerm(m, p, kElevation, v, m.neighbours[v], alpha);
 }
 
 __global__ void shapePrior(MeshView m, ParamView p, const float4* __restrict__ ref) {
   const int v = blockIdx.x * blockDim.x + threadIdx.x;
   if (v >= m.vertices) return;
   const float alpha = param(p, m.meshOf[v], 0);
-  if (alpha > 0.0f) m.force[v] = m.force[v] + shapePriorTerm(m, ref, v, alpha);
+  if (alpha > 0.0f) m.force[v] = m.force[v] + shapePriorTerm(m, ref, v, m.neighbours[v], alpha);
 }
 
 __global__ void gradient(MeshView m, ParamView p, int kEps, int kDepth, int kStep, VolumeView vol,
@@ -42,7 +42,7 @@ template <bool kWithGradient, bool kMove>
 __global__ void __launch_bounds__(kThreads, kWithGradient ? 0 : 5) fusedForces(MeshView m, FusedTerms t, VerletMove move) {
   const int v = blockIdx.x * blockDim.x + threadIdx.x;
   if (v >= m.vertices) return;
-  const float3 f = fusedSum<kWithGradient>(m, t, v);
+  const float3 f = fusedSum<kWithGradient, true>(m, t, v);
   m.force[v] = f;
   if constexpr (kMove) verletMoveAside(m, v, f, move.dt, move.keep);
 }

@@ -8,10 +8,10 @@
 namespace sinew::cuda {
 
 // Per-vertex force terms; each returns what its CPU plugin adds to forces[v] (alpha included).
-__device__ __forceinline__ float3 smoothingTerm(const MeshView& m, const ParamView& p, int kElevation, int v,
+// n: v's neighbours (m.neighbours[v]), loaded by the caller.
+__device__ __forceinline__ float3 smoothingTerm(const MeshView& m, const ParamView& p, int kElevation, int v, int3 n,
                                                 float alpha) {
   const int mesh = m.meshOf[v];
-  const int3 n = m.neighbours[v];
   const float a0 = m.area[n.x], a1 = m.area[n.y], a2 = m.area[n.z];
   const float total = a0 + a1 + a2;
   const float3 x0 = m.x[n.x], x1 = m.x[n.y], x2 = m.x[n.z];
@@ -20,8 +20,8 @@ __device__ __forceinline__ float3 smoothingTerm(const MeshView& m, const ParamVi
   return alpha * (centre + lift * m.normal[v] - m.x[v]);
 }
 
-__device__ __forceinline__ float3 shapePriorTerm(const MeshView& m, const float4* __restrict__ ref, int v, float alpha) {
-  const int3 n = m.neighbours[v];
+__device__ __forceinline__ float3 shapePriorTerm(const MeshView& m, const float4* __restrict__ ref, int v, int3 n,
+                                                 float alpha) {
   const float3 p1 = m.x[n.x], p2 = m.x[n.y], p3 = m.x[n.z], x = m.x[v];
   const Frame f = neighbourFrame(p1, p2, p3);
   const float4 r = ref[v];
@@ -54,22 +54,39 @@ __device__ __forceinline__ float3 gradientTerm(const MeshView& m, const ParamVie
   return (alpha * (static_cast<float>(bestJ) * step)) * n;
 }
 
-// The fused terms' sum at v, in the scene's order (the CPU's order of additions).
-template <bool kWithGradient>
+// The fused terms' sum at v, in the scene's order (the CPU's order of additions). kWeightsFirst:
+// every term's weight (and v's neighbours) is read before the first term, so that a term's loads do
+// not wait for its weight (fusedForces: smoothing + shape prior 240.0 -> 233.4 us a step at 2.7 M
+// vertices on an H100). The profile pass, at its register limit, spilled with it (42,496 vertices
+// 20.3-20.4 -> 20.4-20.5 us) and reads each weight in turn (docs/benchmarks.md).
+template <bool kWithGradient, bool kWeightsFirst>
 __device__ __forceinline__ float3 fusedSum(const MeshView& m, const FusedTerms& t, int v) {
   const int mesh = m.meshOf[v];
-  float3 f = make_float3(0, 0, 0);
-  for (int i = 0; i < t.count; ++i) {
-    const FusedTerm& term = t.terms[i];
-    const float alpha = param(term.params, mesh, 0);
-    if (!(alpha > 0.0f)) continue;
+  const int3 first = kWeightsFirst ? m.neighbours[v] : make_int3(0, 0, 0);
+  const auto add = [&](float3& f, const FusedTerm& term, float alpha) {
+    const int3 n = kWeightsFirst ? first : m.neighbours[v];
     switch (term.kind) {
-      case FusedTerm::Smoothing: f = f + smoothingTerm(m, term.params, term.k0, v, alpha); break;
-      case FusedTerm::ShapePrior: f = f + shapePriorTerm(m, t.reference, v, alpha); break;
+      case FusedTerm::Smoothing: f = f + smoothingTerm(m, term.params, term.k0, v, n, alpha); break;
+      case FusedTerm::ShapePrior: f = f + shapePriorTerm(m, t.reference, v, n, alpha); break;
       case FusedTerm::Gradient:
         if constexpr (kWithGradient)
           f = f + gradientTerm(m, term.params, term.k0, term.k1, term.k2, t.gradientVolume, t.gradient, v, alpha);
         break;
+    }
+  };
+  float3 f = make_float3(0, 0, 0);
+  if constexpr (kWeightsFirst) {
+    constexpr int kMaxTerms = sizeof(t.terms) / sizeof(t.terms[0]);
+    float weight[kMaxTerms];
+#pragma unroll
+    for (int i = 0; i < kMaxTerms; ++i) weight[i] = i < t.count ? param(t.terms[i].params, mesh, 0) : 0.0f;
+#pragma unroll
+    for (int i = 0; i < kMaxTerms; ++i)
+      if (weight[i] > 0.0f) add(f, t.terms[i], weight[i]);
+  } else {
+    for (int i = 0; i < t.count; ++i) {
+      const float alpha = param(t.terms[i].params, mesh, 0);
+      if (alpha > 0.0f) add(f, t.terms[i], alpha);
     }
   }
   return f;

@@ -10,12 +10,12 @@ constexpr unsigned kThreads = 256;
 __device__ __forceinline__ float triangleArea(float3 a, float3 b, float3 c) { return 0.5f * norm(cross(b - a, c - a)); }
 __device__ __forceinline__ int pick(const int3& v, int k) { return k == 0 ? v.x : (k == 1 ? v.y : v.z); }
 
-// A cell's first kCellUnrolled vertices are loaded at once, then summed in order (the CPU's sum,
-// bit for bit); a loop over the cell's vertices left each load waiting for the last (H200, one
-// step of smoothing + shape prior at 2,656 vertices: 9.47 -> 8.70-8.75 us; docs/benchmarks.md).
+// The centre of the cell whose vertices are m.cellVertices[b .. e - 1]. Its first kCellUnrolled
+// vertices are loaded at once, then summed in order (the CPU's sum, bit for bit); a loop over the
+// cell's vertices left each load waiting for the last (H200, one step of smoothing + shape prior at
+// 2,656 vertices: 9.47 -> 8.70-8.75 us; docs/benchmarks.md).
 constexpr int kCellUnrolled = 8;
-__device__ __forceinline__ float3 centreOf(const MeshView& m, int c) {
-  const int b = m.cellOffsets[c], e = m.cellOffsets[c + 1];
+__device__ __forceinline__ float3 centreAt(const MeshView& m, int b, int e) {
   int id[kCellUnrolled];
 #pragma unroll
   for (int k = 0; k < kCellUnrolled; ++k) id[k] = b + k < e ? m.cellVertices[b + k] : 0;
@@ -29,6 +29,9 @@ __device__ __forceinline__ float3 centreOf(const MeshView& m, int c) {
   for (int i = b + kCellUnrolled; i < e; ++i) sum = sum + m.x[m.cellVertices[i]];
   return sum / static_cast<float>(e - b);
 }
+__device__ __forceinline__ float3 centreOf(const MeshView& m, int c) {
+  return centreAt(m, m.cellOffsets[c], m.cellOffsets[c + 1]);
+}
 
 __global__ void cellCentres(MeshView m) {
   const int c = blockIdx.x * blockDim.x + threadIdx.x;
@@ -36,11 +39,24 @@ __global__ void cellCentres(MeshView m) {
   m.cellCentre[c] = centreOf(m, c);
 }
 
-// Cell c's centre as one of its vertices v computes it, written back when v is the cell's first
-// vertex, so that later kernels of the step find every centre, each written once.
-__device__ __forceinline__ float3 ownCentre(const MeshView& m, int c, int v) {
-  const float3 centre = centreOf(m, c);
-  if (m.cellVertices[m.cellOffsets[c]] == v) m.cellCentre[c] = centre;
+// The centre of v's cell j as v computes it, written back when v is the cell's first vertex, so
+// that later kernels of the step find every centre, each written once. spans: null, or the
+// vertices' cell spans (launchGeometry), read instead of the cell's offsets: the cell's vertices
+// are then one dependent load from v instead of two (H100, smoothing + shape prior at 2,656 /
+// 42,496 vertices 7.50 -> 7.33 / 10.07 -> 9.80-9.87 us a step).
+__device__ __forceinline__ float3 ownCentre(const MeshView& m, const int4* __restrict__ spans, int j, int v) {
+  const int c = pick(m.vertexCells[v], j);
+  int b, e;
+  if (spans) {
+    const int4 s = spans[v];
+    b = pick(make_int3(s.x, s.y, s.z), j);
+    e = b + ((s.w >> (kCellSpanBits * j)) & ((1 << kCellSpanBits) - 1));
+  } else {
+    b = m.cellOffsets[c];
+    e = m.cellOffsets[c + 1];
+  }
+  const float3 centre = centreAt(m, b, e);
+  if (m.cellVertices[b] == v) m.cellCentre[c] = centre;
   return centre;
 }
 // Vertex v's normal and elevation from its neighbours q (when required).
@@ -67,17 +83,17 @@ __device__ __forceinline__ void storeAreaAndMass(const MeshView& m, int v, float
 // cellCentres) instead of reading them from the pass before (ownCentre). One launch fewer, for
 // scenes small enough that launches, not memory, set the step's time (launchGeometry).
 template <bool kOwnCentres>
-__global__ void vertexGeometry(MeshView m) {
+__global__ void vertexGeometry(MeshView m, const int4* __restrict__ spans) {
   const int v = blockIdx.x * blockDim.x + threadIdx.x;
   if (v >= m.vertices) return;
   const int3 n = m.neighbours[v];
   const float3 p = m.x[v], q[3] = {m.x[n.x], m.x[n.y], m.x[n.z]};
   storeFrame(m, v, p, q);
   if (m.area) {
-    const int3 c = m.vertexCells[v];
     float3 centre[3];
 #pragma unroll
-    for (int j = 0; j < 3; ++j) centre[j] = kOwnCentres ? ownCentre(m, pick(c, j), v) : m.cellCentre[pick(c, j)];
+    for (int j = 0; j < 3; ++j)
+      centre[j] = kOwnCentres ? ownCentre(m, spans, j, v) : m.cellCentre[pick(m.vertexCells[v], j)];
     storeAreaAndMass(m, v, p, q, centre);
   }
 }
@@ -87,7 +103,7 @@ __global__ void vertexGeometry(MeshView m) {
 // vertexGeometry's order (the same values). The centres' loads, the chain that sets these launches'
 // time, run side by side (H200, smoothing + shape prior at 2,656 / 10,624 vertices 8.7 -> 7.6-7.7 /
 // 8.8 -> 8.2 us a step; at 42,496 11.0-11.1 against 10.2: there the threads outnumber the work).
-__global__ void vertexGeometryLanes(MeshView m) {
+__global__ void vertexGeometryLanes(MeshView m, const int4* __restrict__ spans) {
   const int t = blockIdx.x * blockDim.x + threadIdx.x;
   const int v = t / 4, part = t % 4;
   const bool real = v < m.vertices;  // every lane takes part in the shuffles below
@@ -96,7 +112,7 @@ __global__ void vertexGeometryLanes(MeshView m) {
     const int3 n = m.neighbours[v];
     p = m.x[v], q[0] = m.x[n.x], q[1] = m.x[n.y], q[2] = m.x[n.z];
   }
-  const float3 mine = real && part < 3 ? ownCentre(m, pick(m.vertexCells[v], part), v) : make_float3(0, 0, 0);
+  const float3 mine = real && part < 3 ? ownCentre(m, spans, part, v) : make_float3(0, 0, 0);
   float3 centre[3];
 #pragma unroll
   for (int j = 0; j < 3; ++j) {
@@ -116,18 +132,20 @@ constexpr int kLanesBelow = 16384;
 constexpr int kOwnCentresBelow = 131072;
 }  // namespace
 
-void launchGeometry(const MeshView& m, cudaStream_t s) {
+bool geometryReadsCellSpans(int vertices) { return vertices < kOwnCentresBelow; }
+
+void launchGeometry(const MeshView& m, const int4* cellSpans, cudaStream_t s) {
   const unsigned vertexBlocks = (m.vertices + kThreads - 1) / kThreads;
   if (m.area && m.cellCentre && m.vertices < kLanesBelow) {
-    vertexGeometryLanes<<<(4 * m.vertices + kThreads - 1) / kThreads, kThreads, 0, s>>>(m);
+    vertexGeometryLanes<<<(4 * m.vertices + kThreads - 1) / kThreads, kThreads, 0, s>>>(m, cellSpans);
     return;
   }
   if (m.area && m.cellCentre && m.vertices < kOwnCentresBelow) {
-    vertexGeometry<true><<<vertexBlocks, kThreads, 0, s>>>(m);
+    vertexGeometry<true><<<vertexBlocks, kThreads, 0, s>>>(m, cellSpans);
     return;
   }
   if (m.cellCentre) cellCentres<<<(m.cells + kThreads - 1) / kThreads, kThreads, 0, s>>>(m);
-  if (m.normal || m.elevation || m.area) vertexGeometry<false><<<vertexBlocks, kThreads, 0, s>>>(m);
+  if (m.normal || m.elevation || m.area) vertexGeometry<false><<<vertexBlocks, kThreads, 0, s>>>(m, nullptr);
 }
 
 }  // namespace sinew::cuda

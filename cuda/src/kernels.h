@@ -52,7 +52,13 @@ inline bool hasGradientTerm(const FusedTerms& t) {
   return false;
 }
 
-void launchGeometry(const MeshView& m, cudaStream_t s);
+// The geometry the store requires (cell centres, normals, elevations, areas, masses). cellSpans:
+// null, or per vertex its three cells' first entries in m.cellVertices and their sizes
+// (kCellSpanBits bits each, in w), which scenes below geometryReadsCellSpans read instead of the
+// offsets.
+constexpr int kCellSpanBits = 10;
+bool geometryReadsCellSpans(int vertices);
+void launchGeometry(const MeshView& m, const int4* cellSpans, cudaStream_t s);
 // Writes (not adds) the fused terms' sum to m.force, zero when no term is active.
 void launchFusedForces(const MeshView& m, const FusedTerms& t, cudaStream_t s);
 void launchSmoothing(const MeshView& m, ParamView p, int elevationTerm, cudaStream_t s);

@@ -116,12 +116,15 @@ __global__ void __launch_bounds__(128, kLanes == 1 ? 0 : kLanes == 2 ? 6 : 8) pr
   const int first = (blockIdx.x * 4 + warp) * kPerWarp, v = first + mine;
   if (first >= m.vertices) return;  // the whole warp leaves together
   const int count = min(kPerWarp, m.vertices - first);
-  // The warp's reference profiles, read once and coalesced (unrolled: every load in flight at once).
+  // The warp's reference profiles: each vertex's read by consecutive lanes, all in flight at once,
+  // and stored to shared memory only after the line's fetches are issued, so that the two wait
+  // together (H100, case (a): 42,496 vertices 20.29-20.40 -> 20.03-20.24 us a step, 2,719,744
+  // vertices 725-728 -> 712-713; docs/benchmarks.md).
+  static_assert(kLength <= 32, "a lane per sample of a reference profile");
+  float refIn[kPerWarp];
 #pragma unroll
-  for (int k = 0; k < (kPerWarp * kLength + 31) / 32; ++k) {
-    const int i = lane + 32 * k;
-    if (i < count * kLength) refs[warp][(i / kLength) * kRefRow + i % kLength] = profiles[static_cast<size_t>(first) * kLength + i];
-  }
+  for (int r = 0; r < kPerWarp; ++r)
+    refIn[r] = lane < kLength && r < count ? profiles[static_cast<size_t>(first + r) * kLength + lane] : 0.0f;
   int reach = -1;  // -1: nothing to do for this vertex
   float3 n = make_float3(0, 0, 0), at = n;
   if (v < m.vertices) {
@@ -141,6 +144,9 @@ __global__ void __launch_bounds__(128, kLanes == 1 ? 0 : kLanes == 2 ? 6 : 8) pr
     for (int k = 0; k < (kLine + kLanes - 1) / kLanes; ++k)
       if (kLine % kLanes == 0 || part + kLanes * k < kLine) line[kLanes * k] = sampleLine(image, path, float(kLanes * k));
   }
+#pragma unroll
+  for (int r = 0; r < kPerWarp; ++r)
+    if (lane < kLength && r < count) refs[warp][r * kRefRow + lane] = refIn[r];
   __syncwarp();
   float best = -2.0f;
   int bestJ = 0;
@@ -163,7 +169,7 @@ __global__ void __launch_bounds__(128, kLanes == 1 ? 0 : kLanes == 2 ? 6 : 8) pr
   }
   if (part != 0 || v >= m.vertices || (reach < 0 && !integrate && !kWithTerms)) return;
   float3 f;
-  if constexpr (kWithTerms) f = fusedSum<false>(m, terms, v);
+  if constexpr (kWithTerms) f = fusedSum<false, false>(m, terms, v);
   else f = m.force[v];
   if (reach >= 0) f = f + (param(p, m.meshOf[v], 0) * (static_cast<float>(bestJ) * spacing)) * n;
   if (reach >= 0 || kWithTerms) m.force[v] = f;
