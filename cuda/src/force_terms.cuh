@@ -62,9 +62,9 @@ __device__ __forceinline__ float3 gradientTerm(const MeshView& m, const ParamVie
 template <bool kWithGradient, bool kWeightsFirst>
 __device__ __forceinline__ float3 fusedSum(const MeshView& m, const FusedTerms& t, int v) {
   const int mesh = m.meshOf[v];
-  const int3 first = kWeightsFirst ? m.neighbours[v] : make_int3(0, 0, 0);
+  const int3 early = kWeightsFirst ? m.neighbours[v] : make_int3(0, 0, 0);  // with the weights
   const auto add = [&](float3& f, const FusedTerm& term, float alpha) {
-    const int3 n = kWeightsFirst ? first : m.neighbours[v];
+    const int3 n = kWeightsFirst ? early : m.neighbours[v];
     switch (term.kind) {
       case FusedTerm::Smoothing: f = f + smoothingTerm(m, term.params, term.k0, v, n, alpha); break;
       case FusedTerm::ShapePrior: f = f + shapePriorTerm(m, t.reference, v, n, alpha); break;
