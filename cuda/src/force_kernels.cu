@@ -7,6 +7,12 @@ namespace sinew::cuda {
 namespace {
 constexpr unsigned kThreads = 256;
 unsigned blocks(int n) { return (n + kThreads - 1) / kThreads; }
+// The fused pass's blocks: below 131,072 vertices 64 threads, so that its few warps spread over
+// every SM (H100, smoothing + shape prior with the move at 2,656 / 10,624 / 42,496 vertices 7.05 /
+// 7.48 / 9.31 -> 6.90-6.94 / 7.15-7.17 / 8.99-9.06 us a step; 128 threads between the two;
+// docs/benchmarks.md). The kernel's register bound stays that of 256 threads.
+constexpr int kSmallBlocksBelow = 131072;
+unsigned fusedThreads(int n) { return n < kSmallBlocksBelow ? 64 : kThreads; }
 
 __global__ void smoothing(MeshView m, ParamView p, int kElevation) {
   const int v = blockIdx.x * blockDim.x + threadIdx.x;
@@ -74,12 +80,14 @@ void launchGradient(const MeshView& m, ParamView p, int kEps, int kDepth, int kS
   gradient<<<blocks(m.vertices), kThreads, 0, s>>>(m, p, kEps, kDepth, kStep, vol, grad);
 }
 void launchFusedForces(const MeshView& m, const FusedTerms& t, cudaStream_t s) {
-  if (hasGradientTerm(t)) fusedForces<true, false><<<blocks(m.vertices), kThreads, 0, s>>>(m, t, VerletMove{});
-  else fusedForces<false, false><<<blocks(m.vertices), kThreads, 0, s>>>(m, t, VerletMove{});
+  const unsigned threads = fusedThreads(m.vertices), grid = (m.vertices + threads - 1) / threads;
+  if (hasGradientTerm(t)) fusedForces<true, false><<<grid, threads, 0, s>>>(m, t, VerletMove{});
+  else fusedForces<false, false><<<grid, threads, 0, s>>>(m, t, VerletMove{});
 }
 void launchFusedForcesAndMove(const MeshView& m, const FusedTerms& t, const VerletMove& move, cudaStream_t s) {
-  if (hasGradientTerm(t)) fusedForces<true, true><<<blocks(m.vertices), kThreads, 0, s>>>(m, t, move);
-  else fusedForces<false, true><<<blocks(m.vertices), kThreads, 0, s>>>(m, t, move);
+  const unsigned threads = fusedThreads(m.vertices), grid = (m.vertices + threads - 1) / threads;
+  if (hasGradientTerm(t)) fusedForces<true, true><<<grid, threads, 0, s>>>(m, t, move);
+  else fusedForces<false, true><<<grid, threads, 0, s>>>(m, t, move);
 }
 void launchVerlet(const MeshView& m, float dt, float keep, cudaStream_t s) {
   verlet<<<blocks(m.vertices), kThreads, 0, s>>>(m, dt, keep);

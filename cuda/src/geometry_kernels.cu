@@ -126,6 +126,11 @@ __global__ void vertexGeometryLanes(MeshView m, const int4* __restrict__ spans) 
 }
 constexpr int kLanesBelow = 16384;
 
+// vertexGeometry<true>'s blocks: 64 threads spread its few warps over every SM (at 42,496 vertices
+// 664 blocks instead of 166 on 132 SMs; H100, case (a) 20.30-20.41 -> 19.65-19.80 us a step, 128
+// threads 19.86-20.02; docs/benchmarks.md).
+constexpr unsigned kOwnCentresThreads = 64;
+
 // Below this many vertices the centres are computed inside vertexGeometry: H100, 2026-11-24,
 // smoothing + shape prior per step 11.3 against 12.2 us at 42,496 vertices, equal at 169,984, and
 // 296 against 273 us at 2.7 M, where recomputing each centre three times costs more than its pass.
@@ -141,7 +146,8 @@ void launchGeometry(const MeshView& m, const int4* cellSpans, cudaStream_t s) {
     return;
   }
   if (m.area && m.cellCentre && m.vertices < kOwnCentresBelow) {
-    vertexGeometry<true><<<vertexBlocks, kThreads, 0, s>>>(m, cellSpans);
+    vertexGeometry<true><<<(m.vertices + kOwnCentresThreads - 1) / kOwnCentresThreads, kOwnCentresThreads, 0, s>>>(
+        m, cellSpans);
     return;
   }
   if (m.cellCentre) cellCentres<<<(m.cells + kThreads - 1) / kThreads, kThreads, 0, s>>>(m);

@@ -30,6 +30,28 @@ private slots:
     }
   }
 
+  // Refined cells are numbered in the order of their least vertex (passes over the cells then
+  // gather from nearby vertices), and each vertex's cells still contain it.
+  void refinedCellsFollowTheirLeastVertex() {
+    const LevelHierarchy h = LevelHierarchy::build(SimplexMesh::sphere(1).topology, 3);
+    for (int l = 1; l < 3; ++l) {
+      const SimplexTopology& t = h.levels[l];
+      Index previous = -1;
+      for (Index c = 0; c < t.cellCount(); ++c) {
+        const auto begin = t.cellVertices.begin() + t.cellOffsets[c], end = t.cellVertices.begin() + t.cellOffsets[c + 1];
+        QVERIFY(end - begin >= 3);
+        const Index least = *std::min_element(begin, end);
+        QVERIFY(least >= previous);
+        previous = least;
+      }
+      for (Index v = 0; v < t.vertexCount(); ++v)
+        for (int k = 0; k < 3; ++k) {
+          const Index c = t.vertexCells[v][k];
+          QVERIFY(std::count(t.cellVertices.begin() + t.cellOffsets[c], t.cellVertices.begin() + t.cellOffsets[c + 1], v) == 1);
+        }
+    }
+  }
+
   void prolongationRowsArePartitionsOfUnity() {
     const RefinedTopology r = refine(SimplexMesh::sphere(2).topology);
     for (Index i = 0; i < r.prolongation.fineCount(); ++i) {

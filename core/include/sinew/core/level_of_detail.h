@@ -30,6 +30,7 @@ struct RefinedTopology {
 // Fine vertex 4t is the centre child of coarse vertex t and sits on it; fine vertex 4t + k + 1 is
 // the corner child at cell vertexCells[t][k] and sits halfway between t and that cell's centre
 // (the centroid of the corner sub-triangle when simplex vertices are dual-triangle centroids).
+// The fine cells are numbered in the order of their least vertex.
 RefinedTopology refine(const SimplexTopology& coarse);
 
 // A structure's hierarchy: level 0 is the coarsest; prolongations[l] maps level l to l + 1.
