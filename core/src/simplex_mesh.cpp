@@ -1,26 +1,16 @@
 #include "sinew/core/simplex_mesh.h"
 
+#include "directed_edges.h"
+
 #include <algorithm>
-#include <unordered_map>
 
 namespace sinew {
-
-namespace {
-std::uint64_t edgeKey(Index a, Index b) {
-  return (static_cast<std::uint64_t>(static_cast<std::uint32_t>(a)) << 32) |
-         static_cast<std::uint32_t>(b);
-}
-}  // namespace
 
 SimplexTopology SimplexTopology::dualOf(const TriangleMesh& mesh) {
   validateClosedManifold(mesh);
   const Index nTri = static_cast<Index>(mesh.triangles.size());
   const Index nPoints = static_cast<Index>(mesh.points.size());
-  std::unordered_map<std::uint64_t, Index> directed;
-  directed.reserve(static_cast<size_t>(nTri) * 3);
-  for (Index t = 0; t < nTri; ++t)
-    for (int k = 0; k < 3; ++k)
-      directed.emplace(edgeKey(mesh.triangles[t][k], mesh.triangles[t][(k + 1) % 3]), t);
+  const DirectedEdges directed(mesh.triangles, nTri, nPoints);
 
   SimplexTopology topo;
   topo.neighbours.resize(nTri);
@@ -29,7 +19,7 @@ SimplexTopology SimplexTopology::dualOf(const TriangleMesh& mesh) {
     const auto& tri = mesh.triangles[t];
     for (int k = 0; k < 3; ++k) {
       // The triangle across edge (tri[k], tri[k+1]) holds it reversed.
-      topo.neighbours[t][k] = directed.at(edgeKey(tri[(k + 1) % 3], tri[k]));
+      topo.neighbours[t][k] = directed.find(tri[(k + 1) % 3], tri[k]);
       topo.vertexCells[t][k] = tri[k];
     }
   }
@@ -53,7 +43,7 @@ SimplexTopology SimplexTopology::dualOf(const TriangleMesh& mesh) {
       const auto& tri = mesh.triangles[t];
       const int k = static_cast<int>(std::find(tri.begin(), tri.end(), v) - tri.begin());
       // In (v, x, y) the next triangle counter-clockwise around v holds the directed edge (v, y).
-      t = directed.at(edgeKey(v, tri[(k + 2) % 3]));
+      t = directed.find(v, tri[(k + 2) % 3]);
     }
   }
   return topo;

@@ -1,18 +1,14 @@
 #include "sinew/core/triangle_mesh.h"
 
+#include "directed_edges.h"
+
 #include <algorithm>
 #include <map>
 #include <sstream>
-#include <unordered_map>
 
 namespace sinew {
 
 namespace {
-
-std::uint64_t edgeKey(Index a, Index b) {
-  return (static_cast<std::uint64_t>(static_cast<std::uint32_t>(a)) << 32) |
-         static_cast<std::uint32_t>(b);
-}
 
 TriangleMesh projectToSphere(TriangleMesh mesh, int level, float radius, const Vec3& centre) {
   for (int i = 0; i < level; ++i) mesh = subdivideMidpoint(mesh);
@@ -46,45 +42,59 @@ double TriangleMesh::area() const {
 
 void validateClosedManifold(const TriangleMesh& mesh) {
   const Index nPoints = static_cast<Index>(mesh.points.size());
+  const Index nTri = static_cast<Index>(mesh.triangles.size());
   if (mesh.triangles.empty()) throw InputError("mesh has no triangles");
-  // Directed edge -> triangle using it; detects inconsistent orientation and non-manifold edges.
-  std::unordered_map<std::uint64_t, Index> directed;
-  directed.reserve(mesh.triangles.size() * 3);
-  std::vector<int> valence(nPoints, 0);
-  for (Index t = 0; t < static_cast<Index>(mesh.triangles.size()); ++t) {
+  // The problems are reported as a scan of the triangles in order meets them. The first triangle
+  // with an index out of range or a repeated vertex ends that scan, so only the triangles before it
+  // take part in the edge checks that would have come first.
+  Index bad = nTri;
+  for (Index t = 0; t < nTri && bad == nTri; ++t) {
     const auto& tri = mesh.triangles[t];
-    for (int k = 0; k < 3; ++k) {
-      if (tri[k] < 0 || tri[k] >= nPoints) {
-        std::ostringstream m;
-        m << "triangle " << t << " refers to vertex " << tri[k] << " but the mesh has " << nPoints
-          << " vertices";
-        throw InputError(m.str());
-      }
-    }
-    if (tri[0] == tri[1] || tri[1] == tri[2] || tri[2] == tri[0]) {
-      std::ostringstream m;
-      m << "triangle " << t << " is degenerate (repeats vertex)";
-      throw InputError(m.str());
-    }
-    for (int k = 0; k < 3; ++k) {
-      const Index a = tri[k], b = tri[(k + 1) % 3];
-      ++valence[a];
-      auto [it, inserted] = directed.emplace(edgeKey(a, b), t);
-      if (!inserted) {
-        std::ostringstream m;
-        const bool reversePresent = directed.count(edgeKey(b, a)) > 0;
-        m << "edge (" << a << ", " << b << ") is used in the same direction by triangles "
-          << it->second << " and " << t
-          << (reversePresent ? ": the edge is shared by more than two triangles (non-manifold)"
-                             : ": the triangles are inconsistently oriented");
-        throw InputError(m.str());
+    for (Index v : tri)
+      if (v < 0 || v >= nPoints) bad = t;
+    if (tri[0] == tri[1] || tri[1] == tri[2] || tri[2] == tri[0]) bad = t;
+  }
+  const DirectedEdges directed(mesh.triangles, bad, nPoints);
+  // A directed edge used twice: the first second use in triangle order (triangle, then corner).
+  Index dupFrom = -1, dupTo = -1, dupFirst = -1, dupT = -1;
+  int dupCorner = 0;
+  for (Index a = 0; a < nPoints; ++a) {
+    const auto row = directed.from(a);
+    for (size_t i = 1; i < row.size(); ++i) {
+      if (row[i].to != row[i - 1].to || (i >= 2 && row[i - 2].to == row[i].to)) continue;
+      if (dupT < 0 || row[i].triangle < dupT || (row[i].triangle == dupT && row[i].corner < dupCorner)) {
+        dupFrom = a, dupTo = row[i].to, dupFirst = row[i - 1].triangle, dupT = row[i].triangle, dupCorner = row[i].corner;
       }
     }
   }
-  for (Index t = 0; t < static_cast<Index>(mesh.triangles.size()); ++t) {
+  if (dupT >= 0) {
+    // Whether the reverse edge had been met by then: more than two triangles share the edge.
+    bool reversePresent = false;
+    for (const DirectedEdge& e : directed.from(dupTo))
+      if (e.to == dupFrom && (e.triangle < dupT || (e.triangle == dupT && e.corner < dupCorner))) reversePresent = true;
+    std::ostringstream m;
+    m << "edge (" << dupFrom << ", " << dupTo << ") is used in the same direction by triangles " << dupFirst << " and "
+      << dupT
+      << (reversePresent ? ": the edge is shared by more than two triangles (non-manifold)"
+                         : ": the triangles are inconsistently oriented");
+    throw InputError(m.str());
+  }
+  if (bad < nTri) {
+    const auto& tri = mesh.triangles[bad];
+    for (Index v : tri)
+      if (v < 0 || v >= nPoints) {
+        std::ostringstream m;
+        m << "triangle " << bad << " refers to vertex " << v << " but the mesh has " << nPoints << " vertices";
+        throw InputError(m.str());
+      }
+    std::ostringstream m;
+    m << "triangle " << bad << " is degenerate (repeats vertex)";
+    throw InputError(m.str());
+  }
+  for (Index t = 0; t < nTri; ++t) {
     for (int k = 0; k < 3; ++k) {
       const Index a = mesh.triangles[t][k], b = mesh.triangles[t][(k + 1) % 3];
-      if (!directed.count(edgeKey(b, a))) {
+      if (directed.find(b, a) < 0) {
         std::ostringstream m;
         m << "edge (" << a << ", " << b << ") of triangle " << t
           << " has no opposite triangle: the mesh is open";
@@ -92,7 +102,9 @@ void validateClosedManifold(const TriangleMesh& mesh) {
       }
     }
   }
+  std::vector<Index> valence(nPoints);
   for (Index v = 0; v < nPoints; ++v) {
+    valence[v] = directed.outgoing(v);
     if (valence[v] == 0) {
       std::ostringstream m;
       m << "vertex " << v << " is not used by any triangle";
@@ -100,19 +112,17 @@ void validateClosedManifold(const TriangleMesh& mesh) {
     }
   }
   // Each vertex's triangles must form one fan: walk it and compare with the valence.
-  for (Index t0 = 0; t0 < static_cast<Index>(mesh.triangles.size()); ++t0) {
+  for (Index t0 = 0; t0 < nTri; ++t0) {
     for (int k0 = 0; k0 < 3; ++k0) {
       const Index v = mesh.triangles[t0][k0];
       if (valence[v] < 0) continue;  // already walked
       int steps = 0;
       Index t = t0;
-      int k = k0;
       do {
         // In (v, x, y) the next triangle around v holds the directed edge (v, y).
-        const Index y = mesh.triangles[t][(k + 2) % 3];
-        t = directed.at(edgeKey(v, y));
-        k = static_cast<int>(std::find(mesh.triangles[t].begin(), mesh.triangles[t].end(), v) -
-                             mesh.triangles[t].begin());
+        const auto& tri = mesh.triangles[t];
+        const int k = static_cast<int>(std::find(tri.begin(), tri.end(), v) - tri.begin());
+        t = directed.find(v, tri[(k + 2) % 3]);
         ++steps;
       } while (t != t0 && steps <= valence[v]);
       if (steps != valence[v]) {

@@ -1,5 +1,6 @@
 // A reusable model: building it from the atlas (12 AAL structures, 3 levels, Colin27's
-// mricron-data) against loading the saved model, side by side in one run.
+// mricron-data) against loading the saved model, side by side in one run; and the levels' topology
+// of a large scene (BM_BuildLevels).
 //   bench_model [--benchmark_filter=...]
 #include "synthetic.h"
 #include "sinew/core/model_builder.h"
@@ -84,8 +85,16 @@ void BM_EnterLevels(benchmark::State& state) {
 
 }  // namespace
 
+// The topology of six levels of a 1,280-vertex sphere, up to 1,310,720 vertices: what a model's
+// levels cost to build or load (LevelHierarchy::build, refine, dualOf) at a large scene's size.
+void BM_BuildLevels(benchmark::State& state) {
+  const SimplexTopology coarse = SimplexMesh::sphere(3).topology;
+  for (auto _ : state) benchmark::DoNotOptimize(LevelHierarchy::build(coarse, 6));
+}
+
 BENCHMARK(BM_EnterLevels)->Arg(1)->Arg(0)->ArgName("profiles")->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(5);
 BENCHMARK(BM_BuildModel)->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(3);
 BENCHMARK(BM_LoadModel)->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(10);
+BENCHMARK(BM_BuildLevels)->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(3);
 
 BENCHMARK_MAIN();

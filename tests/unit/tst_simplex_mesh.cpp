@@ -192,6 +192,24 @@ private slots:
     m.points.push_back(Vec3::Zero());
     expectRefusal(m, "vertex 12", "not used");
   }
+
+  // Of several problems, the one a scan of the triangles in order meets first is named (the
+  // directed edges are grouped by vertex, not met in that order, so this is checked).
+  void namesTheFirstProblemInTriangleOrder() {
+    TriangleMesh m = icosphere(1);
+    m.triangles[12][1] = m.triangles[12][0];               // degenerate
+    m.triangles.push_back(m.triangles[30]);                // an edge used twice, after it
+    expectRefusal(m, "triangle 12", "degenerate");
+    m = icosphere(1);
+    m.triangles[60][1] = m.triangles[60][0];               // degenerate, after the repeat
+    std::swap(m.triangles[5][1], m.triangles[5][2]);       // triangle 5 reversed
+    expectRefusal(m, "and 5", "inconsistently oriented");
+    m = icosphere(1);
+    const auto repeated = m.triangles[20];
+    m.triangles.insert(m.triangles.begin() + 40, repeated);  // triangle 40 repeats triangle 20
+    m.triangles[60][2] = 999;                                // out of range, after it
+    expectRefusal(m, "by triangles 20 and 40", "same direction");
+  }
 };
 
 QTEST_APPLESS_MAIN(TestSimplexMesh)
