@@ -55,8 +55,8 @@ RefinedTopology refine(const SimplexTopology& coarse) {
   // Fine triangle-mesh vertices: the coarse cells, then one midpoint per coarse simplex edge,
   // numbered as the loop below first meets them. Edge k of t (to neighbour k) separates cells k
   // and k + 1; its other side is the neighbour's edge between the same cells, the other way round.
-  // (A std::map keyed by the two cells took 1.7 s of refine's 9.0 s at 1,310,720 fine vertices;
-  // with this array and DirectedEdges in dualOf refine takes 0.45 s; docs/benchmarks.md.)
+  // (A std::map keyed by the two cells took about 0.9 s of refine's 4.1 s at 1,310,720 fine
+  // vertices; with this array and DirectedEdges in dualOf refine takes 0.42 s; docs/benchmarks.md.)
   std::vector<Index> midpointOfEdge(static_cast<size_t>(nCoarse) * 3, -1);
   Index nextMidpoint = nCells;
   auto midpoint = [&](Index t, int k) {
