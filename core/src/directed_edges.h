@@ -1,11 +1,11 @@
 // A triangle mesh's directed edges looked up by their two vertices, without a hash table: per start
 // vertex its outgoing edges in compressed rows, sorted by end vertex. Private to core (dualOf,
 // validateClosedManifold). With std::unordered_map, one node allocated per edge, those two took 3.2
-// of the 4.1 s that refining a level to 1,310,720 vertices took, and 0.29 s with this (2-core
+// of the 4.1 s that refining a level to 1,310,720 vertices took, and 0.22 s with this (2-core
 // machine; docs/benchmarks.md).
 #pragma once
 
-#include "sinew/core/types.h"
+#include "sinew/core/triangle_mesh.h"
 
 #include <algorithm>
 #include <array>
@@ -54,5 +54,9 @@ private:
   std::vector<Index> offsets_;
   std::vector<DirectedEdge> edges_;
 };
+
+// validateClosedManifold, handing back the directed edges it built (dualOf looks its neighbours
+// and fans up in them instead of building them again).
+DirectedEdges closedManifoldEdges(const TriangleMesh& mesh);
 
 }  // namespace sinew

@@ -56,7 +56,7 @@ RefinedTopology refine(const SimplexTopology& coarse) {
   // numbered as the loop below first meets them. Edge k of t (to neighbour k) separates cells k
   // and k + 1; its other side is the neighbour's edge between the same cells, the other way round.
   // (A std::map keyed by the two cells took about 0.9 s of refine's 4.1 s at 1,310,720 fine
-  // vertices; with this array and DirectedEdges in dualOf refine takes 0.42 s; docs/benchmarks.md.)
+  // vertices; with this array and DirectedEdges in dualOf refine takes 0.35 s; docs/benchmarks.md.)
   std::vector<Index> midpointOfEdge(static_cast<size_t>(nCoarse) * 3, -1);
   Index nextMidpoint = nCells;
   auto midpoint = [&](Index t, int k) {

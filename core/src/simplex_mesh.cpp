@@ -7,10 +7,9 @@
 namespace sinew {
 
 SimplexTopology SimplexTopology::dualOf(const TriangleMesh& mesh) {
-  validateClosedManifold(mesh);
+  const DirectedEdges directed = closedManifoldEdges(mesh);
   const Index nTri = static_cast<Index>(mesh.triangles.size());
   const Index nPoints = static_cast<Index>(mesh.points.size());
-  const DirectedEdges directed(mesh.triangles, nTri, nPoints);
 
   SimplexTopology topo;
   topo.neighbours.resize(nTri);

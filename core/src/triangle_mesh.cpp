@@ -40,7 +40,9 @@ double TriangleMesh::area() const {
   return s;
 }
 
-void validateClosedManifold(const TriangleMesh& mesh) {
+void validateClosedManifold(const TriangleMesh& mesh) { closedManifoldEdges(mesh); }
+
+DirectedEdges closedManifoldEdges(const TriangleMesh& mesh) {
   const Index nPoints = static_cast<Index>(mesh.points.size());
   const Index nTri = static_cast<Index>(mesh.triangles.size());
   if (mesh.triangles.empty()) throw InputError("mesh has no triangles");
@@ -134,6 +136,7 @@ void validateClosedManifold(const TriangleMesh& mesh) {
       valence[v] = -1;
     }
   }
+  return directed;
 }
 
 TriangleMesh subdivideMidpoint(const TriangleMesh& mesh) {
