@@ -232,6 +232,8 @@ __device__ Hit closestPointWarp(const BvhView& v, int mesh, P3 p, const P3* x, c
   return best;
 }
 
+constexpr int kRespondBlocks = 6;  // respondGroup's blocks an SM with the warp's leaf tests (below)
+
 // collision::contactWith for every lane of the warp at once (closestPointWarp).
 __device__ bool contactWithWarp(const BvhView& v, int own, int other, P3 p, float margin, float maxD2, int hint,
                                 const P3* x, const P3* centres, bool search, Hit& h, float& clearance2) {
@@ -261,10 +263,18 @@ __device__ bool contactWithWarp(const BvhView& v, int own, int other, P3 p, floa
 // instead of 78 us at 20,352 vertices, H100) and costs where many do (591 instead of 497 us at
 // 325,632). With kWarpLeaves the patch tests between full searches are the warp's too (H200: 51-57
 // -> 24 us a patch step at 20,352 vertices, 80-87 -> 46-49 at 81,408; docs/collisions.md).
+//
+// kWarpLeaves: held to 6 blocks of 128 threads an SM (80 registers instead of the compiler's 91,
+// which allowed 5). The walks are latency-bound (ncu at 20,352 vertices: 9.2 cycles between a
+// warp's instructions, 0.59 eligible warps per scheduler), so more warps hide more of it. H100, the
+// demo's response 66.2 -> 62.7-62.8 us a step at 20,352 vertices, 128.5 -> 123.4 at 81,408; with
+// 8 blocks (64 registers) 63.0 and 125.9. A lane per vertex (large scenes) is left unbounded: with
+// 6 blocks 830 -> 810 us at 325,632 vertices but 2,151 -> 2,236 at 1,269,152 (docs/collisions.md).
 template <int kGroup, bool kWarpLeaves>
-__global__ void respondGroup(MeshView m, ParamView p, BvhView v, ContactSettings settings, const int* counter, int every,
-                             const float* moved, const unsigned* motion, float* depth, int* hint, float* slack,
-                             float* stiffness, HoldPlane* hold) {
+__global__ void __launch_bounds__(kThreads, kWarpLeaves ? kRespondBlocks : 0)
+    respondGroup(MeshView m, ParamView p, BvhView v, ContactSettings settings, const int* counter, int every,
+                 const float* moved, const unsigned* motion, float* depth, int* hint, float* slack, float* stiffness,
+                 HoldPlane* hold) {
   const int t = blockIdx.x * blockDim.x + threadIdx.x;
   const int i = t / kGroup, g = t % kGroup;
   const bool valid = i < m.vertices;  // every lane stays for the shuffles
@@ -365,9 +375,14 @@ __global__ void contactSprings(MeshView m, ParamView p, const int* partner, cons
   }
   if (stiffness) stiffness[i] = k;
 }
-// CollisionForce::constrain's arithmetic.
-__global__ void holdOut(MeshView m, const HoldPlane* hold) {
+__device__ void advanceStep(int* counter, unsigned* motion) {
+  ++*counter;
+  *motion = 0;
+}
+// CollisionForce::constrain's arithmetic; then the step's end (advanceStep: the response read both).
+__global__ void holdOut(MeshView m, const HoldPlane* hold, int* counter, unsigned* motion) {
   const int i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i == 0) advanceStep(counter, motion);
   if (i >= m.vertices) return;
   const HoldPlane h = hold[i];
   if (!(h.side < 3.0e38f)) return;  // most vertices: no plane, and no loads of x and prev
@@ -378,10 +393,8 @@ __global__ void holdOut(MeshView m, const HoldPlane* hold) {
   x[i] = p;
   previous[i] = q;
 }
-__global__ void advance(int* counter, unsigned* motion) {
-  ++*counter;
-  *motion = 0;
-}
+// The step's end without a hold.
+__global__ void advance(int* counter, unsigned* motion) { advanceStep(counter, motion); }
 }  // namespace
 
 void launchContactSprings(const MeshView& m, ParamView p, const int* partner, const float3* offset, float* stiffness,
@@ -416,11 +429,12 @@ void launchCollision(const MeshView& m, ParamView p, const CollisionDevice& c, c
   else
     respondGroup<16, true><<<grid, kThreads, 0, s>>>(m, p, v, settings, c.counter, every, c.moved, c.motion, c.depth, c.hint, c.slack,
                                                 c.stiffness, c.hold);
-  advance<<<1, 1, 0, s>>>(c.counter, c.motion);
+  // With a hold, the hold's kernel ends the step: a launch fewer (2.7 us a step, H100).
+  if (settings.hold < 0.0f) advance<<<1, 1, 0, s>>>(c.counter, c.motion);
 }
 
 void launchCollisionHold(const MeshView& m, const CollisionDevice& c, cudaStream_t s) {
-  holdOut<<<(m.vertices + kThreads - 1) / kThreads, kThreads, 0, s>>>(m, c.hold);
+  holdOut<<<(m.vertices + kThreads - 1) / kThreads, kThreads, 0, s>>>(m, c.hold, c.counter, c.motion);
 }
 
 }  // namespace sinew::cuda

@@ -197,7 +197,8 @@ void launchContactSprings(const MeshView& m, ParamView p, const int* partner, co
 void launchCollision(const MeshView& m, ParamView p, const CollisionDevice& c, const collision::ContactSettings& settings,
                      int every, cudaStream_t s);
 // After the step's move: each vertex below its hold plane (c.hold, written by launchCollision when
-// settings.hold >= 0) moves out along its normal onto it (CollisionForce::constrain).
+// settings.hold >= 0) moves out along its normal onto it (CollisionForce::constrain). Must follow
+// every launchCollision with settings.hold >= 0: it also ends the collision's step (its counter).
 void launchCollisionHold(const MeshView& m, const CollisionDevice& c, cudaStream_t s);
 
 // The radial force (radial_kernels.cu; device_radial.h): the medial surfaces of the structures
