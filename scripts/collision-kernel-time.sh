@@ -7,7 +7,7 @@
 # MAKE_SCENE_ARGS: more sinew-make-scene options (e.g. another --structures list); SCHEDULE:
 # iterations per level instead (the finest level must run more than STEPS); MASS_FLOOR: every
 # structure's mass_floor; RUN: another sinew-run to time (an older build's, side by side); HOLD:
-# the collision force's hold_mm (-1: the pull alone); CLEARANCE: its clearance_mm.
+# the collision force's hold_mm (-1: the pull alone).
 # Usage: bash scripts/collision-kernel-time.sh BUILD_DIR OUT_DIR [LEVELS=3]
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -23,13 +23,12 @@ for c in off $(for k in ${EVERY:-1 4}; do echo "every$k"; done); do
   weight=1; [ "$c" = off ] && weight=0
   "$build/app/sinew-make-scene" --atlas "$t/aal.nii.gz" --labels "$t/aal.nii.txt" --training "$t/ch2better.nii.gz" \
     --target "$t/ch2.nii.gz" --seed 1 --iterations "${SCHEDULE:-${schedules[$levels]},60}" --collision-weight "$weight" ${MAKE_SCENE_ARGS:-} -o "$d/scene.json" >/dev/null
-  python3 - "$d/scene.json" "${c#every}" "${MASS_FLOOR:-}" "${HOLD:-}" "${CLEARANCE:-}" <<'PY'
+  python3 - "$d/scene.json" "${c#every}" "${MASS_FLOOR:-}" "${HOLD:-}" <<'PY'
 import json, sys
-p, every, floor, hold, clearance = sys.argv[1:]
+p, every, floor, hold = sys.argv[1:]
 j = json.load(open(p))
 if every != "off": j["forces"]["collision"]["full_search_every"] = int(every)
 if every != "off" and hold: j["forces"]["collision"]["hold_mm"] = float(hold)
-if every != "off" and clearance: j["forces"]["collision"]["clearance_mm"] = float(clearance)
 for s in j["structures"]:
     if floor: s["mass_floor"] = float(floor)
 json.dump(j, open(p, "w"), indent=1)
@@ -49,7 +48,7 @@ window = kernels[starts[-steps - 1]:starts[-1]]  # the last full steps (the fina
 total = sum(t for _, t in window) / steps / 1e6  # ns -> ms
 # The collision refit takes the BvhView (`refit` before 2026-11-25; since, `climbRefit` or
 # `vertexBoxes` and `nodeBoxes`); the sampled error has a refit of its own.
-coll = sum(t for n, t in window if "respond" in n or "Boxes" in n or "advance" in n or "holdOut" in n or "cellMotion" in n or "screen" in n
+coll = sum(t for n, t in window if "respond" in n or "Boxes" in n or "advance" in n or "holdOut" in n
            or ("efit" in n and "BvhView" in n)) / steps / 1e6
 r = json.load(open(report))
 verts = sum(s["vertices"] for s in r["structures"])

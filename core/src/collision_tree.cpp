@@ -65,13 +65,6 @@ CollisionTree CollisionTree::build(MeshStore& store) {
     tree.roots.push_back(b.build(int(store.range(m).vertexBegin), int(store.range(m).vertexEnd), -1));
   tree.boxes.resize(tree.nodes.size());
   tree.refit(x, store.cellCentres(), store.executor());
-  Eigen::AlignedBox3f all;
-  for (const Vec3& p : x) all.extend(p);
-  all.min().array() -= kMotionPad;
-  all.max().array() += kMotionPad;
-  const float edge = std::max(collision::kMotionCell, all.sizes().maxCoeff() / float(collision::kMotionCellsPerAxis));
-  const Eigen::Array3i cells = (all.sizes().array() / edge).ceil().cast<int>().max(1);
-  tree.motionShape = {nullptr, asP3(all.min()), 1.0f / edge, cells.x(), cells.y(), cells.z()};
   return tree;
 }
 
@@ -82,16 +75,6 @@ void CollisionTree::refit(std::span<const Vec3> positions, std::span<const Vec3>
   executor.forEach(Index(leaves.size()), [&](Index l) { boxes[leaves[l]] = collision::leafBox(v, nodes[leaves[l]], x, c); });
   for (int id = int(nodes.size()) - 1; id >= 0; --id)
     if (nodes[id].left >= 0) boxes[id] = collision::merge(boxes[nodes[id].left], boxes[nodes[id].right]);
-}
-
-void CollisionTree::fillMotionGrid(const MeshStore& store, std::span<const float> moved, std::vector<unsigned>& cells) const {
-  cells.assign(motionCellCount(), 0u);
-  const collision::P3* x = asP3(store.positions());
-  const int* offsets = store.cellOffsets().data();
-  const int* vertices = store.cellVertices().data();
-  for (Index c = 0; c < store.cellCount(); ++c)
-    collision::raiseCellMotion(motionShape, offsets, vertices, int(c), x, moved.data(),
-                               [&](int i, unsigned bits) { cells[i] = std::max(cells[i], bits); });
 }
 
 std::string CollisionTree::Enclosure::message(const SceneData& scene, float margin) const {

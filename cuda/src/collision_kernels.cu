@@ -14,34 +14,14 @@ namespace {
 constexpr unsigned kThreads = 128;
 using namespace sinew::collision;
 
-// The motion grid as the kernels see it (CollisionDevice::motionCells): both buffers (each with its
-// spill) and the shape.
-struct MotionBuffers {
-  unsigned* cells;
-  int count;  // per buffer, with the spill
-  MotionGrid shape;
-  __device__ unsigned* buffer(int counter) const { return cells + (counter & 1) * count; }
-  // The step's buffer (by the counter's parity), read by the response.
-  __device__ MotionGrid step(int counter) const {
-    MotionGrid g = shape;
-    g.cells = buffer(counter);
-    return g;
-  }
-};
-
 // Each vertex's move since the last step, and the step's largest into motion (every step: the
-// clearance pays for it where the motion grid cannot tell); the motion grid's buffer for the next
-// step cleared. Grid-stride by vertex index (coalesced); one atomic per block (one per warp of a
-// thread per vertex on the one address cost the climb 16 us at 325,632 vertices). Every thread of
-// the block calls it.
-__device__ void trackMotion(int vertices, const P3* x, int counter, MotionBuffers grid, float3* last, float* moved,
-                            unsigned* motion) {
+// clearance pays for it). Grid-stride by vertex index (coalesced); one atomic per block (one per
+// warp of a thread per vertex on the one address cost the climb 16 us at 325,632 vertices). Every
+// thread of the block calls it.
+__device__ void trackMotion(int vertices, const P3* x, float3* last, float* moved, unsigned* motion) {
   __shared__ float warpLargest[kThreads / 32];
-  const int stride = gridDim.x * blockDim.x;
-  unsigned* next = grid.buffer(counter + 1);
-  for (int c = blockIdx.x * blockDim.x + threadIdx.x; c < grid.count; c += stride) next[c] = 0u;
   float largest = 0.0f;
-  for (int i = blockIdx.x * blockDim.x + threadIdx.x; i < vertices; i += stride) {
+  for (int i = blockIdx.x * blockDim.x + threadIdx.x; i < vertices; i += gridDim.x * blockDim.x) {
     const float3 now = make_float3(x[i].x, x[i].y, x[i].z);
     const float3 d = now - last[i];
     moved[i] = sqrtf(dot(d, d));
@@ -57,50 +37,6 @@ __device__ void trackMotion(int vertices, const P3* x, int counter, MotionBuffer
   }
 }
 
-// The step's motion grid from the moves trackMotion wrote (the launch before): each mesh cell
-// raises its vertices' largest move in the grid cells its box overlaps (collision::raiseCellMotion,
-// the same values), kCellLanes lanes a mesh cell loading its vertices side by side and sharing the
-// raises. (A thread a cell, its vertices one after another: 9.7 us at 20,352 vertices, H100.)
-constexpr int kCellLanes = 8;
-__global__ void cellMotion(MeshView m, const float* moved, const int* counter, MotionBuffers grid) {
-  const int t = blockIdx.x * blockDim.x + threadIdx.x;
-  const int c = t / kCellLanes, lane = t % kCellLanes;
-  const bool valid = c < m.cells;  // every lane stays for the shuffles
-  const P3* x = reinterpret_cast<const P3*>(m.x);
-  Box b = emptyBox();
-  float most = 0.0f;
-  if (valid)
-    for (int i = m.cellOffsets[c] + lane; i < m.cellOffsets[c + 1]; i += kCellLanes) {
-      const int w = m.cellVertices[i];
-      extend(b, x[w]);
-      most = fmax3(most, moved[w]);
-    }
-  for (int o = kCellLanes / 2; o > 0; o /= 2) {
-    b.lo = {fminf(b.lo.x, __shfl_xor_sync(0xffffffffu, b.lo.x, o)), fminf(b.lo.y, __shfl_xor_sync(0xffffffffu, b.lo.y, o)),
-            fminf(b.lo.z, __shfl_xor_sync(0xffffffffu, b.lo.z, o))};
-    b.hi = {fmaxf(b.hi.x, __shfl_xor_sync(0xffffffffu, b.hi.x, o)), fmaxf(b.hi.y, __shfl_xor_sync(0xffffffffu, b.hi.y, o)),
-            fmaxf(b.hi.z, __shfl_xor_sync(0xffffffffu, b.hi.z, o))};
-    most = fmaxf(most, __shfl_xor_sync(0xffffffffu, most, o));
-  }
-  if (!valid) return;
-  unsigned* cells = grid.buffer(*counter);
-  const unsigned bits = __float_as_uint(most);
-  auto raise = [&](int k) {
-    if (cells[k] < bits) atomicMax(cells + k, bits);  // most already hold as much: no atomic
-  };
-  int first[3], last[3];
-  if (!motionSpan(grid.shape, b.lo, b.hi, first, last)) {
-    if (lane == 0) raise(grid.shape.count());  // the spill
-    return;
-  }
-  // Up to kMotionSpan^3 = 27 grid cells, lane k taking k, k + 8, ...
-  for (int k = lane; k < kMotionSpan * kMotionSpan * kMotionSpan; k += kCellLanes) {
-    const int gx = first[0] + k % kMotionSpan, gy = first[1] + (k / kMotionSpan) % kMotionSpan,
-              gz = first[2] + k / (kMotionSpan * kMotionSpan);
-    if (gx <= last[0] && gy <= last[1] && gz <= last[2]) raise((gz * grid.shape.ny + gy) * grid.shape.nx + gx);
-  }
-}
-
 // A box another block wrote this launch: read past L1 (not coherent between SMs).
 __device__ Box coherentBox(const Box* boxes, int id) {
   const float* f = reinterpret_cast<const float*>(boxes + id);
@@ -113,10 +49,9 @@ __device__ Box coherentBox(const Box* boxes, int id) {
 // merging its inner nodes height by height took longer: 19.6 against 32 us for the whole climb at
 // 20,352 vertices, 120 against about 70 us at 325,632.)
 __global__ void climbRefit(BvhView v, const int* leaves, int leafCount, int* visits, const P3* x, const P3* centres,
-                           const int* counter, int every, int vertices, MotionBuffers grid, float3* last, float* moved,
-                           unsigned* motion) {
+                           const int* counter, int every, int vertices, float3* last, float* moved, unsigned* motion) {
   const int l = blockIdx.x * blockDim.x + threadIdx.x;
-  trackMotion(vertices, x, *counter, grid, last, moved, motion);
+  trackMotion(vertices, x, last, moved, motion);
   if (l >= leafCount || *counter % every != 0) return;
   int id = leaves[l];
   v.boxes[id] = leafBox(v, v.nodes[id], x, centres);
@@ -135,9 +70,9 @@ __global__ void climbRefit(BvhView v, const int* leaves, int leafCount, int* vis
 // time: the motion, then each vertex's box in tree order (thread i: vertex i's move, tree position
 // i's box) ...
 __global__ void vertexBoxes(BvhView v, const P3* x, const P3* centres, const int* counter, int every, int vertices,
-                            MotionBuffers grid, float3* last, float* moved, unsigned* motion, Box* boxes) {
+                            float3* last, float* moved, unsigned* motion, Box* boxes) {
   const int i = blockIdx.x * blockDim.x + threadIdx.x;
-  trackMotion(vertices, x, *counter, grid, last, moved, motion);
+  trackMotion(vertices, x, last, moved, motion);
   if (i < vertices && *counter % every == 0) boxes[i] = vertexBox(v, i, x, centres);
 }
 
@@ -300,8 +235,8 @@ __device__ Hit closestPointWarp(const BvhView& v, int mesh, P3 p, const P3* x, c
 constexpr int kRespondBlocks = 6;  // respondGroup's blocks an SM with the warp's leaf tests (below)
 
 // collision::contactWith for every lane of the warp at once (closestPointWarp).
-__device__ bool contactWithWarp(const BvhView& v, int own, int other, P3 p, float margin, float maxD2, float searchD2,
-                                int hint, const P3* x, const P3* centres, bool search, Hit& h, float& clearance2) {
+__device__ bool contactWithWarp(const BvhView& v, int own, int other, P3 p, float margin, float maxD2, int hint,
+                                const P3* x, const P3* centres, bool search, Hit& h, float& clearance2) {
   bool walks = search && other < v.meshes && other != own && !(v.exempt && v.exempt[own * v.meshes + other]);
   if (walks) {
     const float box2 = squaredDistance(v.boxes[v.roots[other]], p);
@@ -310,53 +245,18 @@ __device__ bool contactWithWarp(const BvhView& v, int own, int other, P3 p, floa
       walks = false;
     }
   }
-  h = closestPointWarp(v, walks ? other : 0, p, x, centres, searchD2, hint, walks);
+  h = closestPointWarp(v, walks ? other : 0, p, x, centres, maxD2, hint, walks);
   if (!walks) return false;
-  clearance2 = fmin3(clearance2, h.d2);  // searchD2 where nothing was nearer
+  clearance2 = fmin3(clearance2, h.d2);  // maxD2 where nothing was nearer
   return h.d2 < maxD2;
-}
-
-// The clearance of every vertex (collision::clearOfContacts, with the motion near it from the
-// step's grid), a thread each: a vertex still clear of every structure has its slack paid and no
-// contact (stiffness 0, no hold plane); the others are listed for the response. Before, the
-// response's kGroup lanes per vertex did this for every vertex: at 20,352 vertices 16 lanes a vertex
-// spent most of the kernel on vertices that then did not search (docs/collisions.md).
-__global__ void screenVertices(MeshView m, ParamView p, ContactSettings settings, const int* counter, const float* moved,
-                               const unsigned* motion, MotionBuffers grid, const float* depth, float* slack,
-                               float* stiffness, HoldPlane* hold, int* listed, int* listedCount) {
-  const int i = blockIdx.x * blockDim.x + threadIdx.x;
-  const bool valid = i < m.vertices;  // every lane stays for the ballot
-  bool searches = false;
-  if (valid && param(p, m.meshOf[i], 0) > 0.0f) {
-    const float lastDepth = depth[i];
-    float lastSlack = slack[i];
-    const float largest = __uint_as_float(*motion);
-    const float near = hasSlack(lastDepth, lastSlack)
-                           ? localMotion(grid.step(*counter), reinterpret_cast<const P3*>(m.x)[i],
-                                         nearRadius(lastSlack, settings.margin), largest)
-                           : largest;
-    searches = !clearOfContacts(lastDepth, moved[i], near, lastSlack);
-    slack[i] = lastSlack;
-  }
-  if (valid && !searches) {
-    if (stiffness) stiffness[i] = 0.0f;
-    if (hold && settings.hold >= 0.0f) hold[i] = HoldPlane{};
-  }
-  const unsigned ballot = __ballot_sync(0xffffffffu, searches);
-  if (ballot == 0) return;
-  const int lane = int(threadIdx.x % 32), leader = __ffs(ballot) - 1;
-  int base = 0;
-  if (lane == leader) base = atomicAdd(listedCount, __popc(ballot));
-  base = __shfl_sync(0xffffffffu, base, leader);
-  if (searches) listed[base + __popc(ballot & ((1u << lane) - 1u))] = i;
 }
 
 // The contact response (collision::contactResponse) with kGroup lanes per vertex: in each round
 // the group's lanes search the next kGroup structures, then the group's first lane adds their
 // contacts in structure order (addContact), as contactResponse does: the CPU's arithmetic, in its
-// order. Only the vertices screenVertices listed (not clear of every structure) are here, packed.
-// With one thread per vertex, small scenes spent the step on a few vertices searching several
-// neighbours one after another (ncu at 20,352 vertices: 6 of 32 threads
+// order. A vertex still clear of every structure (clearOfContacts) does not search, and a warp with
+// none searching skips the rounds. With one thread per vertex, small scenes spent the step on a few
+// vertices searching several neighbours one after another (ncu at 20,352 vertices: 6 of 32 threads
 // active per warp); large ones fill the device anyway, and there the group's shared work only costs
 // (docs/benchmarks.md). kWarpLeaves: the warp tests each reached leaf's triangles together
 // (contactWithWarp), which pays where few lanes walk at once (small scenes: the response took 50
@@ -373,14 +273,11 @@ __global__ void screenVertices(MeshView m, ParamView p, ContactSettings settings
 template <int kGroup, bool kWarpLeaves>
 __global__ void __launch_bounds__(kThreads, kWarpLeaves ? kRespondBlocks : 0)
     respondGroup(MeshView m, ParamView p, BvhView v, ContactSettings settings, const int* counter, int every,
-                 const int* listed, const int* listedCount, float* depth, int* hint, float* slack, float* stiffness,
+                 const float* moved, const unsigned* motion, float* depth, int* hint, float* slack, float* stiffness,
                  HoldPlane* hold) {
-  const int count = *listedCount;
-  if (int(blockIdx.x * blockDim.x) / kGroup >= count) return;  // the whole block: the launch is sized for every vertex
   const int t = blockIdx.x * blockDim.x + threadIdx.x;
-  const int entry = t / kGroup, g = t % kGroup;
-  const bool valid = entry < count;  // every lane stays for the shuffles
-  const int i = valid ? listed[entry] : 0;
+  const int i = t / kGroup, g = t % kGroup;
+  const bool valid = i < m.vertices;  // every lane stays for the shuffles
   const int own = valid ? m.meshOf[i] : 0;
   const bool active = valid && param(p, own, 0) > 0.0f;
   const P3* x = reinterpret_cast<const P3*>(m.x);
@@ -392,11 +289,10 @@ __global__ void __launch_bounds__(kThreads, kWarpLeaves ? kRespondBlocks : 0)
   float lastDepth = active ? depth[i] : 0.0f;
   int lastHint = active ? hint[i] : -1;
   float lastSlack = active ? slack[i] : 0.0f;
-  // Listed by screenVertices: not clear of the other structures (their slack paid). Every lane runs
-  // every round (the shuffles need the whole warp); only a full search searches.
-  const bool search = active && (*counter % every == 0 || lastDepth >= kUnknownDepth);
+  const bool clear = active && clearOfContacts(lastDepth, moved[i], __uint_as_float(*motion), lastSlack);
+  // Every lane runs every round (the shuffles need the whole warp); only a full search searches.
+  const bool search = active && !clear && (*counter % every == 0 || lastDepth >= kUnknownDepth);
   const float maxD2 = fullSearchBound(lastDepth, settings.margin, settings.reach, every, point, previous);
-  const float searchD2 = clearanceSearchBound(maxD2, settings.clearance);
   ContactSum sum;
   HoldPlane plane;
   HoldPlane* const holdPlane = hold && settings.hold >= 0.0f ? &plane : nullptr;
@@ -409,11 +305,10 @@ __global__ void __launch_bounds__(kThreads, kWarpLeaves ? kRespondBlocks : 0)
       Hit h{};
       bool found;
       if constexpr (kWarpLeaves)
-        found = contactWithWarp(v, own, base + g, point, settings.margin, maxD2, searchD2, lastHint, x, centres, search, h,
-                                clearance2);
+        found = contactWithWarp(v, own, base + g, point, settings.margin, maxD2, lastHint, x, centres, search, h, clearance2);
       else
         found = search && base + g < v.meshes &&
-                contactWith(v, own, base + g, point, settings.margin, maxD2, searchD2, lastHint, x, centres, h, clearance2);
+                contactWith(v, own, base + g, point, settings.margin, maxD2, lastHint, x, centres, h, clearance2);
       // The group's contacts, in structure order (its lanes' order), handed to its first lane. Only
       // lanes that found one are visited: one or two of a vertex's 16 (ncu at 20,352 vertices: the
       // 16 rounds of shuffles were most of the kernel's instructions once the walks were done).
@@ -439,7 +334,7 @@ __global__ void __launch_bounds__(kThreads, kWarpLeaves ? kRespondBlocks : 0)
   Hit patchHit{3.0e38f, point, {0, 0, 0}, 0.0f, -1};
   bool patchFound = false;
   if constexpr (kWarpLeaves) {
-    const bool patch = active && g == 0 && !search && lastHint >= 0;
+    const bool patch = active && g == 0 && !clear && !search && lastHint >= 0;
     int patchNode = lastHint;
     for (int up = 0; patch && up < 2 && v.nodes[patchNode].parent >= 0; ++up) patchNode = v.nodes[patchNode].parent;
     for (unsigned pending = __ballot_sync(mask, patch); pending; pending &= pending - 1) {
@@ -456,14 +351,14 @@ __global__ void __launch_bounds__(kThreads, kWarpLeaves ? kRespondBlocks : 0)
     lastDepth = sum.deepest;
     lastHint = sum.nearestLeaf;
     lastSlack = slackAfterSearch(lastDepth, clearance2, settings.margin);
-  } else {  // between full searches: the patch test (the clearance already paid for the step)
+  } else if (!clear) {  // between full searches: the patch test (the clearance already paid for the step)
     if constexpr (kWarpLeaves) {  // contactResponse's patch branch, with the warp's tests above
       float deepest = 0.0f;
       if (patchFound) sum.stiffness = respondTo(patchHit, point, previous, ownNormal, alpha, settings, deepest, sum.force);
       lastDepth = deepest;
     } else {
       sum.stiffness = contactResponse(v, own, point, previous, ownNormal, alpha, settings, false, every, 0.0f, 0.0f,
-                                      MotionGrid{}, lastDepth, lastHint, lastSlack, x, centres, sum.force);
+                                      lastDepth, lastHint, lastSlack, x, centres, sum.force);
     }
   }
   if (holdPlane) hold[i] = plane;
@@ -486,15 +381,14 @@ __global__ void contactSprings(MeshView m, ParamView p, const int* partner, cons
   }
   if (stiffness) stiffness[i] = k;
 }
-__device__ void advanceStep(int* counter, unsigned* motion, int* listedCount) {
+__device__ void advanceStep(int* counter, unsigned* motion) {
   ++*counter;
   *motion = 0;
-  *listedCount = 0;
 }
 // CollisionForce::constrain's arithmetic; then the step's end (advanceStep: the response read both).
-__global__ void holdOut(MeshView m, const HoldPlane* hold, int* counter, unsigned* motion, int* listedCount) {
+__global__ void holdOut(MeshView m, const HoldPlane* hold, int* counter, unsigned* motion) {
   const int i = blockIdx.x * blockDim.x + threadIdx.x;
-  if (i == 0) advanceStep(counter, motion, listedCount);
+  if (i == 0) advanceStep(counter, motion);
   if (i >= m.vertices) return;
   const HoldPlane h = hold[i];
   if (!(h.side < 3.0e38f)) return;  // most vertices: no plane, and no loads of x and prev
@@ -506,7 +400,7 @@ __global__ void holdOut(MeshView m, const HoldPlane* hold, int* counter, unsigne
   previous[i] = q;
 }
 // The step's end without a hold.
-__global__ void advance(int* counter, unsigned* motion, int* listedCount) { advanceStep(counter, motion, listedCount); }
+__global__ void advance(int* counter, unsigned* motion) { advanceStep(counter, motion); }
 }  // namespace
 
 void launchContactSprings(const MeshView& m, ParamView p, const int* partner, const float3* offset, float* stiffness,
@@ -519,43 +413,34 @@ void launchCollision(const MeshView& m, ParamView p, const CollisionDevice& c, c
   BvhView v{c.nodes, c.boxes, c.tris, c.order, c.roots, c.exempt, c.meshes, c.nodeCount};
   const P3* x = reinterpret_cast<const P3*>(m.x);
   const P3* centres = reinterpret_cast<const P3*>(m.cellCentre);
-  MotionBuffers motionBuffers{c.motionCells, c.motionCellCount, {}};
-  motionBuffers.shape.origin = {c.motionOrigin[0], c.motionOrigin[1], c.motionOrigin[2]};
-  motionBuffers.shape.inverseSize = c.motionInverseSize;
-  motionBuffers.shape.nx = c.motionDims[0], motionBuffers.shape.ny = c.motionDims[1], motionBuffers.shape.nz = c.motionDims[2];
   if (c.climb) {
     climbRefit<<<(c.leafCount + kThreads - 1) / kThreads, kThreads, 0, s>>>(
-        v, c.leaves, c.leafCount, c.visits, x, centres, c.counter, every, m.vertices, motionBuffers, c.last, c.moved, c.motion);
+        v, c.leaves, c.leafCount, c.visits, x, centres, c.counter, every, m.vertices, c.last, c.moved, c.motion);
   } else {
     vertexBoxes<<<(m.vertices + kThreads - 1) / kThreads, kThreads, 0, s>>>(
-        v, x, centres, c.counter, every, m.vertices, motionBuffers, c.last, c.moved, c.motion, c.vertexBoxes);
+        v, x, centres, c.counter, every, m.vertices, c.last, c.moved, c.motion, c.vertexBoxes);
     const NodeLists& l = c.lists;
     const int n = int(kNodeThreads);
     const int blocks = std::max(1, (l.threadCount + n - 1) / n + (l.warpCount * 32 + n - 1) / n + l.blockCount);
     nodeBoxes<<<blocks, kNodeThreads, 0, s>>>(v, c.vertexBoxes, l, c.counter, every);
   }
-  // A thread per mesh cell (a grid-stride loop in nodeBoxes, a few cells a thread one after
-  // another, took 8 us at 20,352 vertices).
-  cellMotion<<<(m.cells * kCellLanes + kThreads - 1) / kThreads, kThreads, 0, s>>>(m, c.moved, c.counter, motionBuffers);
-  screenVertices<<<(m.vertices + kThreads - 1) / kThreads, kThreads, 0, s>>>(
-      m, p, settings, c.counter, c.moved, c.motion, motionBuffers, c.depth, c.slack, c.stiffness, c.hold, c.listed, c.listedCount);
   const int group = m.vertices >= 131072 ? 1 : m.vertices >= 32768 ? 4 : 16;
   const unsigned grid = static_cast<unsigned>((static_cast<size_t>(m.vertices) * group + kThreads - 1) / kThreads);
   if (group == 1)
-    respondGroup<1, false><<<grid, kThreads, 0, s>>>(m, p, v, settings, c.counter, every, c.listed, c.listedCount, c.depth, c.hint,
-                                                c.slack, c.stiffness, c.hold);
+    respondGroup<1, false><<<grid, kThreads, 0, s>>>(m, p, v, settings, c.counter, every, c.moved, c.motion, c.depth, c.hint, c.slack,
+                                                c.stiffness, c.hold);
   else if (group == 4)
-    respondGroup<4, true><<<grid, kThreads, 0, s>>>(m, p, v, settings, c.counter, every, c.listed, c.listedCount, c.depth, c.hint,
-                                                c.slack, c.stiffness, c.hold);
+    respondGroup<4, true><<<grid, kThreads, 0, s>>>(m, p, v, settings, c.counter, every, c.moved, c.motion, c.depth, c.hint, c.slack,
+                                                c.stiffness, c.hold);
   else
-    respondGroup<16, true><<<grid, kThreads, 0, s>>>(m, p, v, settings, c.counter, every, c.listed, c.listedCount, c.depth, c.hint,
-                                                c.slack, c.stiffness, c.hold);
+    respondGroup<16, true><<<grid, kThreads, 0, s>>>(m, p, v, settings, c.counter, every, c.moved, c.motion, c.depth, c.hint, c.slack,
+                                                c.stiffness, c.hold);
   // With a hold, the hold's kernel ends the step: a launch fewer (2.7 us a step, H100).
-  if (settings.hold < 0.0f) advance<<<1, 1, 0, s>>>(c.counter, c.motion, c.listedCount);
+  if (settings.hold < 0.0f) advance<<<1, 1, 0, s>>>(c.counter, c.motion);
 }
 
 void launchCollisionHold(const MeshView& m, const CollisionDevice& c, cudaStream_t s) {
-  holdOut<<<(m.vertices + kThreads - 1) / kThreads, kThreads, 0, s>>>(m, c.hold, c.counter, c.motion, c.listedCount);
+  holdOut<<<(m.vertices + kThreads - 1) / kThreads, kThreads, 0, s>>>(m, c.hold, c.counter, c.motion);
 }
 
 }  // namespace sinew::cuda

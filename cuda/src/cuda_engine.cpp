@@ -455,8 +455,7 @@ struct CudaEngine::Impl {
             hold = t.getf(0, t.indexOf("hold_mm"));
             launchCollision(view, p, collision.view(),
                             {t.getf(0, t.indexOf("margin_mm")), t.getf(0, t.indexOf("contact_damping")),
-                             t.getf(0, t.indexOf("reach_mm")), t.getf(0, t.indexOf("retreat_mm")), hold,
-                             t.getf(0, t.indexOf("clearance_mm"))},
+                             t.getf(0, t.indexOf("reach_mm")), t.getf(0, t.indexOf("retreat_mm")), hold},
                             std::max(1, int(t.get(0, t.indexOf("full_search_every")))), stream);
           }
           break;

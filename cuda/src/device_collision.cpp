@@ -35,12 +35,6 @@ void DeviceCollision::build(MeshStore& store, const SceneData& scene, float marg
   hold_.resize(store.vertexCount());  // written by every response before the hold reads it
   motion_.resize(1);
   SINEW_CUDA(cudaMemsetAsync(motion_.get(), 0, motion_.bytes(), stream));
-  motionShape_ = tree.motionShape;
-  motionCells_.resize(2 * tree.motionCellCount());  // both clear for the first two steps
-  SINEW_CUDA(cudaMemsetAsync(motionCells_.get(), 0, motionCells_.bytes(), stream));
-  listed_.resize(store.vertexCount());  // written by every step's screen before the response reads it
-  listedCount_.resize(1);
-  SINEW_CUDA(cudaMemsetAsync(listedCount_.get(), 0, listedCount_.bytes(), stream));
   counter_.resize(1);
   SINEW_CUDA(cudaMemsetAsync(counter_.get(), 0, counter_.bytes(), stream));
   meshes_ = int(tree.roots.size());
@@ -82,17 +76,6 @@ CollisionDevice DeviceCollision::view() const {
   c.moved = moved_.get();
   c.last = last_.get();
   c.motion = motion_.get();
-  c.listed = listed_.get();
-  c.listedCount = listedCount_.get();
-  c.motionCells = motionCells_.get();
-  c.motionCellCount = int(motionCells_.size() / 2);
-  c.motionOrigin[0] = motionShape_.origin.x;
-  c.motionOrigin[1] = motionShape_.origin.y;
-  c.motionOrigin[2] = motionShape_.origin.z;
-  c.motionInverseSize = motionShape_.inverseSize;
-  c.motionDims[0] = motionShape_.nx;
-  c.motionDims[1] = motionShape_.ny;
-  c.motionDims[2] = motionShape_.nz;
   c.hold = hold_.get();
   c.meshes = meshes_;
   c.nodeCount = int(nodes_.size());
@@ -103,7 +86,7 @@ std::size_t DeviceCollision::bytes() const {
   return nodes_.bytes() + boxes_.bytes() + tris_.bytes() + order_.bytes() + roots_.bytes() + leaves_.bytes() +
          visits_.bytes() + threadNodes_.bytes() + warpNodes_.bytes() + blockNodes_.bytes() + vertexBoxes_.bytes() +
          stiffness_.bytes() + depth_.bytes() + counter_.bytes() + hint_.bytes() + exempt_.bytes() + slack_.bytes() +
-         moved_.bytes() + last_.bytes() + motion_.bytes() + motionCells_.bytes() + listed_.bytes() + listedCount_.bytes() + hold_.bytes();
+         moved_.bytes() + last_.bytes() + motion_.bytes() + hold_.bytes();
 }
 
 }  // namespace sinew::cuda

@@ -33,10 +33,7 @@ private:
   DeviceArray<float3> last_;
   DeviceArray<collision::HoldPlane> hold_;  // CollisionDevice::hold
   DeviceArray<unsigned> motion_;
-  DeviceArray<unsigned> motionCells_;  // CollisionDevice::motionCells
-  collision::MotionGrid motionShape_;
-  DeviceArray<int> counter_;
-  DeviceArray<int> listed_, listedCount_;  // CollisionDevice::listed, listedCount  // the level's steps so far (full searches every full_search_every)
+  DeviceArray<int> counter_;  // the level's steps so far (full searches every full_search_every)
   DeviceArray<unsigned char> exempt_;
   int meshes_ = 0;
   bool climb_ = false;

@@ -184,15 +184,6 @@ struct CollisionDevice {
   float* moved = nullptr;  // per vertex, how far it moved since the last step
   float3* last = nullptr;  // the positions the last step saw
   unsigned* motion = nullptr;  // the step's largest move (a float's bits: atomicMax orders them)
-  int* listed = nullptr;       // per step, the vertices that search or test their patch (any order)
-  int* listedCount = nullptr;  // how many (zero between steps)
-  // The motion grid (collision::MotionGrid): two buffers of motionCellCount (with the spill), the
-  // step's by the parity of the counter (the refit fills one and clears the other).
-  unsigned* motionCells = nullptr;
-  int motionCellCount = 0;
-  float motionOrigin[3] = {0, 0, 0};
-  float motionInverseSize = 0.0f;
-  int motionDims[3] = {0, 0, 0};
   const unsigned char* exempt = nullptr;  // pairs left out (meshes x meshes), or null
   collision::HoldPlane* hold = nullptr;  // per vertex, the plane the hold moves it out of after the step
   int meshes = 0, nodeCount = 0, leafCount = 0;

@@ -39,7 +39,6 @@ public:
     MeshStore& s = ctx.store;
     if (s.meshCount() < 2) return;
     if (tree_.roots.empty() || builtFor_ != s.vertexCount()) prepare(ctx);
-    if (tree_.roots.empty()) return;  // no structure responds at this level
     const float margin = ctx.params.getf(0, ctx.params.indexOf("margin_mm"));
     // Once per level: a structure inside another stops the run with the reason.
     if (!checked_) {
@@ -52,8 +51,7 @@ public:
     const collision::ContactSettings settings{margin, ctx.params.getf(0, ctx.params.indexOf("contact_damping")),
                                               ctx.params.getf(0, ctx.params.indexOf("reach_mm")),
                                               ctx.params.getf(0, ctx.params.indexOf("retreat_mm")),
-                                              ctx.params.getf(0, ctx.params.indexOf("hold_mm")),
-                                              ctx.params.getf(0, ctx.params.indexOf("clearance_mm"))};
+                                              ctx.params.getf(0, ctx.params.indexOf("hold_mm"))};
     const collision::BvhView view = tree_.view();
     const collision::P3* x = asP3(s.positions());
     const collision::P3* centres = asP3(s.cellCentres());
@@ -62,16 +60,13 @@ public:
     const auto mass = s.masses();
     const auto normals = s.normals();
     const float motion = trackMotion(s.positions(), ctx.executor);
-    tree_.fillMotionGrid(s, moved_, grid_);
-    collision::MotionGrid grid = tree_.motionShape;
-    grid.cells = grid_.data();
     stiffness_.assign(s.vertexCount(), 0.0f);
     const bool holding = settings.hold >= 0.0f;
     hold_.assign(holding ? s.vertexCount() : 0, collision::HoldPlane{});
     forActiveVertices(ctx, [&](Index v, float alpha) {
       collision::P3 f{0, 0, 0};
       stiffness_[v] = collision::contactResponse(view, int(meshOf[v]), x[v], asP3(previous[v]), asP3(normals[v]),
-                                                 alpha * mass[v], settings, full, every, moved_[v], motion, grid, depth_[v],
+                                                 alpha * mass[v], settings, full, every, moved_[v], motion, depth_[v],
                                                  hint_[v], slack_[v], x, centres, f, holding ? &hold_[v] : nullptr);
       forces[v] += asVec3(f);
     });
@@ -101,8 +96,7 @@ public:
 
 private:
   // Each vertex's distance from where the last step saw it (moved_), and the largest: the motion
-  // that the clearance of a vertex pays for where the motion grid cannot tell
-  // (collision::clearOfContacts).
+  // that the clearance of every vertex pays for (collision::clearOfContacts).
   float trackMotion(std::span<const Vec3> x, const Executor& executor) {
     return executor.reduce(
         Index(0), Index(x.size()), 0.0f,
@@ -127,7 +121,6 @@ private:
   std::vector<float> slack_;  // each vertex's clearance of the other structures beyond the margin
   std::vector<float> moved_;
   std::vector<Vec3> last_;    // the positions the last step saw
-  std::vector<unsigned> grid_;  // the step's motion grid (collision::MotionGrid::cells)
   long step_ = 0;  // steps at this level: every full_search_every-th one searches in full
 };
 }  // namespace
@@ -142,7 +135,6 @@ void registerCollisionForce(Registry& registry) {
                       {"reach_mm", 0.25, 0.05, 5.0, "mm", "how far beyond its last penetration a vertex looks for contacts each step (on top of twice its last step)", false},
                       {"retreat_mm", 0.25, 0.0, 5.0, "mm", "a vertex that has gone past the middle of another structure (its nearest surface there faces the way its own does) is pushed back into its own structure, as if pulled toward a point this far behind it along its normal, instead of on through", false},
                       {"hold_mm", 0.0, -1.0, 5.0, "mm", "after each step, a vertex pulled by a contact is moved out to at least this far outside the plane of that contact; negative: no hold", false},
-                      {"clearance_mm", 1.0, 0.0, 10.0, "mm", "how much farther than its contacts a full search looks, to learn how far the other surfaces are: a vertex clear of them skips its searches until the motion near it could have used that clearance up", false},
                       {"full_search_every", 1, 1, 16, "steps", "a full contact search every this many steps; in between, each vertex tests only the patch of its last nearest contact", false},
                       {"ignore_enclosed", 0.0, 0.0, 1.0, "", "1: a structure lying inside another by design (nested labels) is left out of collisions with it; 0: such a pair stops the run with the reason", false}},
                      [] { return std::make_unique<CollisionForce>(); }});

@@ -12,7 +12,6 @@
 #pragma once
 
 #include <cmath>
-#include <cstring>
 
 #if defined(__CUDACC__)
 #define SINEW_HD __host__ __device__ __forceinline__
@@ -218,12 +217,11 @@ constexpr float kUnknownDepth = 1.0e30f;
 
 // The collision force's settings that shape the response (its parameters, docs/collisions.md).
 struct ContactSettings {
-  float margin = 0.0f;     // distance kept from the other surface
-  float damping = 0.0f;    // extra damping of a touching vertex's own motion
-  float reach = 0.0f;      // how far beyond its last penetration a full search looks
-  float retreat = 0.0f;    // a vertex past another structure's middle is pushed back as if pulled this far
-  float hold = -1.0f;      // how far outside its contact's plane a pulled vertex is held after the step; < 0: no hold
-  float clearance = 0.0f;  // how much farther a full search looks, only to learn how far the surfaces are
+  float margin = 0.0f;   // distance kept from the other surface
+  float damping = 0.0f;  // extra damping of a touching vertex's own motion
+  float reach = 0.0f;    // how far beyond its last penetration a full search looks
+  float retreat = 0.0f;  // a vertex past another structure's middle is pushed back as if pulled this far
+  float hold = -1.0f;    // how far outside its contact's plane a pulled vertex is held after the step; < 0: no hold
 };
 
 // The pull of one contact found by the search (h within the search radius) into force, deepest
@@ -289,32 +287,20 @@ SINEW_HD float fullSearchBound(float depth, float margin, float reach, int every
   return radius * radius;
 }
 
-// The squared radius a full search walks: the contact radius (fullSearchBound) and `clearance`
-// beyond it. Contacts are only those within the contact radius, so the results are the same; the
-// farther look only raises what the vertex learns of its clearance (below), where a search that
-// found nothing within the contact radius knew only that radius, about 0.5 mm, which one or two
-// steps used up (CPU, the demo's finest level: a quarter of the searches skipped; docs/collisions.md).
-SINEW_HD float clearanceSearchBound(float maxD2, float clearance) {
-  if (maxD2 >= 3.0e38f) return maxD2;
-  const float radius = sqrtf(maxD2) + clearance;
-  return radius * radius;
-}
-
 // One other structure in the full search: whether its box (grown by the margin) holds p and its
-// surface lies within sqrt(maxD2); h is then the closest point. The walk reaches sqrt(searchD2)
-// (clearanceSearchBound). clearance2 is lowered to what the search learnt of that surface's
-// distance from p (squared): the box's distance where the box test left it out, else the nearest
-// point found or, with none, the walk's radius.
-SINEW_HD bool contactWith(const BvhView& v, int own, int other, P3 p, float margin, float maxD2, float searchD2,
-                          int hint, const P3* x, const P3* centres, Hit& h, float& clearance2) {
+// surface lies within sqrt(maxD2); h is then the closest point. clearance2 is lowered to what the
+// search learnt of that surface's distance from p (squared): the box's distance where the box test
+// left it out, else the nearest point found or, with none, the search radius.
+SINEW_HD bool contactWith(const BvhView& v, int own, int other, P3 p, float margin, float maxD2, int hint, const P3* x,
+                          const P3* centres, Hit& h, float& clearance2) {
   if (other == own || (v.exempt && v.exempt[own * v.meshes + other])) return false;
   const float box2 = squaredDistance(v.boxes[v.roots[other]], p);
   if (box2 > margin * margin) {  // outside the box grown by the margin
     clearance2 = fmin3(clearance2, box2);
     return false;
   }
-  h = closestPoint(v, other, p, x, centres, searchD2, hint);
-  clearance2 = fmin3(clearance2, h.d2);  // searchD2 where nothing was nearer
+  h = closestPoint(v, other, p, x, centres, maxD2, hint);
+  clearance2 = fmin3(clearance2, h.d2);  // maxD2 where nothing was nearer
   return h.d2 < maxD2;
 }
 
@@ -330,124 +316,15 @@ SINEW_HD void addContact(const Hit& h, P3 p, P3 previous, P3 ownNormal, float al
   sum.stiffness += respondTo(h, p, previous, ownNormal, alpha, s, sum.deepest, sum.force, hold);
 }
 
-// The motion near a point, for the clearance below. Each step every cell of the mesh raises, in
-// each cell of a coarse grid that its box overlaps, the largest move (since the last step) of its
-// vertices. A point of the tessellation lies on a triangle of one mesh cell (a vertex, its
-// successor, and the cell's centre, the mean of its vertices), inside that cell's box, and moved no
-// farther than the farthest-moving vertex of the cell. So the surface within R of p moved at most
-// the largest value in the grid cells that cover the ball of radius R around p. A mesh cell whose
-// box spans more than kMotionSpan grid cells on an axis (or is not finite) raises the spill instead,
-// which every query counts. Positions outside the grid count in its border cells, and a query
-// there covers them. A query wider than kMotionSpan cells on an axis takes the largest move
-// anywhere instead.
-struct MotionGrid {
-  const unsigned* cells = nullptr;  // per cell, the step's largest move (a float's bits), then the spill; null: no grid
-  P3 origin{0, 0, 0};
-  float inverseSize = 0.0f;  // 1 / a cell's edge
-  int nx = 0, ny = 0, nz = 0;
-  SINEW_HD int count() const { return nx * ny * nz; }  // the spill is cells[count()]
-};
-constexpr float kMotionCell = 4.0f;      // mm, a cell's edge at least
-constexpr int kMotionCellsPerAxis = 64;  // at most: a larger scene gets larger cells
-constexpr int kMotionSpan = 3;           // cells per axis a query or a mesh cell may cover
-
-SINEW_HD float floatFromBits(unsigned bits) {
-#if defined(__CUDA_ARCH__)
-  return __uint_as_float(bits);
-#else
-  float f;
-  std::memcpy(&f, &bits, sizeof f);
-  return f;
-#endif
-}
-SINEW_HD unsigned bitsOfFloat(float f) {  // non-negative floats order as these bits
-#if defined(__CUDA_ARCH__)
-  return __float_as_uint(f);
-#else
-  unsigned bits;
-  std::memcpy(&bits, &f, sizeof f);
-  return bits;
-#endif
-}
-SINEW_HD int motionAxis(float t, float origin, float inverseSize, int n) {
-  const float c = floorf((t - origin) * inverseSize);
-  return c >= 0.0f ? (c < float(n) ? int(c) : n - 1) : 0;  // NaN: 0
-}
-// The grid cells [lo, hi] on each axis that the box (lo, hi) overlaps; false where that is more
-// than kMotionSpan on an axis or the box is not finite.
-SINEW_HD bool motionSpan(const MotionGrid& g, P3 lo, P3 hi, int first[3], int last[3]) {
-  first[0] = motionAxis(lo.x, g.origin.x, g.inverseSize, g.nx), last[0] = motionAxis(hi.x, g.origin.x, g.inverseSize, g.nx);
-  first[1] = motionAxis(lo.y, g.origin.y, g.inverseSize, g.ny), last[1] = motionAxis(hi.y, g.origin.y, g.inverseSize, g.ny);
-  first[2] = motionAxis(lo.z, g.origin.z, g.inverseSize, g.nz), last[2] = motionAxis(hi.z, g.origin.z, g.inverseSize, g.nz);
-  bool within = lo.x <= hi.x && lo.y <= hi.y && lo.z <= hi.z && hi.x - lo.x < 3.0e38f && hi.y - lo.y < 3.0e38f &&
-                hi.z - lo.z < 3.0e38f;  // false for NaN
-  for (int a = 0; a < 3; ++a) within = within && last[a] - first[a] < kMotionSpan;
-  return within;
-}
-// Mesh cell c's share of the step's grid: its vertices' largest move, raised (raise(index, bits))
-// in the grid cells its box overlaps, or in the spill.
-template <class Raise>
-SINEW_HD void raiseCellMotion(const MotionGrid& g, const int* cellOffsets, const int* cellVertices, int c, const P3* x,
-                              const float* moved, Raise&& raise) {
-  Box b = emptyBox();
-  float most = 0.0f;
-  for (int i = cellOffsets[c]; i < cellOffsets[c + 1]; ++i) {
-    const int w = cellVertices[i];
-    extend(b, x[w]);
-    most = fmax3(most, moved[w]);
-  }
-  const unsigned bits = bitsOfFloat(most);
-  int first[3], last[3];
-  if (!motionSpan(g, b.lo, b.hi, first, last)) {
-    raise(g.count(), bits);
-    return;
-  }
-  for (int z = first[2]; z <= last[2]; ++z)
-    for (int y = first[1]; y <= last[1]; ++y)
-      for (int x0 = first[0]; x0 <= last[0]; ++x0) raise((z * g.ny + y) * g.nx + x0, bits);
-}
-// The largest move of the surface within `radius` of p this step, or `largest` (anywhere) where the
-// grid cannot tell (no grid, or more than kMotionSpan cells on an axis). The loops have fixed
-// bounds, so that the device issues the loads together instead of one after another.
-SINEW_HD float localMotion(const MotionGrid& g, P3 p, float radius, float largest) {
-  int first[3], last[3];
-  if (!g.cells || !motionSpan(g, {p.x - radius, p.y - radius, p.z - radius}, {p.x + radius, p.y + radius, p.z + radius},
-                              first, last))
-    return largest;
-  unsigned most = g.cells[g.count()];  // the spill
-#if defined(__CUDA_ARCH__)
-#pragma unroll
-#endif
-  for (int dz = 0; dz < kMotionSpan; ++dz)
-#if defined(__CUDA_ARCH__)
-#pragma unroll
-#endif
-    for (int dy = 0; dy < kMotionSpan; ++dy)
-#if defined(__CUDA_ARCH__)
-#pragma unroll
-#endif
-      for (int dx = 0; dx < kMotionSpan; ++dx)
-        if (first[2] + dz <= last[2] && first[1] + dy <= last[1] && first[0] + dx <= last[0]) {
-          const unsigned m = g.cells[((first[2] + dz) * g.ny + first[1] + dy) * g.nx + first[0] + dx];
-          most = m > most ? m : most;
-        }
-  return floatFromBits(most);
-}
-
 // Clearance. A vertex that touched nothing at its last search knows how far every other surface
 // was then (ContactSum::clearance2), less the margin: its slack. Every step takes from it the
-// vertex's own motion since the last step and the motion of the surface near it (localMotion over
-// the slack and the margin: only a surface that near could use the slack up), else `motion`, the
-// farthest any vertex moved. While slack is left, no surface can have come within the margin: the
-// search is skipped, and its result would have been the same (no force, no penetration); the bound
-// holds whatever moved the vertices. With the largest move anywhere, a few fast vertices shortened
-// every vertex's slack: on the demo a quarter of the searches were skipped (docs/collisions.md).
+// vertex's own motion since the last step and `motion`, the farthest any vertex moved (a point of
+// the tessellation, a convex combination of vertices and cell centres, moves no farther). While
+// slack is left, no surface can have come within the margin: the search is skipped, and its result
+// would have been the same (no force, no penetration); the bound holds whatever moved the vertices.
+// It pays for the largest move anywhere, so a few fast vertices shorten every vertex's slack: on
+// the demo a quarter of the searches are skipped (docs/collisions.md).
 constexpr float kSlackGuard = 1e-3f;  // mm kept back for rounding
-// Whether the vertex has slack to pay from: only then is the motion near it (localMotion over the
-// radius nearRadius) worth looking up.
-SINEW_HD bool hasSlack(float depth, float slack) { return depth == 0.0f && slack > 0.0f; }
-SINEW_HD float nearRadius(float slack, float margin) { return slack + margin; }
-// `motion`: the motion near the vertex where hasSlack, else anything (the slack is spent).
 SINEW_HD bool clearOfContacts(float depth, float ownMotion, float motion, float& slack) {
   slack -= ownMotion + motion;
   return depth == 0.0f && slack > 0.0f;
@@ -474,18 +351,17 @@ SINEW_HD float slackAfterSearch(float depth, float clearance2, float margin) {
 // and the boxes need no refit. The leaf alone (measured on the demo at 326 k vertices, every 4 / 8
 // steps) left 36.5 / 98 mm^3 of overlap against the patch's 5.8 / 5.5, at a mean ASSD of 0.526 /
 // 0.529 against 0.538 / 0.573 mm. The first step of a level (depth kUnknownDepth) is always a full
-// search, without bound. `ownMotion`, `motion`, `grid`, `slack` (in/out): the clearance above; a
-// vertex still clear of every other structure returns at once. `hold` (may be null): the plane the full
+// search, without bound. `ownMotion`, `motion`, `slack` (in/out): the clearance above; a vertex
+// still clear of every other structure returns at once. `hold` (may be null): the plane the full
 // search's contacts hold the vertex out of (HoldPlane). A patch test offers none: its nearest
 // triangle need not be the surface's nearest, and held on its plane the vertex went astray (CPU,
 // subjects 201-205 with a full search every 4 steps: mean ASSD 0.4860 mm, against 0.4700 with the
 // hold from full searches only; docs/collisions.md).
 SINEW_HD float contactResponse(const BvhView& v, int own, P3 p, P3 previous, P3 ownNormal, float alpha,
                                const ContactSettings& s, bool full, int every, float ownMotion, float motion,
-                               const MotionGrid& grid, float& depth, int& hint, float& slack, const P3* x,
-                               const P3* centres, P3& force, HoldPlane* hold = nullptr) {
-  const float near = hasSlack(depth, slack) ? localMotion(grid, p, nearRadius(slack, s.margin), motion) : motion;
-  if (clearOfContacts(depth, ownMotion, near, slack)) return 0.0f;
+                               float& depth, int& hint, float& slack, const P3* x, const P3* centres, P3& force,
+                               HoldPlane* hold = nullptr) {
+  if (clearOfContacts(depth, ownMotion, motion, slack)) return 0.0f;
   float deepest = 0.0f, stiffness = 0.0f;
   if (!full && depth < kUnknownDepth) {
     if (hint >= 0) {
@@ -502,10 +378,9 @@ SINEW_HD float contactResponse(const BvhView& v, int own, P3 p, P3 previous, P3 
   ContactSum sum;
   sum.force = force;
   const float maxD2 = fullSearchBound(depth, s.margin, s.reach, every, p, previous);
-  const float searchD2 = clearanceSearchBound(maxD2, s.clearance);
   for (int other = 0; other < v.meshes; ++other) {
     Hit h{};
-    if (contactWith(v, own, other, p, s.margin, maxD2, searchD2, hint, x, centres, h, sum.clearance2))
+    if (contactWith(v, own, other, p, s.margin, maxD2, hint, x, centres, h, sum.clearance2))
       addContact(h, p, previous, ownNormal, alpha, s, sum, hold);
   }
   depth = sum.deepest;

@@ -22,11 +22,6 @@ struct CollisionTree {
   std::vector<int> roots;              // per structure
   std::vector<int> leaves;             // node index of every leaf
   std::vector<unsigned char> exempt;   // meshes x meshes, 1 where a pair is left out; empty: none
-  // The motion grid's shape (collision::MotionGrid; its cells are the user's): the structures' box
-  // at the build, grown by kMotionPad on every side.
-  collision::MotionGrid motionShape;
-  static constexpr float kMotionPad = 8.0f;  // mm
-  std::size_t motionCellCount() const { return std::size_t(motionShape.count()) + 1; }  // with the spill
 
   // Each structure's vertices split at the median along the widest axis down to leaves of at most
   // four; boxes from the store's current positions.
@@ -34,9 +29,6 @@ struct CollisionTree {
   // Boxes from positions and cell centres: leaves in parallel, then the inner nodes from below.
   void refit(std::span<const Vec3> positions, std::span<const Vec3> centres, const Executor& executor);
   collision::BvhView view();
-  // The step's motion grid (collision::MotionGrid): `cells` (motionCellCount()) from the store's
-  // positions and each vertex's move since the last step.
-  void fillMotionGrid(const MeshStore& store, std::span<const float> moved, std::vector<unsigned>& cells) const;
 
   // A structure that lies inside another (or on it: two copies of one mesh), which no contact
   // response can separate: at least `fraction` of its vertices inside the other or within the
