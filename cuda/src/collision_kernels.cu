@@ -186,6 +186,51 @@ __device__ void testNodeWarp(const BvhView& v, int id, P3 q, int owner, const P3
     }
   }
 }
+// Two leaves at once (a leaf has at most kLeafVertices * 3 = 12 triangles): leaf idA of lane
+// ownerA on lanes 0-15, leaf idB of lane ownerB (idB < 0: none) on lanes 16-31, each half as
+// testNodeWarp does for one leaf. The owners differ (a lane reaches one leaf at a time), and each
+// takes its own half's candidates in the triangles' order, so each best is testLeaf's to the bit.
+// A warp tested its lanes' leaves one after another with 12 of its 32 lanes busy. Every lane of
+// the warp calls it.
+static_assert(3 * kLeafVertices <= 16, "a leaf's triangles fit in half a warp");
+__device__ void testLeafPairWarp(const BvhView& v, int idA, int ownerA, int idB, int ownerB, P3 p, const P3* x,
+                                 const P3* centres, Hit& best, bool& found) {
+  constexpr unsigned all = 0xffffffffu;
+  const int lane = threadIdx.x % 32, half = lane >> 4, k = lane & 15;
+  const int id = half ? idB : idA, owner = half ? ownerB : ownerA;
+  const P3 q = shuffle(p, owner < 0 ? 0 : owner);
+  const float ownerBest = __shfl_sync(all, best.d2, owner < 0 ? 0 : owner);
+  bool triangle = false;
+  float d2 = 0.0f, side = 0.0f;
+  P3 at{0, 0, 0}, normal{0, 0, 0};
+  if (id >= 0) {
+    const Node n = v.nodes[id];
+    triangle = k < 3 * n.count;
+    if (triangle) {
+      const Tri t = v.tris[3 * v.order[n.first + k / 3] + k % 3];
+      const P3 a = x[t.a], b = x[t.b], c = centres[t.cell];
+      at = closestOnTriangle(q, a, b, c);
+      const P3 d = sub(q, at);
+      d2 = dot3(d, d);
+      normal = unitNormal(a, b, c);
+      side = dot3(d, normal);
+    }
+  }
+  // As testNodeWarp: only triangles within the ties of the nearer of the half's nearest and its
+  // owner's best so far can end as the best.
+  float nearest = triangle ? d2 : 3.0e38f;
+  for (int o = 8; o > 0; o /= 2) nearest = fminf(nearest, __shfl_xor_sync(all, nearest, o));
+  const float within = 1.01f * tieBound(fminf(nearest, ownerBest)) + 1e-10f;
+  for (unsigned c = __ballot_sync(all, triangle && d2 <= within); c; c &= c - 1) {
+    const int src = __ffs(c) - 1;
+    const float cd2 = __shfl_sync(all, d2, src), cside = __shfl_sync(all, side, src);
+    const P3 cat = shuffle(at, src), cnormal = shuffle(normal, src);
+    if (lane == (src >> 4 ? ownerB : ownerA) && replacesBest(best, found, cd2, cside)) {
+      best = {cd2, cat, cnormal, cside, src >> 4 ? idB : idA};
+      found = true;
+    }
+  }
+}
 __device__ Hit closestPointWarp(const BvhView& v, int mesh, P3 p, const P3* x, const P3* centres, float maxD2, int hint,
                                 bool walks) {
   constexpr unsigned all = 0xffffffffu;
@@ -203,10 +248,14 @@ __device__ Hit closestPointWarp(const BvhView& v, int mesh, P3 p, const P3* x, c
     stack[top++] = {v.roots[mesh], squaredDistance(v.boxes[v.roots[mesh]], p)};
   }
   while (true) {
-    // Each leaf reached: triangle k of the leaf's vertex j on lane 3 j + k (at most 12 lanes).
-    for (unsigned pending = __ballot_sync(all, leaf >= 0); pending; pending &= pending - 1) {
-      const int owner = __ffs(pending) - 1;
-      testNodeWarp(v, __shfl_sync(all, leaf, owner), shuffle(p, owner), owner, x, centres, best, found);
+    // The leaves reached, two at a time (testLeafPairWarp).
+    for (unsigned pending = __ballot_sync(all, leaf >= 0); pending;) {
+      const int ownerA = __ffs(pending) - 1;
+      pending &= pending - 1;
+      const int ownerB = pending ? __ffs(pending) - 1 : -1;
+      if (pending) pending &= pending - 1;
+      const int idA = __shfl_sync(all, leaf, ownerA), idB = __shfl_sync(all, leaf, ownerB < 0 ? ownerA : ownerB);
+      testLeafPairWarp(v, idA, ownerA, ownerB < 0 ? -1 : idB, ownerB, p, x, centres, best, found);
     }
     leaf = -1;
     if (!__any_sync(all, top > 0)) break;
