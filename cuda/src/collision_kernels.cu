@@ -473,7 +473,11 @@ void launchCollision(const MeshView& m, ParamView p, const CollisionDevice& c, c
     const int blocks = std::max(1, (l.threadCount + n - 1) / n + (l.warpCount * 32 + n - 1) / n + l.blockCount);
     nodeBoxes<<<blocks, kNodeThreads, 0, s>>>(v, c.vertexBoxes, l, c.counter, every);
   }
-  const int group = m.vertices >= 131072 ? 1 : m.vertices >= 32768 ? 4 : 16;
+  // Lanes a vertex. From 131,072 vertices, 4 where a vertex's structures take at most 4 rounds of
+  // them: with two leaves at once that beat a lane a vertex 358.5 against 826.5 us at 325,632
+  // vertices (12 structures), but lost 2,433 against 2,114 us with 100 structures (25 rounds;
+  // H100, docs/collisions.md).
+  const int group = m.vertices >= 131072 ? (c.meshes <= 16 ? 4 : 1) : m.vertices >= 32768 ? 4 : 16;
   const unsigned grid = static_cast<unsigned>((static_cast<size_t>(m.vertices) * group + kThreads - 1) / kThreads);
   if (group == 1)
     respondGroup<1, false><<<grid, kThreads, 0, s>>>(m, p, v, settings, c.counter, every, c.moved, c.motion, c.depth, c.hint, c.slack,

@@ -481,19 +481,22 @@ private slots:
     QTest::addColumn<int>("every");
     QTest::addColumn<float>("gap");   // between the spheres' centres (radius 10 mm)
     QTest::addColumn<float>("hold");  // hold_mm: 0 (the default) holds touching vertices out after each step
-    QTest::newRow("damped_verlet") << "damped_verlet" << 100 << 1 << 15.0f << 0.0f;
-    QTest::newRow("damped_verlet, no hold") << "damped_verlet" << 100 << 1 << 15.0f << -1.0f;
-    QTest::newRow("implicit_euler") << "implicit_euler" << 20 << 1 << 15.0f << 0.0f;
-    QTest::newRow("damped_verlet, full search every 4") << "damped_verlet" << 100 << 4 << 15.0f << 0.0f;
+    QTest::addColumn<int>("subdivisions");  // of each sphere: 3 gives 1,280 vertices, 6 gives 81,920
+    QTest::newRow("damped_verlet") << "damped_verlet" << 100 << 1 << 15.0f << 0.0f << 3;
+    QTest::newRow("damped_verlet, no hold") << "damped_verlet" << 100 << 1 << 15.0f << -1.0f << 3;
+    QTest::newRow("implicit_euler") << "implicit_euler" << 20 << 1 << 15.0f << 0.0f << 3;
+    QTest::newRow("damped_verlet, full search every 4") << "damped_verlet" << 100 << 4 << 15.0f << 0.0f << 3;
     // Without a hold the step ends in its own kernel (advance): the counter must move there too.
-    QTest::newRow("damped_verlet, no hold, full search every 4") << "damped_verlet" << 100 << 4 << 15.0f << -1.0f;
+    QTest::newRow("damped_verlet, no hold, full search every 4") << "damped_verlet" << 100 << 4 << 15.0f << -1.0f << 3;
+    // 163,840 vertices: the refit's climb from the leaves and 4 lanes a vertex from 131,072.
+    QTest::newRow("damped_verlet, 163,840 vertices") << "damped_verlet" << 100 << 1 << 15.0f << 0.0f << 6;
     // Centres 8 mm apart: the vertices inside the other sphere have its far side as their contact
     // and retreat (collision::respondTo), by the full search and by the patch tests between. Not
     // with implicit Euler: there the solver's float differences (1e-5 mm) meet the jumps of a deep
     // vertex's nearest point across the other sphere's middle, and the backends were 0.15-0.25 mm
     // apart after 20 steps (H200, 2026-11-26; docs/collisions.md).
-    QTest::newRow("damped_verlet, past the middle") << "damped_verlet" << 100 << 1 << 8.0f << 0.0f;
-    QTest::newRow("damped_verlet, past the middle, every 4") << "damped_verlet" << 100 << 4 << 8.0f << 0.0f;
+    QTest::newRow("damped_verlet, past the middle") << "damped_verlet" << 100 << 1 << 8.0f << 0.0f << 3;
+    QTest::newRow("damped_verlet, past the middle, every 4") << "damped_verlet" << 100 << 4 << 8.0f << 0.0f << 3;
   }
   void collisionMatchesTheCpu() {
     QFETCH(QString, integrator);
@@ -501,10 +504,11 @@ private slots:
     QFETCH(int, every);
     QFETCH(float, gap);
     QFETCH(float, hold);
+    QFETCH(int, subdivisions);
     auto make = [&](int structures, float weight) {
       auto sim = std::make_unique<Simulation>(forceRegistry(), 0);
       for (int i = 0; i < structures; ++i) {
-        StructureSpec s = sphereStructure(i ? "b" : "a", 3, 10.0f, Vec3(gap * float(i), 0, 0));
+        StructureSpec s = sphereStructure(i ? "b" : "a", subdivisions, 10.0f, Vec3(gap * float(i), 0, 0));
         s.referencePositions = s.initialPositions;
         sim->addStructure(std::move(s));
       }
