@@ -306,12 +306,13 @@ __device__ bool contactWithWarp(const BvhView& v, int own, int other, P3 p, floa
 // order. A vertex still clear of every structure (clearOfContacts) does not search, and a warp with
 // none searching skips the rounds. With one thread per vertex, small scenes spent the step on a few
 // vertices searching several neighbours one after another (ncu at 20,352 vertices: 6 of 32 threads
-// active per warp); large ones fill the device anyway, and there the group's shared work only costs
-// (docs/benchmarks.md). kWarpLeaves: the warp tests each reached leaf's triangles together
-// (contactWithWarp), which pays where few lanes walk at once (small scenes: the response took 50
-// instead of 78 us at 20,352 vertices, H100) and costs where many do (591 instead of 497 us at
-// 325,632). With kWarpLeaves the patch tests between full searches are the warp's too (H200: 51-57
-// -> 24 us a patch step at 20,352 vertices, 80-87 -> 46-49 at 81,408; docs/collisions.md).
+// active per warp). kWarpLeaves: the warp tests the reached leaves' triangles together, two leaves
+// at a time (contactWithWarp, testLeafPairWarp): at 20,352 vertices the response took 50 instead
+// of 78 us (H100, one leaf at a time). One leaf at a time it lost where many lanes walk at once
+// (591 against 497 us at 325,632 vertices); two at a time, 4 lanes a vertex won there (358.5
+// against 826.5 us), but not with 100 structures, whose 25 rounds a vertex cost more (launchCollision).
+// With kWarpLeaves the patch tests between full searches are the warp's too (H200: 51-57 -> 24 us
+// a patch step at 20,352 vertices, 80-87 -> 46-49 at 81,408; docs/collisions.md).
 //
 // kWarpLeaves: held to 6 blocks of 128 threads an SM (80 registers instead of the compiler's 91,
 // which allowed 5). The walks are latency-bound (ncu at 20,352 vertices: 9.2 cycles between a
