@@ -144,92 +144,79 @@ __global__ void nodeBoxes(BvhView v, const Box* vertexBox, NodeLists lists, cons
 __device__ P3 shuffle(P3 a, int src) {
   return {__shfl_sync(0xffffffffu, a.x, src), __shfl_sync(0xffffffffu, a.y, src), __shfl_sync(0xffffffffu, a.z, src)};
 }
-// testLeaf with the warp's lanes on a node's triangles (a leaf's; under an inner node, all its
-// vertices'), for the point q of lane `owner`: triangle k of the node's vertex j on lane
-// (3 j + k) % 32, 32 at a time. The owner takes the candidates in the triangles' order
-// (replacesBest), so its best is testLeaf's to the bit. Every lane of the warp calls it.
-__device__ void testNodeWarp(const BvhView& v, int id, P3 q, int owner, const P3* x, const P3* centres, Hit& best,
-                             bool& found) {
+// One lane's triangle of a warp's leaf test: triangle k of node n (vertex k / 3's triangle k % 3)
+// against q, testLeaf's arithmetic; `valid` false past the node's triangles.
+struct LaneTriangle {
+  bool valid = false;
+  float d2 = 0.0f, side = 0.0f;
+  P3 at{0, 0, 0}, normal{0, 0, 0};
+};
+__device__ LaneTriangle laneTriangle(const BvhView& v, const Node& n, int k, P3 q, const P3* x, const P3* centres) {
+  LaneTriangle r;
+  if (k >= 3 * n.count) return r;
+  const Tri t = v.tris[3 * v.order[n.first + k / 3] + k % 3];
+  const P3 a = x[t.a], b = x[t.b], c = centres[t.cell];
+  r.valid = true;
+  r.at = closestOnTriangle(q, a, b, c);
+  const P3 d = sub(q, r.at);
+  r.d2 = dot3(d, d);
+  r.normal = unitNormal(a, b, c);
+  r.side = dot3(d, r.normal);
+  return r;
+}
+// Only triangles within the ties of the nearer of the round's nearest (over `width` lanes: the
+// node's) and the owner's best so far can be the best once the round is done: one taken before the
+// nearest is replaced by it (more than a tie nearer), one after it is not taken. Ties can raise the
+// best a little (by at most 1e-4 of it) within a round: a looser filter. The owner then takes fewer
+// candidates one by one (a first leaf or patch offered all of its triangles: nothing was found yet).
+// Lanes from `split` on belong to (ownerB, idB), the others to (ownerA, idA); each owner takes its
+// own lanes' candidates in lane order, the triangles' order (replacesBest), so its best is
+// testLeaf's to the bit. Every lane of the warp calls it.
+template <int kWidth>
+__device__ void offerCandidates(const LaneTriangle& t, float ownerBest, int split, int ownerA, int idA, int ownerB, int idB,
+                                Hit& best, bool& found) {
   constexpr unsigned all = 0xffffffffu;
   const int lane = threadIdx.x % 32;
+  float nearest = t.valid ? t.d2 : 3.0e38f;
+  for (int o = kWidth / 2; o > 0; o /= 2) nearest = fminf(nearest, __shfl_xor_sync(all, nearest, o));
+  const float within = 1.01f * tieBound(fminf(nearest, ownerBest)) + 1e-10f;
+  for (unsigned c = __ballot_sync(all, t.valid && t.d2 <= within); c; c &= c - 1) {
+    const int src = __ffs(c) - 1;
+    const float cd2 = __shfl_sync(all, t.d2, src), cside = __shfl_sync(all, t.side, src);
+    const P3 cat = shuffle(t.at, src), cnormal = shuffle(t.normal, src);
+    if (lane == (src >= split ? ownerB : ownerA) && replacesBest(best, found, cd2, cside)) {
+      best = {cd2, cat, cnormal, cside, src >= split ? idB : idA};
+      found = true;
+    }
+  }
+}
+
+// testLeaf with the warp's lanes on a node's triangles (a leaf's; under an inner node, all its
+// vertices'), for the point q of lane `owner`: triangle k of the node's vertex j on lane
+// (3 j + k) % 32, 32 at a time. Every lane of the warp calls it.
+__device__ void testNodeWarp(const BvhView& v, int id, P3 q, int owner, const P3* x, const P3* centres, Hit& best,
+                             bool& found) {
   const Node n = v.nodes[id];
   for (int base = 0; base < 3 * n.count; base += 32) {
-    const int k = base + lane;
-    const bool triangle = k < 3 * n.count;
-    float d2 = 0.0f, side = 0.0f;
-    P3 at{0, 0, 0}, normal{0, 0, 0};
-    if (triangle) {
-      const Tri t = v.tris[3 * v.order[n.first + k / 3] + k % 3];
-      const P3 a = x[t.a], b = x[t.b], c = centres[t.cell];
-      at = closestOnTriangle(q, a, b, c);
-      const P3 d = sub(q, at);
-      d2 = dot3(d, d);
-      normal = unitNormal(a, b, c);
-      side = dot3(d, normal);
-    }
-    // Only triangles within the ties of the nearer of the round's nearest and the best so far can
-    // be the best once the round is done: one taken before the nearest is replaced by it (more
-    // than a tie nearer), one after it is not taken. Ties can raise the best a little (by at most
-    // 1e-4 of it) within a round: a looser filter. The owner then takes fewer candidates one by one
-    // (a first leaf or patch offered all of its triangles: nothing was found yet).
-    float nearest = triangle ? d2 : 3.0e38f;
-    for (int o = 16; o > 0; o /= 2) nearest = fminf(nearest, __shfl_xor_sync(all, nearest, o));
-    const float within = 1.01f * tieBound(fminf(nearest, __shfl_sync(all, best.d2, owner))) + 1e-10f;
-    for (unsigned c = __ballot_sync(all, triangle && d2 <= within); c; c &= c - 1) {
-      const int src = __ffs(c) - 1;
-      const float cd2 = __shfl_sync(all, d2, src), cside = __shfl_sync(all, side, src);
-      const P3 cat = shuffle(at, src), cnormal = shuffle(normal, src);
-      if (lane == owner && replacesBest(best, found, cd2, cside)) {
-        best = {cd2, cat, cnormal, cside, id};
-        found = true;
-      }
-    }
+    const LaneTriangle t = laneTriangle(v, n, base + int(threadIdx.x % 32), q, x, centres);
+    offerCandidates<32>(t, __shfl_sync(0xffffffffu, best.d2, owner), 32, owner, id, owner, id, best, found);
   }
 }
 // Two leaves at once (a leaf has at most kLeafVertices * 3 = 12 triangles): leaf idA of lane
 // ownerA on lanes 0-15, leaf idB of lane ownerB (idB < 0: none) on lanes 16-31, each half as
-// testNodeWarp does for one leaf. The owners differ (a lane reaches one leaf at a time), and each
-// takes its own half's candidates in the triangles' order, so each best is testLeaf's to the bit.
-// A warp tested its lanes' leaves one after another with 12 of its 32 lanes busy. Every lane of
-// the warp calls it.
+// testNodeWarp does for one leaf. The owners differ (a lane reaches one leaf at a time). A warp
+// tested its lanes' leaves one after another with 12 of its 32 lanes busy. Every lane of the warp
+// calls it.
 static_assert(3 * kLeafVertices <= 16, "a leaf's triangles fit in half a warp");
 __device__ void testLeafPairWarp(const BvhView& v, int idA, int ownerA, int idB, int ownerB, P3 p, const P3* x,
                                  const P3* centres, Hit& best, bool& found) {
-  constexpr unsigned all = 0xffffffffu;
-  const int lane = threadIdx.x % 32, half = lane >> 4, k = lane & 15;
+  const int lane = threadIdx.x % 32, half = lane >> 4;
   const int id = half ? idB : idA, owner = half ? ownerB : ownerA;
   const P3 q = shuffle(p, owner < 0 ? 0 : owner);
-  const float ownerBest = __shfl_sync(all, best.d2, owner < 0 ? 0 : owner);
-  bool triangle = false;
-  float d2 = 0.0f, side = 0.0f;
-  P3 at{0, 0, 0}, normal{0, 0, 0};
-  if (id >= 0) {
-    const Node n = v.nodes[id];
-    triangle = k < 3 * n.count;
-    if (triangle) {
-      const Tri t = v.tris[3 * v.order[n.first + k / 3] + k % 3];
-      const P3 a = x[t.a], b = x[t.b], c = centres[t.cell];
-      at = closestOnTriangle(q, a, b, c);
-      const P3 d = sub(q, at);
-      d2 = dot3(d, d);
-      normal = unitNormal(a, b, c);
-      side = dot3(d, normal);
-    }
-  }
-  // As testNodeWarp: only triangles within the ties of the nearer of the half's nearest and its
-  // owner's best so far can end as the best.
-  float nearest = triangle ? d2 : 3.0e38f;
-  for (int o = 8; o > 0; o /= 2) nearest = fminf(nearest, __shfl_xor_sync(all, nearest, o));
-  const float within = 1.01f * tieBound(fminf(nearest, ownerBest)) + 1e-10f;
-  for (unsigned c = __ballot_sync(all, triangle && d2 <= within); c; c &= c - 1) {
-    const int src = __ffs(c) - 1;
-    const float cd2 = __shfl_sync(all, d2, src), cside = __shfl_sync(all, side, src);
-    const P3 cat = shuffle(at, src), cnormal = shuffle(normal, src);
-    if (lane == (src >> 4 ? ownerB : ownerA) && replacesBest(best, found, cd2, cside)) {
-      best = {cd2, cat, cnormal, cside, src >> 4 ? idB : idA};
-      found = true;
-    }
-  }
+  const float ownerBest = __shfl_sync(0xffffffffu, best.d2, owner < 0 ? 0 : owner);
+  LaneTriangle t;
+  if (id >= 0) t = laneTriangle(v, v.nodes[id], lane & 15, q, x, centres);
+  offerCandidates<16>(t, ownerBest, 16, ownerA, idA, ownerB, idB, best, found);
 }
 __device__ Hit closestPointWarp(const BvhView& v, int mesh, P3 p, const P3* x, const P3* centres, float maxD2, int hint,
                                 bool walks) {
