@@ -5,6 +5,7 @@
 #include "cuda_check.h"
 #include "device_attachments.h"
 #include "device_collision.h"
+#include "device_contour.h"
 #include "device_error.h"
 #include "device_image.h"
 #include "device_placed.h"
@@ -77,9 +78,7 @@ struct CudaEngine::Impl {
   DeviceRadial radial;              // medial surfaces of the structures the radial force acts on
   DeviceAttachments attachments;    // the level's attachments (Simulation builds them per level)
   DeviceSampledError sampledError;  // used when a run samples its error on the device
-  // Drawing: contour segments and their count.
-  DeviceArray<float3> contourOut;
-  DeviceArray<int> contourCount, contourBase;
+  DeviceContour contour;            // the slice views' contours
   MeshView view;
   StepGraphs graphs;                       // the captured batches of steps
   std::vector<float> graphSignature;       // what the captured graphs baked in
@@ -352,9 +351,9 @@ struct CudaEngine::Impl {
   }
 
   // One step, as Simulation::step: geometry, forces with a positive weight somewhere, Verlet. The
-  // leading per-vertex forces run fused in one kernel; the others follow in order.
-  void enqueueStep() {
-    launchGeometry(view, topology.cellSpans.get(), stream);
+  // leading per-vertex forces run fused in one kernel; the others follow in order. keepForces: the
+  // step's forces must be left in `force` (a batch's last step: the host downloads them).
+  void enqueueStep(bool keepForces) {
     // With the affine regularisation on, the image forces add into their own buffer (the gradient
     // then runs apart from the fused kernel), which is regularised into the force at the end.
     const float share = sim.affineRegularisation();
@@ -411,10 +410,20 @@ struct CudaEngine::Impl {
     size_t profile = next;
     while (profile < forces.size() && !sim.forceParams(forces[profile].name).anyPositive(0)) ++profile;
     if (!moveAlone && profile == forces.size()) {
-      launchFusedForcesAndMove(view, fused, move, stream);
+      // Nothing else reads this step's normals and masses, nor its forces before the batch's end:
+      // the pass computes the first two itself (docs/benchmarks.md, the lean geometry).
+      MeshView lean = view;
+      if (!hasGradientTerm(fused) && view.area) {
+        lean.normal = nullptr;
+        lean.mass = nullptr;
+      }
+      if (!keepForces) lean.force = nullptr;
+      launchGeometry(lean, topology.cellSpans.get(), stream);
+      launchFusedForcesAndMove(lean, fused, move, stream);
       std::swap(view.x, view.prev);
       return;
     }
+    launchGeometry(view, topology.cellSpans.get(), stream);
     if (!moveAlone && !hasGradientTerm(fused) && profile < forces.size() && forces[profile].kind == Kind::Profile &&
         !activeAfter(profile)) {
       const ForceSlot& f = forces[profile];
@@ -587,7 +596,7 @@ void CudaEngine::run(int iterations) {
   const auto currentInX = [&] { if (I.view.x != I.x.get()) std::swap(I.x, I.prev); };
   try {
     for (; iterations > 0; iterations -= std::min(iterations, kBatch))
-      I.graphs.enqueue(std::min(iterations, kBatch), I.view, I.stream, [&] { I.enqueueStep(); });
+      I.graphs.enqueue(std::min(iterations, kBatch), I.view, I.stream, [&](bool last) { I.enqueueStep(last); });
   } catch (...) {
     currentInX();
     throw;
@@ -670,32 +679,7 @@ void CudaEngine::synchronize() { SINEW_CUDA(cudaStreamSynchronize(impl_->stream)
 
 std::vector<std::vector<Vec3>> CudaEngine::contourSegments(const Vec3& normal, float offset) {
   Impl& I = *impl_;
-  const MeshStore& s = I.sim.store();
-  const Index meshes = s.meshCount();
-  // A plane crosses each triangle at most once: each structure's triangle count bounds its segments.
-  std::vector<int> base(meshes + 1, 0);
-  for (Index m = 0; m < meshes; ++m) base[m] = int(s.cellOffsets()[s.range(m).cellBegin]);
-  base[meshes] = int(s.cellOffsets()[s.cellCount()]);
-  I.contourBase.upload(base, I.stream);
-  if (I.contourOut.size() < 2 * std::size_t(base[meshes])) I.contourOut.resize(2 * std::size_t(base[meshes]));
-  I.contourCount.resize(meshes);
-  SINEW_CUDA(cudaMemsetAsync(I.contourCount.get(), 0, meshes * sizeof(int), I.stream));
-  launchContour(int(s.cellCount()), I.x.get(), I.topology.cellOffsets.get(), I.topology.cellVertices.get(), I.topology.meshOf.get(),
-                make_float3(normal.x(), normal.y(), normal.z()), offset, I.contourBase.get(), I.contourOut.get(),
-                I.contourCount.get(), I.stream);
-  std::vector<int> counts(meshes);
-  I.contourCount.download(counts.data(), meshes, I.stream);
-  SINEW_CUDA(cudaStreamSynchronize(I.stream));
-  std::vector<std::vector<Vec3>> out(meshes);
-  for (Index m = 0; m < meshes; ++m) {
-    const int count = std::min(counts[m], base[m + 1] - base[m]);
-    out[m].resize(2 * std::size_t(count));
-    if (count > 0)
-      SINEW_CUDA(cudaMemcpyAsync(out[m].data(), I.contourOut.get() + 2 * std::size_t(base[m]),
-                                 2 * std::size_t(count) * sizeof(float3), cudaMemcpyDeviceToHost, I.stream));
-  }
-  SINEW_CUDA(cudaStreamSynchronize(I.stream));
-  return out;
+  return I.contour.segments(I.sim.store(), I.topology, I.x.get(), normal, offset, I.stream);
 }
 
 std::string CudaEngine::device() const { return impl_->device; }
@@ -704,7 +688,7 @@ std::size_t CudaEngine::deviceBytes() const {
   const Impl& I = *impl_;
   return I.topology.bytes() + I.density.bytes() + I.massFloor.bytes() + I.elevation.bytes() + I.area.bytes() + I.mass.bytes() + I.x.bytes() +
          I.prev.bytes() + I.force.bytes() + I.normal.bytes() + I.centre.bytes() + I.reference.bytes() +
-         I.imageTexture.bytes() + I.profiles.bytes() + I.gradient.bytes() + I.contourOut.bytes() + I.implicitA.bytes() +
+         I.imageTexture.bytes() + I.profiles.bytes() + I.gradient.bytes() + I.contour.bytes() + I.implicitA.bytes() +
          I.implicitB.bytes() + I.implicitOff.bytes() + I.implicitC.bytes() + I.implicitVel.bytes() + I.implicitRhs.bytes() +
          I.implicitR.bytes() + I.implicitZ.bytes() + I.implicitP.bytes() + I.implicitAp.bytes() + I.collision.bytes() + I.sampledError.bytes() +
          I.contactLinks.bytes() + I.radial.bytes() + I.attachments.bytes();

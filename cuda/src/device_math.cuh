@@ -40,6 +40,12 @@ __device__ __forceinline__ Frame neighbourFrame(float3 p1, float3 p2, float3 p3)
   f.radius = norm(p1 - f.centre);
   return f;
 }
+// neighbourFrame(p1, p2, p3).normal alone.
+__device__ __forceinline__ float3 neighbourNormal(float3 p1, float3 p2, float3 p3) {
+  const float3 axb = cross(p1 - p3, p2 - p3);
+  const float twiceArea = sqrtf(squaredNorm(axb));
+  return twiceArea > 1e-20f ? axb / twiceArea : make_float3(0, 0, 0);
+}
 
 // sinew::elevationFromSinCos
 __device__ __forceinline__ float elevationFromSinCos(float r, float d2, float s, float c, float hint) {
@@ -65,9 +71,19 @@ __device__ __forceinline__ void verletMove(const MeshView& m, int v, float3 f, f
 }
 // The same move with the new position written over prev[v] and x left as it was, for a pass in
 // which other vertices' forces still read x; the caller swaps x and prev after it.
-__device__ __forceinline__ void verletMoveAside(const MeshView& m, int v, float3 f, float dt, float keep) {
+// mass: v's mass, when the caller has it (m.mass[v] otherwise).
+__device__ __forceinline__ void verletMoveAside(const MeshView& m, int v, float3 f, float dt, float keep, float mass) {
   const float3 current = m.x[v];
-  m.prev[v] = current + keep * (current - m.prev[v]) + (dt * dt / m.mass[v]) * f;
+  m.prev[v] = current + keep * (current - m.prev[v]) + (dt * dt / mass) * f;
+}
+__device__ __forceinline__ void verletMoveAside(const MeshView& m, int v, float3 f, float dt, float keep) {
+  verletMoveAside(m, v, f, dt, keep, m.mass[v]);
+}
+// A vertex of structure `mesh` and this area: its mass as MeshStore computes it (the area times the
+// structure's density, at least its floor).
+__device__ __forceinline__ float massFromArea(const MeshView& m, int mesh, float area) {
+  const float mass = area * m.density[mesh];
+  return m.massFloor && m.massFloor[mesh] > mass ? m.massFloor[mesh] : mass;  // as std::max on the host
 }
 
 // sinew::Volume<T>::sample with T = float or float3: border voxels extend outside.

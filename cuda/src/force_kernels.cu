@@ -43,14 +43,17 @@ __global__ void gradient(MeshView m, ParamView p, int kEps, int kDepth, int kSte
 // SM, 8 bytes spilled): 4, 5, 6 and 8 blocks gave 282, 273, 278 and 325 us per step of smoothing +
 // shape prior at 2.7 M vertices (H100, 2026-11-24; docs/benchmarks.md).
 // kMove: the step's damped Verlet move in the same pass, written over prev (verletMoveAside), as
-// the pass's other vertices still read x (launchFusedForcesAndMove).
-template <bool kWithGradient, bool kMove>
+// the pass's other vertices still read x (launchFusedForcesAndMove); m.force may then be null (the
+// forces are not kept). kOwnFrame: the lean geometry (m.normal and m.mass not stored): each vertex's
+// normal comes from its neighbours and its mass from its area, the values the geometry pass writes.
+template <bool kWithGradient, bool kMove, bool kOwnFrame = false>
 __global__ void __launch_bounds__(kThreads, kWithGradient ? 0 : 5) fusedForces(MeshView m, FusedTerms t, VerletMove move) {
   const int v = blockIdx.x * blockDim.x + threadIdx.x;
   if (v >= m.vertices) return;
-  const float3 f = fusedSum<kWithGradient, true>(m, t, v);
-  m.force[v] = f;
-  if constexpr (kMove) verletMoveAside(m, v, f, move.dt, move.keep);
+  const float3 f = fusedSum<kWithGradient, true, kOwnFrame>(m, t, v);
+  if (!kMove || m.force) m.force[v] = f;
+  if constexpr (kMove && kOwnFrame) verletMoveAside(m, v, f, move.dt, move.keep, massFromArea(m, m.meshOf[v], m.area[v]));
+  else if constexpr (kMove) verletMoveAside(m, v, f, move.dt, move.keep);
 }
 
 __global__ void verlet(MeshView m, float dt, float keep) {
@@ -87,6 +90,7 @@ void launchFusedForces(const MeshView& m, const FusedTerms& t, cudaStream_t s) {
 void launchFusedForcesAndMove(const MeshView& m, const FusedTerms& t, const VerletMove& move, cudaStream_t s) {
   const unsigned threads = fusedThreads(m.vertices), grid = (m.vertices + threads - 1) / threads;
   if (hasGradientTerm(t)) fusedForces<true, true><<<grid, threads, 0, s>>>(m, t, move);
+  else if (!m.mass) fusedForces<false, true, true><<<grid, threads, 0, s>>>(m, t, move);
   else fusedForces<false, true><<<grid, threads, 0, s>>>(m, t, move);
 }
 void launchVerlet(const MeshView& m, float dt, float keep, cudaStream_t s) {

@@ -8,7 +8,9 @@
 namespace sinew::cuda {
 
 // Per-vertex force terms; each returns what its CPU plugin adds to forces[v] (alpha included).
-// n: v's neighbours (m.neighbours[v]), loaded by the caller.
+// n: v's neighbours (m.neighbours[v]), loaded by the caller. kOwnNormal: v's normal from its
+// neighbours, as the geometry pass computes it, instead of m.normal (the lean geometry).
+template <bool kOwnNormal = false>
 __device__ __forceinline__ float3 smoothingTerm(const MeshView& m, const ParamView& p, int kElevation, int v, int3 n,
                                                 float alpha) {
   const int mesh = m.meshOf[v];
@@ -17,7 +19,8 @@ __device__ __forceinline__ float3 smoothingTerm(const MeshView& m, const ParamVi
   const float3 x0 = m.x[n.x], x1 = m.x[n.y], x2 = m.x[n.z];
   const float3 centre = total > 0.0f ? (a0 * x0 + a1 * x1 + a2 * x2) / total : (x0 + x1 + x2) / 3.0f;
   const float lift = param(p, mesh, kElevation) * (m.elevation[n.x] + m.elevation[n.y] + m.elevation[n.z]) / 3.0f;
-  return alpha * (centre + lift * m.normal[v] - m.x[v]);
+  const float3 normal = kOwnNormal ? neighbourNormal(x0, x1, x2) : m.normal[v];
+  return alpha * (centre + lift * normal - m.x[v]);
 }
 
 __device__ __forceinline__ float3 shapePriorTerm(const MeshView& m, const float4* __restrict__ ref, int v, int3 n,
@@ -54,19 +57,21 @@ __device__ __forceinline__ float3 gradientTerm(const MeshView& m, const ParamVie
   return (alpha * (static_cast<float>(bestJ) * step)) * n;
 }
 
-// The fused terms' sum at v, in the scene's order (the CPU's order of additions). kWeightsFirst:
+// The fused terms' sum at v, in the scene's order (the CPU's order of additions). kOwnNormal: as
+// smoothingTerm's (no gradient term then). kWeightsFirst:
 // every term's weight (and v's neighbours) is read before the first term, so that a term's loads do
 // not wait for its weight (fusedForces: smoothing + shape prior 240.0 -> 233.4 us a step at 2.7 M
 // vertices on an H100). The profile pass, at its register limit, spilled with it (42,496 vertices
 // 20.3-20.4 -> 20.4-20.5 us) and reads each weight in turn (docs/benchmarks.md).
-template <bool kWithGradient, bool kWeightsFirst>
+template <bool kWithGradient, bool kWeightsFirst, bool kOwnNormal = false>
 __device__ __forceinline__ float3 fusedSum(const MeshView& m, const FusedTerms& t, int v) {
+  static_assert(!(kWithGradient && kOwnNormal), "the gradient term reads m.normal");
   const int mesh = m.meshOf[v];
   const int3 early = kWeightsFirst ? m.neighbours[v] : make_int3(0, 0, 0);  // with the weights
   const auto add = [&](float3& f, const FusedTerm& term, float alpha) {
     const int3 n = kWeightsFirst ? early : m.neighbours[v];
     switch (term.kind) {
-      case FusedTerm::Smoothing: f = f + smoothingTerm(m, term.params, term.k0, v, n, alpha); break;
+      case FusedTerm::Smoothing: f = f + smoothingTerm<kOwnNormal>(m, term.params, term.k0, v, n, alpha); break;
       case FusedTerm::ShapePrior: f = f + shapePriorTerm(m, t.reference, v, n, alpha); break;
       case FusedTerm::Gradient:
         if constexpr (kWithGradient)

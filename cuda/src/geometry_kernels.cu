@@ -72,11 +72,7 @@ __device__ __forceinline__ void storeAreaAndMass(const MeshView& m, int v, float
 #pragma unroll
   for (int j = 0; j < 3; ++j) a += triangleArea(p, q[j], centre[j]) + triangleArea(p, q[j], centre[(j + 1) % 3]);
   m.area[v] = a;
-  if (m.mass) {
-    const int mesh = m.meshOf[v];
-    const float mass = a * m.density[mesh];
-    m.mass[v] = m.massFloor && m.massFloor[mesh] > mass ? m.massFloor[mesh] : mass;  // as std::max on the host
-  }
+  if (m.mass) m.mass[v] = massFromArea(m, m.meshOf[v], a);
 }
 
 // kOwnCentres: each vertex computes its three cells' centres itself (the same sums as

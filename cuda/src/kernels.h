@@ -82,7 +82,9 @@ void launchProfile(const MeshView& m, ParamView p, int kDepth, VolumeView volume
                    cudaStream_t s);
 // The fused terms and the move in one pass, when no other force follows them: as
 // launchProfileAfterTerms, the new positions are written over m.prev and the caller swaps m.x and
-// m.prev afterwards.
+// m.prev afterwards. The lean geometry (no gradient term): with m.normal and m.mass null (and
+// launchGeometry run with them null), each vertex's normal and mass are computed in the pass from
+// its neighbours and m.area. With m.force null the forces are not written.
 void launchFusedForcesAndMove(const MeshView& m, const FusedTerms& t, const VerletMove& move, cudaStream_t s);
 // Whether launchProfileAfterTerms can run for this layout and size: the register kernels, below the
 // size where the move leaves the profile's pass.

@@ -9,7 +9,7 @@ void StepGraphs::clear() {
   batches_.clear();
 }
 
-void StepGraphs::enqueue(int n, MeshView& view, cudaStream_t stream, const std::function<void()>& enqueueStep) {
+void StepGraphs::enqueue(int n, MeshView& view, cudaStream_t stream, const std::function<void(bool last)>& enqueueStep) {
   const auto key = std::make_pair(n, static_cast<const float3*>(view.x));
   auto it = batches_.find(key);
   if (it == batches_.end()) {
@@ -17,7 +17,7 @@ void StepGraphs::enqueue(int n, MeshView& view, cudaStream_t stream, const std::
     cudaGraph_t g = nullptr;
     SINEW_CUDA(cudaStreamBeginCapture(stream, cudaStreamCaptureModeThreadLocal));
     try {
-      for (int i = 0; i < n; ++i) enqueueStep();
+      for (int i = 0; i < n; ++i) enqueueStep(i == n - 1);
     } catch (...) {
       // A plugin's launch failed and invalidated the capture: end it and clear the error it left
       // in this runtime, so that the stream and later engines stay usable.

@@ -24,9 +24,9 @@ public:
   // Forgets every captured batch (what they baked in changed).
   void clear();
   // Enqueues n steps on `stream`: the captured batch for (n, view.x), captured first from
-  // enqueueStep() (which enqueues one step and may swap view.x and view.prev) when there is none.
-  // view leaves as the steps leave it.
-  void enqueue(int n, MeshView& view, cudaStream_t stream, const std::function<void()>& enqueueStep);
+  // enqueueStep(last) (which enqueues one step and may swap view.x and view.prev; last: whether it
+  // is the batch's last step) when there is none. view leaves as the steps leave it.
+  void enqueue(int n, MeshView& view, cudaStream_t stream, const std::function<void(bool last)>& enqueueStep);
 
 private:
   struct Batch {
