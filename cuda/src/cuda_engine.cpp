@@ -177,46 +177,7 @@ struct CudaEngine::Impl {
     coarseLevels.clear();
     const int L = sim.level();
     const std::vector<int> fineBegin = meshBegins(sim, L);
-    for (int l = 0; l < L; ++l) {
-      MeshStore& cs = sim.coarseStore(l);
-      auto c = std::make_unique<CoarseLevel>();
-      c->topology.upload(cs, stream);
-      std::vector<int> gather;
-      std::vector<float> dens;
-      const int stride = 1 << (2 * (L - l));
-      for (Index m = 0; m < cs.meshCount(); ++m) {
-        for (Index t = 0; t < cs.range(m).vertexCount(); ++t) gather.push_back(fineBegin[m] + t * stride);
-        dens.push_back(1.0f);
-      }
-      c->gatherIndex.upload(gather, stream);
-      c->density.upload(dens, stream);
-      const Index n = cs.vertexCount();
-      c->x.resize(n);
-      c->force.resize(n);
-      c->normal.resize(n);
-      c->elevation.resize(n);
-      c->area.resize(n);
-      c->centre.resize(cs.cellCount());
-      const auto rp = cs.referenceParams();
-      std::vector<float4> r(rp.size());
-      for (size_t v = 0; v < rp.size(); ++v) r[v] = make_float4(rp[v].eps1, rp[v].eps2, std::sin(rp[v].phi), std::cos(rp[v].phi));
-      c->reference.upload(r, stream);
-      const GlobalProlongation up = globalProlongation(sim, l, meshBegins(sim, l));
-      c->upRows.upload(up.rows, stream);
-      c->upIndex.upload(up.index, stream);
-      c->upWeight.upload(up.weight, stream);
-      c->upCount = static_cast<int>(up.rows.size()) - 1;
-      MeshView& v = c->view;
-      c->topology.bind(cs, v);
-      v.density = c->density.get();
-      v.x = c->x.get();
-      v.force = c->force.get();
-      v.normal = c->normal.get();
-      v.elevation = c->elevation.get();
-      v.area = c->area.get();
-      v.cellCentre = c->centre.get();
-      coarseLevels.push_back(std::move(c));
-    }
+    for (int l = 0; l < L; ++l) coarseLevels.push_back(CoarseLevel::upload(sim, l, fineBegin, stream));
     coarseLevelsAt = L;
     invalidateGraph();
   }
@@ -300,12 +261,7 @@ struct CudaEngine::Impl {
       for (auto* a : {&implicitVel, &implicitRhs, &implicitR, &implicitZ, &implicitP, &implicitAp}) a->resize(s.vertexCount());
       implicitScalars.resize(kImplicitScalars);
     }
-    if (s.has(Attribute::ReferenceParams)) {
-      const auto rp = s.referenceParams();
-      std::vector<float4> r(rp.size());
-      for (size_t v = 0; v < rp.size(); ++v) r[v] = make_float4(rp[v].eps1, rp[v].eps2, std::sin(rp[v].phi), std::cos(rp[v].phi));
-      reference.upload(r, stream);
-    }
+    if (s.has(Attribute::ReferenceParams)) uploadReference(reference, s.referenceParams(), stream);
     for (const ForceSlot& f : forces) {
       if (f.kind == Kind::Profile) {
         const Image3D& im = sim.scene().targetImage();
@@ -409,33 +365,52 @@ struct CudaEngine::Impl {
     // two: the new positions are written aside, so x and prev swap.
     size_t profile = next;
     while (profile < forces.size() && !sim.forceParams(forces[profile].name).anyPositive(0)) ++profile;
-    if (!moveAlone && profile == forces.size()) {
-      // Nothing else reads this step's normals and masses, nor its forces before the batch's end:
-      // the pass computes the first two itself (docs/benchmarks.md, the lean geometry).
-      MeshView lean = view;
-      if (!hasGradientTerm(fused) && view.area) {
-        lean.normal = nullptr;
-        lean.mass = nullptr;
-      }
-      if (!keepForces) lean.force = nullptr;
-      launchGeometry(lean, topology.cellSpans.get(), stream);
-      launchFusedForcesAndMove(lean, fused, move, stream);
+    // The geometry without what no kernel of the step reads (the lean geometry, docs/benchmarks.md):
+    // the pass of the terms and the move computes the normals and masses itself.
+    const bool lean = !moveAlone && !hasGradientTerm(fused) && view.area;
+    const auto geometry = [&](bool normals) {
+      MeshView g = view;
+      if (lean) g.mass = nullptr;
+      if (lean && !normals) g.normal = nullptr;
+      launchGeometry(g, topology.cellSpans.get(), stream);
+    };
+    const auto termsAndMove = [&] {
+      MeshView m = view;
+      if (lean) m.mass = nullptr;
+      if (!keepForces) m.force = nullptr;  // nothing reads the step's forces before the batch's end
+      launchFusedForcesAndMove(m, fused, move, stream);
       std::swap(view.x, view.prev);
+    };
+    if (!moveAlone && profile == forces.size()) {
+      geometry(false);
+      termsAndMove();
       return;
     }
-    launchGeometry(view, topology.cellSpans.get(), stream);
     if (!moveAlone && !hasGradientTerm(fused) && profile < forces.size() && forces[profile].kind == Kind::Profile &&
         !activeAfter(profile)) {
       const ForceSlot& f = forces[profile];
       const ParamTable& t = sim.forceParams(f.name);
-      if (profileTakesTerms(view.vertices, profileInside, profileOutside, maxProfileReach(t))) {
-        launchProfileAfterTerms(view, fused, ParamView{f.params.get(), f.count}, t.indexOf("search_depth"), imageView,
-                                imageTexture.get(), profiles.get(), profileInside, profileSpacing, maxProfileReach(t), move,
-                                stream);
+      const ParamView p{f.params.get(), f.count};
+      const int reach = maxProfileReach(t), kDepth = t.indexOf("search_depth");
+      if (profileTakesTerms(view.vertices, profileInside, profileOutside, reach)) {
+        launchGeometry(view, topology.cellSpans.get(), stream);
+        launchProfileAfterTerms(view, fused, p, kDepth, imageView, imageTexture.get(), profiles.get(), profileInside,
+                                profileSpacing, reach, move, stream);
         std::swap(view.x, view.prev);
         return;
       }
+      // Larger scenes: the profile's term first, then the terms added to it in the move's pass, so
+      // that the move needs no pass of its own.
+      if (lean && profileGoesFirst(view.vertices, profileInside, profileOutside, reach)) {
+        geometry(true);
+        launchProfileFirst(view, p, kDepth, imageView, imageTexture.get(), profiles.get(), profileInside, profileSpacing,
+                           reach, stream);
+        fused.plus = view.force;
+        termsAndMove();
+        return;
+      }
     }
+    launchGeometry(view, topology.cellSpans.get(), stream);
     launchFusedForces(view, fused, stream);
     bool moved = false;
     float hold = -1.0f;  // the collision force's hold_mm, when it ran (negative: no hold)

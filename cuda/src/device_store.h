@@ -7,6 +7,8 @@
 #include "kernels.h"
 #include "sinew/core/simulation.h"
 
+#include <cmath>
+#include <memory>
 #include <span>
 #include <vector>
 
@@ -116,6 +118,13 @@ struct DeviceTopology {
   }
 };
 
+// The reference parameters as the shape prior's kernels read them: (eps1, eps2, sin phi, cos phi).
+inline void uploadReference(DeviceArray<float4>& dst, std::span<const SimplexParams> rp, cudaStream_t stream) {
+  std::vector<float4> r(rp.size());
+  for (size_t v = 0; v < rp.size(); ++v) r[v] = make_float4(rp[v].eps1, rp[v].eps2, std::sin(rp[v].phi), std::cos(rp[v].phi));
+  dst.upload(r, stream);
+}
+
 // A coarser level for the multi-resolution forces: its topology, geometry and forces on the device,
 // where its positions are gathered from the current level and whence its forces go up a level.
 struct CoarseLevel {
@@ -126,5 +135,46 @@ struct CoarseLevel {
   DeviceArray<float4> reference;
   MeshView view;
   int upCount = 0;  // vertices of the level above
+
+  // Level l below the simulation's current one, from its host store: topology, reference
+  // parameters, the gather and prolongation indices. fineBegin: meshBegins at the current level.
+  static std::unique_ptr<CoarseLevel> upload(Simulation& sim, int l, const std::vector<int>& fineBegin,
+                                             cudaStream_t stream) {
+    MeshStore& cs = sim.coarseStore(l);
+    auto c = std::make_unique<CoarseLevel>();
+    c->topology.upload(cs, stream);
+    std::vector<int> gather;
+    std::vector<float> dens;
+    const int stride = 1 << (2 * (sim.level() - l));
+    for (Index m = 0; m < cs.meshCount(); ++m) {
+      for (Index t = 0; t < cs.range(m).vertexCount(); ++t) gather.push_back(fineBegin[m] + t * stride);
+      dens.push_back(1.0f);
+    }
+    c->gatherIndex.upload(gather, stream);
+    c->density.upload(dens, stream);
+    const Index n = cs.vertexCount();
+    c->x.resize(n);
+    c->force.resize(n);
+    c->normal.resize(n);
+    c->elevation.resize(n);
+    c->area.resize(n);
+    c->centre.resize(cs.cellCount());
+    uploadReference(c->reference, cs.referenceParams(), stream);
+    const GlobalProlongation up = globalProlongation(sim, l, meshBegins(sim, l));
+    c->upRows.upload(up.rows, stream);
+    c->upIndex.upload(up.index, stream);
+    c->upWeight.upload(up.weight, stream);
+    c->upCount = static_cast<int>(up.rows.size()) - 1;
+    MeshView& v = c->view;
+    c->topology.bind(cs, v);
+    v.density = c->density.get();
+    v.x = c->x.get();
+    v.force = c->force.get();
+    v.normal = c->normal.get();
+    v.elevation = c->elevation.get();
+    v.area = c->area.get();
+    v.cellCentre = c->centre.get();
+    return c;
+  }
 };
 }  // namespace sinew::cuda

@@ -50,7 +50,8 @@ template <bool kWithGradient, bool kMove, bool kOwnFrame = false>
 __global__ void __launch_bounds__(kThreads, kWithGradient ? 0 : 5) fusedForces(MeshView m, FusedTerms t, VerletMove move) {
   const int v = blockIdx.x * blockDim.x + threadIdx.x;
   if (v >= m.vertices) return;
-  const float3 f = fusedSum<kWithGradient, true, kOwnFrame>(m, t, v);
+  float3 f = fusedSum<kWithGradient, true, kOwnFrame>(m, t, v);
+  if (t.plus) f = f + t.plus[v];
   if (!kMove || m.force) m.force[v] = f;
   if constexpr (kMove && kOwnFrame) verletMoveAside(m, v, f, move.dt, move.keep, massFromArea(m, m.meshOf[v], m.area[v]));
   else if constexpr (kMove) verletMoveAside(m, v, f, move.dt, move.keep);

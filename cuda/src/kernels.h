@@ -45,6 +45,7 @@ struct FusedTerms {
   const float4* reference = nullptr;
   VolumeView gradientVolume{};
   const float3* gradient = nullptr;
+  const float3* plus = nullptr;  // when set, added after the terms: a force an earlier pass wrote
 };
 inline bool hasGradientTerm(const FusedTerms& t) {
   for (int i = 0; i < t.count; ++i)
@@ -96,6 +97,13 @@ bool profileTakesTerms(int vertices, int inside, int outside, int maxReach);
 void launchProfileAfterTerms(const MeshView& m, const FusedTerms& terms, ParamView p, int kDepth, VolumeView volume,
                              cudaTextureObject_t image, const float* profiles, int inside, float spacing, int maxReach,
                              const VerletMove& move, cudaStream_t s);
+// For larger scenes, where the move leaves the profile's pass (profileTakesTerms false but the
+// register layout): the profile's term alone written to m.force (zero where it is off), for
+// launchFusedForcesAndMove with FusedTerms::plus = m.force to add after the terms. The separate
+// move's pass goes.
+bool profileGoesFirst(int vertices, int inside, int outside, int maxReach);
+void launchProfileFirst(const MeshView& m, ParamView p, int kDepth, VolumeView volume, cudaTextureObject_t image,
+                        const float* profiles, int inside, float spacing, int maxReach, cudaStream_t s);
 // The attraction_points force. points: every placed point; pointMesh: the structure of each;
 // pointKind: kAttractPoint, kIncludePoint or kExcludePoint; keys, windings: one of each per point;
 // constraints: whether any point is an include or exclude point (m.cellCentre is then required).

@@ -105,7 +105,7 @@ template <int kLength, int kMaxReach, int kLanes, bool kWithTerms>
 __global__ void __launch_bounds__(128, kLanes == 1 ? 0 : kLanes == 2 ? 6 : 8) profileLanes(MeshView m, ParamView p, int kDepth, VolumeView vol,
                                                     cudaTextureObject_t image, const float* __restrict__ profiles,
                                                     int inside, float spacing, bool integrate, VerletMove move,
-                                                    FusedTerms terms) {
+                                                    FusedTerms terms, bool termFirst) {
   constexpr int kLine = kLength + 2 * kMaxReach, kPerWarp = 32 / kLanes, kWindows = 2 * kMaxReach + 1;
   constexpr int kTurns = (kWindows + kLanes - 1) / kLanes;  // windows per lane
   constexpr int kLocal = kTurns + kLength - 1;               // the slots one lane's windows cover
@@ -167,12 +167,12 @@ __global__ void __launch_bounds__(128, kLanes == 1 ? 0 : kLanes == 2 ? 6 : 8) pr
       bestJ = otherJ;
     }
   }
-  if (part != 0 || v >= m.vertices || (reach < 0 && !integrate && !kWithTerms)) return;
+  if (part != 0 || v >= m.vertices || (reach < 0 && !integrate && !kWithTerms && !termFirst)) return;
   float3 f;
   if constexpr (kWithTerms) f = fusedSum<false, false>(m, terms, v);
-  else f = m.force[v];
+  else f = termFirst ? make_float3(0, 0, 0) : m.force[v];
   if (reach >= 0) f = f + (param(p, m.meshOf[v], 0) * (static_cast<float>(bestJ) * spacing)) * n;
-  if (reach >= 0 || kWithTerms) m.force[v] = f;
+  if (reach >= 0 || kWithTerms || termFirst) m.force[v] = f;
   if constexpr (kWithTerms) verletMoveAside(m, v, f, move.dt, move.keep);
   else if (integrate) verletMove(m, v, f, move.dt, move.keep);
 }
@@ -237,31 +237,33 @@ bool registerLayout(int inside, int outside, int maxReach) {
   return inside + outside == kRegisterLength && maxReach <= kRegisterReach;
 }
 
-// terms: when not null, the kWithTerms kernel (then must not be null).
+// terms: when not null, the kWithTerms kernel (then must not be null). first: the term is written
+// alone (launchProfileFirst).
 template <int kMaxReach, int kLanes>
 void launchProfileLanes(const MeshView& m, ParamView p, int kDepth, VolumeView vol, cudaTextureObject_t image,
                         const float* profiles, int inside, float spacing, const VerletMove* then, const FusedTerms* terms,
-                        cudaStream_t s) {
+                        bool first, cudaStream_t s) {
   constexpr int perBlock = 4 * (32 / kLanes);
   const unsigned grid = (m.vertices + perBlock - 1) / perBlock;
   if (terms)
     profileLanes<kRegisterLength, kMaxReach, kLanes, true><<<grid, 128, 0, s>>>(m, p, kDepth, vol, image, profiles, inside,
-                                                                              spacing, true, *then, *terms);
+                                                                              spacing, true, *then, *terms, false);
   else
     profileLanes<kRegisterLength, kMaxReach, kLanes, false><<<grid, 128, 0, s>>>(
-        m, p, kDepth, vol, image, profiles, inside, spacing, then != nullptr, then ? *then : VerletMove{}, FusedTerms{});
+        m, p, kDepth, vol, image, profiles, inside, spacing, then != nullptr, then ? *then : VerletMove{}, FusedTerms{},
+        first);
 }
 // The kernel for the scene's largest reach, rounded up to an even number of samples: a line is
 // sampled and scored for that reach, whatever a vertex's own.
 template <int kLanes>
 void launchForReach(int maxReach, const MeshView& m, ParamView p, int kDepth, VolumeView vol, cudaTextureObject_t image,
                     const float* profiles, int inside, float spacing, const VerletMove* then, const FusedTerms* terms,
-                    cudaStream_t s) {
-  if (maxReach <= 2) launchProfileLanes<2, kLanes>(m, p, kDepth, vol, image, profiles, inside, spacing, then, terms, s);
-  else if (maxReach <= 4) launchProfileLanes<4, kLanes>(m, p, kDepth, vol, image, profiles, inside, spacing, then, terms, s);
-  else if (maxReach <= 6) launchProfileLanes<6, kLanes>(m, p, kDepth, vol, image, profiles, inside, spacing, then, terms, s);
-  else if (maxReach <= 8) launchProfileLanes<8, kLanes>(m, p, kDepth, vol, image, profiles, inside, spacing, then, terms, s);
-  else launchProfileLanes<10, kLanes>(m, p, kDepth, vol, image, profiles, inside, spacing, then, terms, s);
+                    bool first, cudaStream_t s) {
+  if (maxReach <= 2) launchProfileLanes<2, kLanes>(m, p, kDepth, vol, image, profiles, inside, spacing, then, terms, first, s);
+  else if (maxReach <= 4) launchProfileLanes<4, kLanes>(m, p, kDepth, vol, image, profiles, inside, spacing, then, terms, first, s);
+  else if (maxReach <= 6) launchProfileLanes<6, kLanes>(m, p, kDepth, vol, image, profiles, inside, spacing, then, terms, first, s);
+  else if (maxReach <= 8) launchProfileLanes<8, kLanes>(m, p, kDepth, vol, image, profiles, inside, spacing, then, terms, first, s);
+  else launchProfileLanes<10, kLanes>(m, p, kDepth, vol, image, profiles, inside, spacing, then, terms, first, s);
 }
 
 // Lanes per vertex by scene size, measured with bench_cuda case (a) (docs/benchmarks.md): on an H100
@@ -281,12 +283,12 @@ int lanesFor(int vertices) {
 
 void launchRegisterKernel(const MeshView& m, ParamView p, int kDepth, VolumeView vol, cudaTextureObject_t image,
                           const float* profiles, int inside, float spacing, int maxReach, const VerletMove* then,
-                          const FusedTerms* terms, cudaStream_t s) {
+                          const FusedTerms* terms, cudaStream_t s, bool first = false) {
   switch (lanesFor(m.vertices)) {
-    case 1: launchForReach<1>(maxReach, m, p, kDepth, vol, image, profiles, inside, spacing, then, terms, s); break;
-    case 2: launchForReach<2>(maxReach, m, p, kDepth, vol, image, profiles, inside, spacing, then, terms, s); break;
-    case 4: launchForReach<4>(maxReach, m, p, kDepth, vol, image, profiles, inside, spacing, then, terms, s); break;
-    default: launchForReach<8>(maxReach, m, p, kDepth, vol, image, profiles, inside, spacing, then, terms, s); break;
+    case 1: launchForReach<1>(maxReach, m, p, kDepth, vol, image, profiles, inside, spacing, then, terms, first, s); break;
+    case 2: launchForReach<2>(maxReach, m, p, kDepth, vol, image, profiles, inside, spacing, then, terms, first, s); break;
+    case 4: launchForReach<4>(maxReach, m, p, kDepth, vol, image, profiles, inside, spacing, then, terms, first, s); break;
+    default: launchForReach<8>(maxReach, m, p, kDepth, vol, image, profiles, inside, spacing, then, terms, first, s); break;
   }
 }
 
@@ -302,6 +304,15 @@ void launchProfileAfterTerms(const MeshView& m, const FusedTerms& terms, ParamVi
                              cudaTextureObject_t image, const float* profiles, int inside, float spacing, int maxReach,
                              const VerletMove& move, cudaStream_t s) {
   launchRegisterKernel(m, p, kDepth, vol, image, profiles, inside, spacing, maxReach, &move, &terms, s);
+}
+
+bool profileGoesFirst(int vertices, int inside, int outside, int maxReach) {
+  return vertices >= kSeparateMoveFrom && registerLayout(inside, outside, maxReach);
+}
+
+void launchProfileFirst(const MeshView& m, ParamView p, int kDepth, VolumeView vol, cudaTextureObject_t image,
+                        const float* profiles, int inside, float spacing, int maxReach, cudaStream_t s) {
+  launchRegisterKernel(m, p, kDepth, vol, image, profiles, inside, spacing, maxReach, nullptr, nullptr, s, true);
 }
 
 void launchProfile(const MeshView& m, ParamView p, int kDepth, VolumeView vol, cudaTextureObject_t image,
