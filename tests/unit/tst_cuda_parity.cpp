@@ -486,21 +486,26 @@ private slots:
     QTest::addColumn<float>("gap");   // between the spheres' centres (radius 10 mm)
     QTest::addColumn<float>("hold");  // hold_mm: 0 (the default) holds touching vertices out after each step
     QTest::addColumn<int>("subdivisions");  // of each sphere: 3 gives 1,280 vertices, 6 gives 81,920
-    QTest::newRow("damped_verlet") << "damped_verlet" << 100 << 1 << 15.0f << 0.0f << 3;
-    QTest::newRow("damped_verlet, no hold") << "damped_verlet" << 100 << 1 << 15.0f << -1.0f << 3;
-    QTest::newRow("implicit_euler") << "implicit_euler" << 20 << 1 << 15.0f << 0.0f << 3;
-    QTest::newRow("damped_verlet, full search every 4") << "damped_verlet" << 100 << 4 << 15.0f << 0.0f << 3;
+    QTest::addColumn<int>("structures");    // spheres in rows of 6, each `gap` from the next
+    QTest::newRow("damped_verlet") << "damped_verlet" << 100 << 1 << 15.0f << 0.0f << 3 << 2;
+    QTest::newRow("damped_verlet, no hold") << "damped_verlet" << 100 << 1 << 15.0f << -1.0f << 3 << 2;
+    QTest::newRow("implicit_euler") << "implicit_euler" << 20 << 1 << 15.0f << 0.0f << 3 << 2;
+    QTest::newRow("damped_verlet, full search every 4") << "damped_verlet" << 100 << 4 << 15.0f << 0.0f << 3 << 2;
     // Without a hold the step ends in its own kernel (advance): the counter must move there too.
-    QTest::newRow("damped_verlet, no hold, full search every 4") << "damped_verlet" << 100 << 4 << 15.0f << -1.0f << 3;
+    QTest::newRow("damped_verlet, no hold, full search every 4") << "damped_verlet" << 100 << 4 << 15.0f << -1.0f << 3 << 2;
     // 163,840 vertices: the refit's climb from the leaves and 4 lanes a vertex from 131,072.
-    QTest::newRow("damped_verlet, 163,840 vertices") << "damped_verlet" << 100 << 1 << 15.0f << 0.0f << 6;
+    QTest::newRow("damped_verlet, 163,840 vertices") << "damped_verlet" << 100 << 1 << 15.0f << 0.0f << 6 << 2;
     // Centres 8 mm apart: the vertices inside the other sphere have its far side as their contact
     // and retreat (collision::respondTo), by the full search and by the patch tests between. Not
     // with implicit Euler: there the solver's float differences (1e-5 mm) meet the jumps of a deep
     // vertex's nearest point across the other sphere's middle, and the backends were 0.15-0.25 mm
     // apart after 20 steps (H200, 2026-11-26; docs/collisions.md).
-    QTest::newRow("damped_verlet, past the middle") << "damped_verlet" << 100 << 1 << 8.0f << 0.0f << 3;
-    QTest::newRow("damped_verlet, past the middle, every 4") << "damped_verlet" << 100 << 4 << 8.0f << 0.0f << 3;
+    QTest::newRow("damped_verlet, past the middle") << "damped_verlet" << 100 << 1 << 8.0f << 0.0f << 3 << 2;
+    QTest::newRow("damped_verlet, past the middle, every 4") << "damped_verlet" << 100 << 4 << 8.0f << 0.0f << 3 << 2;
+    // More structures than one round of a vertex's lanes: 16 lanes a vertex in two rounds (30,720
+    // vertices), and from 131,072 vertices one lane a vertex taking them in turn (133,120).
+    QTest::newRow("damped_verlet, 24 structures") << "damped_verlet" << 100 << 1 << 15.0f << 0.0f << 3 << 24;
+    QTest::newRow("damped_verlet, 26 structures, 133,120 vertices") << "damped_verlet" << 100 << 1 << 15.0f << 0.0f << 4 << 26;
   }
   void collisionMatchesTheCpu() {
     QFETCH(QString, integrator);
@@ -509,10 +514,13 @@ private slots:
     QFETCH(float, gap);
     QFETCH(float, hold);
     QFETCH(int, subdivisions);
-    auto make = [&](int structures, float weight) {
+    QFETCH(int, structures);
+    auto make = [&](int count, float weight) {
       auto sim = std::make_unique<Simulation>(forceRegistry(), 0);
-      for (int i = 0; i < structures; ++i) {
-        StructureSpec s = sphereStructure(i ? "b" : "a", subdivisions, 10.0f, Vec3(gap * float(i), 0, 0));
+      for (int i = 0; i < count; ++i) {
+        std::string name(1, char('a' + i % 26));
+        if (i >= 26) name += std::to_string(i / 26);
+        StructureSpec s = sphereStructure(name, subdivisions, 10.0f, Vec3(gap * float(i % 6), gap * float(i / 6), 0));
         s.referencePositions = s.initialPositions;
         sim->addStructure(std::move(s));
       }
@@ -525,9 +533,10 @@ private slots:
       sim->initialize();
       return sim;
     };
-    const ParityRun r = runOnBoth([&] { return make(2, 0.5f); }, steps);
-    qInfo("collision, %s, centres %g mm apart, hold %g: max CPU-CUDA difference %.3g mm after %d steps (vertices pushed up "
-          "to %.3g mm)", qPrintable(integrator), double(gap), double(hold), r.cpuCuda, steps, r.moved);
+    const ParityRun r = runOnBoth([&] { return make(structures, 0.5f); }, steps);
+    qInfo("collision, %s, %d structures, centres %g mm apart, hold %g: max CPU-CUDA difference %.3g mm after %d steps "
+          "(vertices pushed up to %.3g mm)", qPrintable(integrator), structures, double(gap), double(hold), r.cpuCuda, steps,
+          r.moved);
     QVERIFY(r.moved > 1.0);
     QVERIFY2(r.cpuCuda < (integrator == "implicit_euler" ? 1e-2 : 1e-3), qPrintable(QString::number(r.cpuCuda)));
     QCOMPARE(r.deviceRepeat, 0.0);
