@@ -105,6 +105,38 @@ private slots:
   // depth raised past the register kernels' reach (the graph must switch kernels) and the other
   // structure's profile weight set to 0. The engine that ran on must end where a fresh engine
   // started from its state before the change does, to the bit (both on the device).
+  // A captured batch keeps only its last step's forces (CudaEngine::Impl::enqueueStep), and from
+  // 131,072 vertices the profile's term goes through the forces' buffer before the terms' pass adds
+  // it (launchProfileFirst). Steps in batches of 32 must end where the same steps one batch each
+  // (every step keeping its forces) end: the same positions, previous positions and forces, to the
+  // bit, at the sizes of both step layouts.
+  void batchesMatchSingleSteps_data() {
+    QTest::addColumn<int>("level");
+    QTest::newRow("102,400 vertices (the terms in the profile's pass)") << 3;
+    QTest::newRow("409,600 vertices (the profile first)") << 4;
+  }
+  void batchesMatchSingleSteps() {
+    QFETCH(int, level);
+    const auto make = [&] {
+      auto sim = scene({"smoothing", "shape_prior", "intensity_profile"}, level + 1);
+      for (int l = 0; l < level; ++l) sim->advanceLevel();
+      return sim;
+    };
+    auto batched = make(), single = make(), init = make();
+    cuda::CudaEngine a(*batched), b(*single);
+    a.run(40);
+    for (int i = 0; i < 40; ++i) b.run(1);
+    a.download();
+    b.download();
+    const double moved = maxDifference(batched->store(), init->store());
+    qInfo("40 steps in batches against one at a time: %.3g mm apart (vertices moved up to %.3g mm)",
+          maxDifference(batched->store(), single->store()), moved);
+    QVERIFY(moved > 0.1);
+    QCOMPARE(maxDifference(batched->store(), single->store()), 0.0);
+    QCOMPARE(maxDifference(batched->store().previousPositions(), single->store().previousPositions()), 0.0);
+    QCOMPARE(maxDifference(batched->store().forces(), single->store().forces()), 0.0);
+  }
+
   void profileChangesBetweenRunsReachTheGraph() {
     const auto make = [] {
       auto sim = scene({"smoothing", "intensity_profile"}, 2);
