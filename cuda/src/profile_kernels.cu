@@ -292,7 +292,8 @@ void launchRegisterKernel(const MeshView& m, ParamView p, int kDepth, VolumeView
   }
 }
 
-// From this many vertices the move leaves the profile's pass (launchProfile).
+// From this many vertices the move leaves the profile's pass: into the terms' pass after it where
+// the profile goes first (launchProfileFirst), else into a pass of its own (launchProfile).
 constexpr int kSeparateMoveFrom = 131072;
 }  // namespace
 
