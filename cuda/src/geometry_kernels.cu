@@ -61,9 +61,10 @@ __device__ __forceinline__ float3 ownCentre(const MeshView& m, const int4* __res
 }
 // Vertex v's normal and elevation from its neighbours q (when required).
 __device__ __forceinline__ void storeFrame(const MeshView& m, int v, float3 p, const float3 (&q)[3]) {
-  const Frame f = neighbourFrame(q[0], q[1], q[2]);
-  if (m.normal) m.normal[v] = f.normal;
-  if (m.elevation) m.elevation[v] = dot(p - q[0], f.normal);
+  // neighbourNormal: the expression the lean geometry's pass uses for the normals it computes itself.
+  const float3 normal = neighbourNormal(q[0], q[1], q[2]);
+  if (m.normal) m.normal[v] = normal;
+  if (m.elevation) m.elevation[v] = dot(p - q[0], normal);
 }
 // Vertex v's area (the Fig. 1b triangles with its neighbours q and its cells' centres) and mass.
 __device__ __forceinline__ void storeAreaAndMass(const MeshView& m, int v, float3 p, const float3 (&q)[3],

@@ -283,7 +283,7 @@ int lanesFor(int vertices) {
 
 void launchRegisterKernel(const MeshView& m, ParamView p, int kDepth, VolumeView vol, cudaTextureObject_t image,
                           const float* profiles, int inside, float spacing, int maxReach, const VerletMove* then,
-                          const FusedTerms* terms, cudaStream_t s, bool first = false) {
+                          const FusedTerms* terms, bool first, cudaStream_t s) {
   switch (lanesFor(m.vertices)) {
     case 1: launchForReach<1>(maxReach, m, p, kDepth, vol, image, profiles, inside, spacing, then, terms, first, s); break;
     case 2: launchForReach<2>(maxReach, m, p, kDepth, vol, image, profiles, inside, spacing, then, terms, first, s); break;
@@ -304,7 +304,7 @@ bool profileTakesTerms(int vertices, int inside, int outside, int maxReach) {
 void launchProfileAfterTerms(const MeshView& m, const FusedTerms& terms, ParamView p, int kDepth, VolumeView vol,
                              cudaTextureObject_t image, const float* profiles, int inside, float spacing, int maxReach,
                              const VerletMove& move, cudaStream_t s) {
-  launchRegisterKernel(m, p, kDepth, vol, image, profiles, inside, spacing, maxReach, &move, &terms, s);
+  launchRegisterKernel(m, p, kDepth, vol, image, profiles, inside, spacing, maxReach, &move, &terms, false, s);
 }
 
 bool profileGoesFirst(int vertices, int inside, int outside, int maxReach) {
@@ -313,7 +313,7 @@ bool profileGoesFirst(int vertices, int inside, int outside, int maxReach) {
 
 void launchProfileFirst(const MeshView& m, ParamView p, int kDepth, VolumeView vol, cudaTextureObject_t image,
                         const float* profiles, int inside, float spacing, int maxReach, cudaStream_t s) {
-  launchRegisterKernel(m, p, kDepth, vol, image, profiles, inside, spacing, maxReach, nullptr, nullptr, s, true);
+  launchRegisterKernel(m, p, kDepth, vol, image, profiles, inside, spacing, maxReach, nullptr, nullptr, true, s);
 }
 
 void launchProfile(const MeshView& m, ParamView p, int kDepth, VolumeView vol, cudaTextureObject_t image,
@@ -329,7 +329,7 @@ void launchProfile(const MeshView& m, ParamView p, int kDepth, VolumeView vol, c
     return;
   }
   if (registerLayout(inside, outside, maxReach)) {
-    launchRegisterKernel(m, p, kDepth, vol, image, profiles, inside, spacing, maxReach, then, nullptr, s);
+    launchRegisterKernel(m, p, kDepth, vol, image, profiles, inside, spacing, maxReach, then, nullptr, false, s);
     return;
   }
   constexpr int warps = 8;  // lines[8][...] in the kernel

@@ -101,10 +101,6 @@ private slots:
     QCOMPARE(repeat, 0.0);
   }
 
-  // Parameters changed between runs of one engine reach its captured graph: a structure's search
-  // depth raised past the register kernels' reach (the graph must switch kernels) and the other
-  // structure's profile weight set to 0. The engine that ran on must end where a fresh engine
-  // started from its state before the change does, to the bit (both on the device).
   // A captured batch keeps only its last step's forces (CudaEngine::Impl::enqueueStep), and from
   // 131,072 vertices the profile's term goes through the forces' buffer before the terms' pass adds
   // it (launchProfileFirst). Steps in batches of 32 must end where the same steps one batch each
@@ -137,6 +133,10 @@ private slots:
     QCOMPARE(maxDifference(batched->store().forces(), single->store().forces()), 0.0);
   }
 
+  // Parameters changed between runs of one engine reach its captured graph: a structure's search
+  // depth raised past the register kernels' reach (the graph must switch kernels) and the other
+  // structure's profile weight set to 0. The engine that ran on must end where a fresh engine
+  // started from its state before the change does, to the bit (both on the device).
   void profileChangesBetweenRunsReachTheGraph() {
     const auto make = [] {
       auto sim = scene({"smoothing", "intensity_profile"}, 2);
