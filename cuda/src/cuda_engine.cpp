@@ -10,6 +10,7 @@
 #include "device_image.h"
 #include "device_placed.h"
 #include "device_radial.h"
+#include "device_step_blocks.h"
 #include "device_store.h"
 #include "kernels.h"
 #include "step_graphs.h"
@@ -48,6 +49,7 @@ struct CudaEngine::Impl {
   std::vector<ForceSlot> forces;
   // Mesh store mirror.
   DeviceTopology topology;
+  DeviceStepBlocks stepBlocks;  // launchStepInBlocks' connectivity, for the lean step of large scenes
   DeviceArray<int> meshBegin, meshEnd;
   std::vector<int> hostMeshBegin;  // the current level's vertex ranges, for the next level change
   DeviceArray<float> density, massFloor, elevation, area, mass;
@@ -233,6 +235,13 @@ struct CudaEngine::Impl {
     MeshStore& s = sim.store();
     s.refresh();  // reference parameters and trained profiles are computed on the host, once per level
     topology.upload(s, stream);
+    // The lean step in one pass (launchStepInBlocks) for scenes of smoothing and the shape prior
+    // alone, at the sizes where the geometry's pass would read the cell centres from memory.
+    const bool shapeOnly = std::all_of(forces.begin(), forces.end(), [](const ForceSlot& f) {
+      return f.kind == Kind::Smoothing || f.kind == Kind::ShapePrior;
+    });
+    if (!shapeOnly || geometryReadsCellSpans(int(s.vertexCount())) || !stepBlocks.upload(s, stream))
+      stepBlocks.clear();
     std::vector<int> begin, end;
     std::vector<float> dens, floors;
     for (Index m = 0; m < s.meshCount(); ++m) {
@@ -374,16 +383,20 @@ struct CudaEngine::Impl {
       if (lean && !normals) g.normal = nullptr;
       launchGeometry(g, topology.cellSpans.get(), stream);
     };
-    const auto termsAndMove = [&] {
+    // With the lean geometry on a large scene the terms' pass computes the geometry it reads too
+    // (launchStepInBlocks); otherwise the geometry pass comes first.
+    const bool inBlocks = lean && stepBlocks.ready();
+    const auto termsAndMove = [&](bool geometryInPass) {
       MeshView m = view;
       if (lean) m.mass = nullptr;
       if (!keepForces) m.force = nullptr;  // nothing reads the step's forces before the batch's end
-      launchFusedForcesAndMove(m, fused, move, stream);
+      if (geometryInPass) launchStepInBlocks(m, stepBlocks.view(), fused, move, stream);
+      else launchFusedForcesAndMove(m, fused, move, stream);
       std::swap(view.x, view.prev);
     };
     if (!moveAlone && profile == forces.size()) {
-      geometry(false);
-      termsAndMove();
+      if (!inBlocks) geometry(false);
+      termsAndMove(inBlocks);
       return;
     }
     if (!moveAlone && !hasGradientTerm(fused) && profile < forces.size() && forces[profile].kind == Kind::Profile &&
@@ -406,7 +419,7 @@ struct CudaEngine::Impl {
         launchProfileFirst(view, p, kDepth, imageView, imageTexture.get(), profiles.get(), profileInside, profileSpacing,
                            reach, stream);
         fused.plus = view.force;
-        termsAndMove();
+        termsAndMove(false);
         return;
       }
     }
@@ -661,7 +674,8 @@ std::string CudaEngine::device() const { return impl_->device; }
 
 std::size_t CudaEngine::deviceBytes() const {
   const Impl& I = *impl_;
-  return I.topology.bytes() + I.density.bytes() + I.massFloor.bytes() + I.elevation.bytes() + I.area.bytes() + I.mass.bytes() + I.x.bytes() +
+  return I.topology.bytes() + I.stepBlocks.bytes() + I.density.bytes() + I.massFloor.bytes() + I.elevation.bytes() +
+         I.area.bytes() + I.mass.bytes() + I.x.bytes() +
          I.prev.bytes() + I.force.bytes() + I.normal.bytes() + I.centre.bytes() + I.reference.bytes() +
          I.imageTexture.bytes() + I.profiles.bytes() + I.gradient.bytes() + I.contour.bytes() + I.implicitA.bytes() +
          I.implicitB.bytes() + I.implicitOff.bytes() + I.implicitC.bytes() + I.implicitVel.bytes() + I.implicitRhs.bytes() +

@@ -62,11 +62,15 @@ __device__ __forceinline__ float elevationFromSinCos(float r, float d2, float s,
 
 __device__ __forceinline__ float param(const ParamView& p, int mesh, int k) { return p.values[mesh * p.count + k]; }
 
-// Damped Verlet (plugins/integrators/damped_verlet) for vertex v under force f: x += keep (x -
-// prev) + dt^2 / m f, prev = the old x. keep: 1 - damping.
+// Damped Verlet (plugins/integrators/damped_verlet): the position after `current` under force f,
+// x + keep (x - prev) + dt^2 / m f. keep: 1 - damping.
+__device__ __forceinline__ float3 verletStep(float3 current, float3 previous, float3 f, float dt, float keep, float mass) {
+  return current + keep * (current - previous) + (dt * dt / mass) * f;
+}
+// Vertex v's move: x as above, prev = the old x.
 __device__ __forceinline__ void verletMove(const MeshView& m, int v, float3 f, float dt, float keep) {
   const float3 current = m.x[v];
-  m.x[v] = current + keep * (current - m.prev[v]) + (dt * dt / m.mass[v]) * f;
+  m.x[v] = verletStep(current, m.prev[v], f, dt, keep, m.mass[v]);
   m.prev[v] = current;
 }
 // The same move with the new position written over prev[v] and x left as it was, for a pass in
@@ -74,7 +78,7 @@ __device__ __forceinline__ void verletMove(const MeshView& m, int v, float3 f, f
 // mass: v's mass, when the caller has it (m.mass[v] otherwise).
 __device__ __forceinline__ void verletMoveAside(const MeshView& m, int v, float3 f, float dt, float keep, float mass) {
   const float3 current = m.x[v];
-  m.prev[v] = current + keep * (current - m.prev[v]) + (dt * dt / mass) * f;
+  m.prev[v] = verletStep(current, m.prev[v], f, dt, keep, mass);
 }
 __device__ __forceinline__ void verletMoveAside(const MeshView& m, int v, float3 f, float dt, float keep) {
   verletMoveAside(m, v, f, dt, keep, m.mass[v]);

@@ -7,6 +7,17 @@
 
 namespace sinew::cuda {
 
+// The smoothing term from what it reads: v's position xv and normal, its neighbours' positions x,
+// areas a and elevations e, and the structure's elevation_term weight (the one-pass step reads
+// them from shared memory).
+__device__ __forceinline__ float3 smoothingFrom(float3 xv, float3 normal, const float3 (&x)[3], const float (&a)[3],
+                                                const float (&e)[3], float elevationTerm, float alpha) {
+  const float total = a[0] + a[1] + a[2];
+  const float3 centre = total > 0.0f ? (a[0] * x[0] + a[1] * x[1] + a[2] * x[2]) / total : (x[0] + x[1] + x[2]) / 3.0f;
+  const float lift = elevationTerm * (e[0] + e[1] + e[2]) / 3.0f;
+  return alpha * (centre + lift * normal - xv);
+}
+
 // Per-vertex force terms; each returns what its CPU plugin adds to forces[v] (alpha included).
 // n: v's neighbours (m.neighbours[v]), loaded by the caller. kOwnNormal: v's normal from its
 // neighbours, as the geometry pass computes it, instead of m.normal (the lean geometry).
@@ -14,20 +25,16 @@ template <bool kOwnNormal = false>
 __device__ __forceinline__ float3 smoothingTerm(const MeshView& m, const ParamView& p, int kElevation, int v, int3 n,
                                                 float alpha) {
   const int mesh = m.meshOf[v];
-  const float a0 = m.area[n.x], a1 = m.area[n.y], a2 = m.area[n.z];
-  const float total = a0 + a1 + a2;
-  const float3 x0 = m.x[n.x], x1 = m.x[n.y], x2 = m.x[n.z];
-  const float3 centre = total > 0.0f ? (a0 * x0 + a1 * x1 + a2 * x2) / total : (x0 + x1 + x2) / 3.0f;
-  const float lift = param(p, mesh, kElevation) * (m.elevation[n.x] + m.elevation[n.y] + m.elevation[n.z]) / 3.0f;
-  const float3 normal = kOwnNormal ? neighbourNormal(x0, x1, x2) : m.normal[v];
-  return alpha * (centre + lift * normal - m.x[v]);
+  const float a[3] = {m.area[n.x], m.area[n.y], m.area[n.z]};
+  const float3 x[3] = {m.x[n.x], m.x[n.y], m.x[n.z]};
+  const float e[3] = {m.elevation[n.x], m.elevation[n.y], m.elevation[n.z]};
+  const float3 normal = kOwnNormal ? neighbourNormal(x[0], x[1], x[2]) : m.normal[v];
+  return smoothingFrom(m.x[v], normal, x, a, e, param(p, mesh, kElevation), alpha);
 }
 
-__device__ __forceinline__ float3 shapePriorTerm(const MeshView& m, const float4* __restrict__ ref, int v, int3 n,
-                                                 float alpha) {
-  const float3 p1 = m.x[n.x], p2 = m.x[n.y], p3 = m.x[n.z], x = m.x[v];
+// The shape prior's term from v's position x, its neighbours' p1..p3 and its reference r.
+__device__ __forceinline__ float3 shapePriorFrom(float3 x, float3 p1, float3 p2, float3 p3, float4 r, float alpha) {
   const Frame f = neighbourFrame(p1, p2, p3);
-  const float4 r = ref[v];
   const float eps3 = 1.0f - r.x - r.y;
   const float3 foot = r.x * p1 + r.y * p2 + eps3 * p3;
   float3 target = foot;
@@ -36,6 +43,10 @@ __device__ __forceinline__ float3 shapePriorTerm(const MeshView& m, const float4
     target = foot + elevationFromSinCos(f.radius, d2, r.z, r.w, dot(x - p1, f.normal)) * f.normal;
   }
   return alpha * (target - x);
+}
+__device__ __forceinline__ float3 shapePriorTerm(const MeshView& m, const float4* __restrict__ ref, int v, int3 n,
+                                                 float alpha) {
+  return shapePriorFrom(m.x[v], m.x[n.x], m.x[n.y], m.x[n.z], ref[v], alpha);
 }
 
 __device__ __forceinline__ float3 gradientTerm(const MeshView& m, const ParamView& p, int kEps, int kDepth, int kStep,

@@ -1,13 +1,12 @@
 // Geometry refresh on the device: cell centres, then per vertex normal, elevation, area and mass
 // (mirrors MeshStore::refreshCurrent).
-#include "device_math.cuh"
+#include "mesh_geometry.cuh"
 
 namespace sinew::cuda {
 
 namespace {
 constexpr unsigned kThreads = 256;
 
-__device__ __forceinline__ float triangleArea(float3 a, float3 b, float3 c) { return 0.5f * norm(cross(b - a, c - a)); }
 __device__ __forceinline__ int pick(const int3& v, int k) { return k == 0 ? v.x : (k == 1 ? v.y : v.z); }
 
 // The centre of the cell whose vertices are m.cellVertices[b .. e - 1]. Its first kCellUnrolled
@@ -64,14 +63,12 @@ __device__ __forceinline__ void storeFrame(const MeshView& m, int v, float3 p, c
   // neighbourNormal: the expression the lean geometry's pass uses for the normals it computes itself.
   const float3 normal = neighbourNormal(q[0], q[1], q[2]);
   if (m.normal) m.normal[v] = normal;
-  if (m.elevation) m.elevation[v] = dot(p - q[0], normal);
+  if (m.elevation) m.elevation[v] = vertexElevation(p, q, normal);
 }
 // Vertex v's area (the Fig. 1b triangles with its neighbours q and its cells' centres) and mass.
 __device__ __forceinline__ void storeAreaAndMass(const MeshView& m, int v, float3 p, const float3 (&q)[3],
                                                  const float3 (&centre)[3]) {
-  float a = 0.0f;
-#pragma unroll
-  for (int j = 0; j < 3; ++j) a += triangleArea(p, q[j], centre[j]) + triangleArea(p, q[j], centre[(j + 1) % 3]);
+  const float a = vertexArea(p, q, centre);
   m.area[v] = a;
   if (m.mass) m.mass[v] = massFromArea(m, m.meshOf[v], a);
 }

@@ -87,6 +87,29 @@ void launchProfile(const MeshView& m, ParamView p, int kDepth, VolumeView volume
 // launchGeometry run with them null), each vertex's normal and mass are computed in the pass from
 // its neighbours and m.area. With m.force null the forces are not written.
 void launchFusedForcesAndMove(const MeshView& m, const FusedTerms& t, const VerletMove& move, cudaStream_t s);
+// The same step with the geometry in its pass (the lean geometry only: no gradient term, m.mass
+// null; launchGeometry is not needed before it; block_step_kernels.cu). A block takes kStepBlock
+// consecutive vertices and reads, once each, the positions its step needs (its own, its
+// neighbours' beyond it, and the vertices of their cells) into shared memory; the cell centres,
+// areas and elevations then stay there. StepBlocks holds each block's connectivity as indices into
+// its own shared arrays (DeviceStepBlocks builds it once per level).
+constexpr int kStepBlock = 256;
+struct StepBlocks {
+  // Per block, and one more for the ends: where its entries of the arrays below begin (x: vertices,
+  // y: geometry, z: cellEnd, w: cellSlots).
+  const int4* start = nullptr;
+  // A block's positions are its own vertices (slot i: vertex first + i), then these vertices:
+  // its geometry's vertices outside it, then the other vertices its cells and their neighbours need.
+  const int* vertices = nullptr;
+  // Per vertex whose area and elevation the block computes (its own, then those outside it, in
+  // slot order): for each of its neighbours j, the neighbour's slot | its cell j's index << 16.
+  const int3* geometry = nullptr;
+  const unsigned short* cellEnd = nullptr;    // per block cell: the end of its slots in cellSlots
+  const unsigned short* cellSlots = nullptr;  // a cell's vertices' slots, in the cell's order
+  int sharedBytes = 0;                        // the largest block's shared arrays
+};
+void launchStepInBlocks(const MeshView& m, const StepBlocks& blocks, const FusedTerms& t, const VerletMove& move,
+                        cudaStream_t s);
 // Whether launchProfileAfterTerms can run for this layout and size: the register kernels, below the
 // size where the move leaves the profile's pass.
 bool profileTakesTerms(int vertices, int inside, int outside, int maxReach);

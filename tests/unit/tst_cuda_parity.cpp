@@ -105,11 +105,14 @@ private slots:
     // The two shape forces together with damped Verlet (their pass takes the move, reads every
     // term's weight first, and computes the normals and masses the lean geometry leaves out:
     // fusedSum), in either scene order, with the three geometry paths (four lanes a vertex below
-    // 16,384 vertices, one with its own cell centres below 131,072, the cells' pass above).
+    // 16,384 vertices, one with its own cell centres below 131,072) and, from 131,072, the whole
+    // step in one pass per block of vertices (launchStepInBlocks), also with smoothing alone.
     QTest::newRow("smoothing, shape_prior") << QStringList{"smoothing", "shape_prior"} << 0;
     QTest::newRow("shape_prior, smoothing") << QStringList{"shape_prior", "smoothing"} << 0;
     QTest::newRow("smoothing, shape_prior, 25,600 vertices") << QStringList{"smoothing", "shape_prior"} << 2;
     QTest::newRow("smoothing, shape_prior, 409,600 vertices") << QStringList{"smoothing", "shape_prior"} << 4;
+    QTest::newRow("shape_prior, smoothing, 409,600 vertices") << QStringList{"shape_prior", "smoothing"} << 4;
+    QTest::newRow("smoothing, 409,600 vertices") << QStringList{"smoothing"} << 4;
   }
   void forcesMatchTheCpu() {
     QFETCH(QStringList, forces);
