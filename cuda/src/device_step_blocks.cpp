@@ -18,8 +18,8 @@ std::optional<StepBlockArrays> buildStepBlocks(const MeshStore& s) {
   const auto members = s.cellVertices();
   const int n = int(s.vertexCount()), blocks = (n + kStepBlock - 1) / kStepBlock;
   StepBlockArrays a;
-  // Sizes of the level-of-detail meshes (blocks of 256: 1.19 geometries, 0.79 listed vertices and 4.7 cell
-  // entries a vertex), reserved so that the arrays are not copied as they grow.
+  // Reserved at the level-of-detail meshes' sizes (1.19 geometries, 0.79 listed vertices, 0.79
+  // cells and 4.7 cell entries a vertex), so that the arrays are not copied as they grow.
   a.start.reserve(blocks + 1);
   a.vertices.reserve(n);
   a.geometry.reserve(n + n / 4);
