@@ -16,10 +16,13 @@ __device__ __forceinline__ int cellPart(int packed) { return packed >> 16; }
 
 // The terms' sum is fusedSum's (every weight read first, the terms in the scene's order, no
 // gradient term), the force kept and the move written aside as fusedForces<false, true, true> does.
-// Held to 48 registers, 5 blocks an SM (84 bytes spilled). On an H100 (2026-11-27, case (b) at
-// 2,719,744 vertices, us a step): 64 registers and 4 blocks 173.5-174.3, 48 and 5 167.1-168.9 (the
-// separate passes 181.2-182.8); 320 threads for 256 vertices 176.6, blocks of 128 vertices 175.7,
-// 128 vertices with 160 threads 184.2 (docs/benchmarks.md).
+// Held to 48 registers, 5 blocks an SM (60 bytes spilled). Each thread's first cell and geometry
+// entries are requested before the positions' barrier, so that the next phases wait on shared
+// memory only. On an H100 (2026-11-27, case (b) at 2,719,744 vertices, us a step; docs/benchmarks.md):
+// - without those early requests: 64 registers and 4 blocks 173.5-174.3, 48 and 5 167.1-168.9 (the
+//   separate passes 181.2-182.8); 320 threads for 256 vertices 176.6, blocks of 128 vertices 175.7,
+//   128 vertices with 160 threads 184.2;
+// - with them 152.9-153.2; with the terms' weights requested early too, 169.9-170.0.
 constexpr int kBlocksPerSM = 5;
 __global__ void __launch_bounds__(kStepBlock, kBlocksPerSM) stepInBlocks(MeshView m, StepBlocks b, FusedTerms t, VerletMove move) {
   extern __shared__ float shared[];
@@ -42,19 +45,34 @@ __global__ void __launch_bounds__(kStepBlock, kBlocksPerSM) stepInBlocks(MeshVie
     previous = m.prev[v];
     if (t.reference) reference = t.reference[v];
   }
+  // This thread's first cell and geometry entries, which do not wait for the positions.
+  constexpr int kEarly = 8;
+  int early[kEarly];
+  int cellFrom = 0, cellTo = 0;
+  if (i < cells) cellFrom = i == 0 ? 0 : b.cellEnd[at.z + i - 1], cellTo = b.cellEnd[at.z + i];
+#pragma unroll
+  for (int k = 0; k < kEarly; ++k) early[k] = cellFrom + k < cellTo ? b.cellSlots[at.w + cellFrom + k] : 0;
+  const int3 firstGeometry = i < geometries ? b.geometry[at.y + i] : int3{};
   for (int k = i; k < positions - count; k += kStepBlock) pos[count + k] = m.x[b.vertices[at.x + k]];
   __syncthreads();
   // The cells' centres, each vertex added in the cell's order (centreAt's sum).
   for (int c = i; c < cells; c += kStepBlock) {
-    const int from = c == 0 ? 0 : b.cellEnd[at.z + c - 1], to = b.cellEnd[at.z + c];
+    const int from = c == i ? cellFrom : b.cellEnd[at.z + c - 1], to = c == i ? cellTo : b.cellEnd[at.z + c];
     float3 sum = make_float3(0, 0, 0);
-    for (int k = from; k < to; ++k) sum = sum + pos[b.cellSlots[at.w + k]];
+    if (c == i) {
+#pragma unroll
+      for (int k = 0; k < kEarly; ++k)
+        if (from + k < to) sum = sum + pos[early[k]];
+      for (int k = from + kEarly; k < to; ++k) sum = sum + pos[b.cellSlots[at.w + k]];
+    } else {
+      for (int k = from; k < to; ++k) sum = sum + pos[b.cellSlots[at.w + k]];
+    }
     centre[c] = sum / static_cast<float>(to - from);
   }
   __syncthreads();
   int3 mineAt{};  // the vertex's own neighbours and cells, kept for its terms
   for (int g = i; g < geometries; g += kStepBlock) {
-    const int3 packed = b.geometry[at.y + g];
+    const int3 packed = g == i ? firstGeometry : b.geometry[at.y + g];
     if (g == i) mineAt = packed;
     const float3 p = pos[g], q[3] = {pos[slotPart(packed.x)], pos[slotPart(packed.y)], pos[slotPart(packed.z)]};
     const float3 c[3] = {centre[cellPart(packed.x)], centre[cellPart(packed.y)], centre[cellPart(packed.z)]};
