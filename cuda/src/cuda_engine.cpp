@@ -383,20 +383,20 @@ struct CudaEngine::Impl {
       if (lean && !normals) g.normal = nullptr;
       launchGeometry(g, topology.cellSpans.get(), stream);
     };
-    // With the lean geometry on a large scene the terms' pass computes the geometry it reads too
-    // (launchStepInBlocks); otherwise the geometry pass comes first.
+    // The blocks exist only in scenes of smoothing and the shape prior (upload): there the lean
+    // terms' pass computes the geometry it reads too (launchStepInBlocks).
     const bool inBlocks = lean && stepBlocks.ready();
-    const auto termsAndMove = [&](bool geometryInPass) {
+    const auto termsAndMove = [&] {
       MeshView m = view;
       if (lean) m.mass = nullptr;
       if (!keepForces) m.force = nullptr;  // nothing reads the step's forces before the batch's end
-      if (geometryInPass) launchStepInBlocks(m, stepBlocks.view(), fused, move, stream);
+      if (inBlocks) launchStepInBlocks(m, stepBlocks.view(), fused, move, stream);
       else launchFusedForcesAndMove(m, fused, move, stream);
       std::swap(view.x, view.prev);
     };
     if (!moveAlone && profile == forces.size()) {
       if (!inBlocks) geometry(false);
-      termsAndMove(inBlocks);
+      termsAndMove();
       return;
     }
     if (!moveAlone && !hasGradientTerm(fused) && profile < forces.size() && forces[profile].kind == Kind::Profile &&
@@ -419,7 +419,7 @@ struct CudaEngine::Impl {
         launchProfileFirst(view, p, kDepth, imageView, imageTexture.get(), profiles.get(), profileInside, profileSpacing,
                            reach, stream);
         fused.plus = view.force;
-        termsAndMove(false);
+        termsAndMove();
         return;
       }
     }
