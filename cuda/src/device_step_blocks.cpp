@@ -28,6 +28,7 @@ std::optional<StepBlockArrays> buildStepBlocks(const MeshStore& s) {
   // A vertex's (a cell's) slot in the block that last marked it: tag == the block's index.
   std::vector<int> tag(n, -1), slot(n), cellTag(s.cellCount(), -1), cellIndex(s.cellCount());
   std::vector<int> outside, extra, cells;
+  std::array<int, 4> most{};  // the largest block's positions, cells, geometries and cell entries
   const auto mark = [&] {
     return std::array<int, 4>{int(a.vertices.size()), int(a.geometry.size()), int(a.cellEnd.size()), int(a.cellSlots.size())};
   };
@@ -77,10 +78,14 @@ std::optional<StepBlockArrays> buildStepBlocks(const MeshStore& s) {
       if (a.cellSlots.size() - cellSlotsBegin > kMaxIndex) return std::nullopt;
       a.cellEnd.push_back((unsigned short)(a.cellSlots.size() - cellSlotsBegin));
     }
-    a.sharedBytes = std::max(a.sharedBytes, (positions + cells.size()) * sizeof(float3) + 2 * geometries * sizeof(float));
+    most[0] = std::max(most[0], int(positions));
+    most[1] = std::max(most[1], int(cells.size()));
+    most[2] = std::max(most[2], int(geometries));
+    most[3] = std::max(most[3], int(a.cellSlots.size() - cellSlotsBegin));
   }
   a.start.push_back(mark());
-  if (a.sharedBytes > kMaxSharedBytes) return std::nullopt;
+  a.layout = stepBlockLayout(most[0], most[1], most[2], most[3]);
+  if (4 * std::size_t(a.layout.words) > kMaxSharedBytes) return std::nullopt;
   return a;
 }
 
@@ -91,10 +96,17 @@ bool DeviceStepBlocks::upload(const MeshStore& s, cudaStream_t stream) {
   static_assert(sizeof(int4) == sizeof(a->start[0]) && sizeof(int3) == sizeof(a->geometry[0]));
   start_.upload(reinterpret_cast<const int4*>(a->start.data()), a->start.size(), stream);
   vertices_.upload(a->vertices, stream);
-  geometry_.upload(reinterpret_cast<const int3*>(a->geometry.data()), a->geometry.size(), stream);
-  cellEnd_.upload(a->cellEnd, stream);
-  cellSlots_.upload(a->cellSlots, stream);
-  sharedBytes_ = int(a->sharedBytes);
+  // The kernel copies a block's geometry and cell entries as the 16-byte span that holds them: 16
+  // bytes more, so that the last block's span lies inside the arrays.
+  std::vector<std::array<int, 3>> geometry = a->geometry;
+  std::vector<unsigned short> cellEnd = a->cellEnd, cellSlots = a->cellSlots;
+  geometry.resize(geometry.size() + 2);
+  cellEnd.resize(cellEnd.size() + 8);
+  cellSlots.resize(cellSlots.size() + 8);
+  geometry_.upload(reinterpret_cast<const int3*>(geometry.data()), geometry.size(), stream);
+  cellEnd_.upload(cellEnd, stream);
+  cellSlots_.upload(cellSlots, stream);
+  layout_ = a->layout;
   return true;
 }
 
@@ -104,7 +116,7 @@ void DeviceStepBlocks::clear() {
   geometry_.resize(0);
   cellEnd_.resize(0);
   cellSlots_.resize(0);
-  sharedBytes_ = 0;
+  layout_ = {};
 }
 
 }  // namespace sinew::cuda

@@ -22,7 +22,7 @@ struct StepBlockArrays {
   std::vector<int> vertices;
   std::vector<std::array<int, 3>> geometry;
   std::vector<unsigned short> cellEnd, cellSlots;
-  std::size_t sharedBytes = 0;
+  StepBlockLayout layout;  // for the largest block's counts
 };
 // Nothing where a block would need more positions, cells or cell entries than 16 bits address, or
 // more than 48 KiB of shared memory.
@@ -35,7 +35,7 @@ public:
   void clear();
   bool ready() const { return start_.size() > 0; }
   StepBlocks view() const {
-    return {start_.get(), vertices_.get(), geometry_.get(), cellEnd_.get(), cellSlots_.get(), sharedBytes_};
+    return {start_.get(), vertices_.get(), geometry_.get(), cellEnd_.get(), cellSlots_.get(), layout_};
   }
   std::size_t bytes() const {
     return start_.bytes() + vertices_.bytes() + geometry_.bytes() + cellEnd_.bytes() + cellSlots_.bytes();
@@ -46,7 +46,7 @@ private:
   DeviceArray<int> vertices_;
   DeviceArray<int3> geometry_;
   DeviceArray<unsigned short> cellEnd_, cellSlots_;
-  int sharedBytes_ = 0;
+  StepBlockLayout layout_;
 };
 
 }  // namespace sinew::cuda

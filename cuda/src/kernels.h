@@ -6,6 +6,8 @@
 
 #include <cuda_runtime.h>
 
+#include <cstddef>
+
 namespace sinew::collision {
 struct Node;
 struct Box;
@@ -94,6 +96,33 @@ void launchFusedForcesAndMove(const MeshView& m, const FusedTerms& t, const Verl
 // areas and elevations then stay there. StepBlocks holds each block's connectivity as indices into
 // its own shared arrays (DeviceStepBlocks builds it once per level).
 constexpr int kStepBlock = 256;
+// Where each of a block's shared arrays begins in the one-pass step, in 4-byte words from the start
+// of its dynamic shared memory: the own vertices' references, the block's positions and cell
+// centres, the own previous positions, the geometry entries with their areas and elevations, the
+// own structures, and the 16-bit cell arrays. Every region starts on 16 bytes (the kernel copies in
+// 16-byte pieces), and the arrays copied as the 16-byte span that holds them get 16 bytes more.
+// Laid out for the largest block's counts, so that the offsets are the launch's constants and take
+// no registers.
+struct StepBlockLayout {
+  int pos = 0, centre = 0, previous = 0, geometry = 0, area = 0, elevation = 0, mesh = 0, cellEnd = 0, cellSlots = 0;
+  int words = 0;  // the whole
+};
+inline StepBlockLayout stepBlockLayout(int positions, int cells, int geometries, int cellSlots) {
+  StepBlockLayout l;
+  int at = 4 * kStepBlock;  // the references
+  const auto take = [&at](int& region, int words) { region = at, at += (words + 3) / 4 * 4; };
+  take(l.pos, 3 * positions);
+  take(l.centre, 3 * cells);
+  take(l.previous, 3 * kStepBlock);
+  take(l.geometry, 3 * geometries + 4);
+  take(l.area, geometries);
+  take(l.elevation, geometries);
+  take(l.mesh, kStepBlock);
+  take(l.cellEnd, (cells + 1) / 2 + 4);
+  take(l.cellSlots, (cellSlots + 1) / 2 + 4);
+  l.words = at;
+  return l;
+}
 struct StepBlocks {
   // Per block, and one more for the ends: where its entries of the arrays below begin (x: vertices,
   // y: geometry, z: cellEnd, w: cellSlots).
@@ -106,7 +135,7 @@ struct StepBlocks {
   const int3* geometry = nullptr;
   const unsigned short* cellEnd = nullptr;    // per block cell: the end of its slots in cellSlots
   const unsigned short* cellSlots = nullptr;  // a cell's vertices' slots, in the cell's order
-  int sharedBytes = 0;                        // the largest block's shared arrays
+  StepBlockLayout layout;                     // the shared arrays (4 * layout.words bytes)
 };
 void launchStepInBlocks(const MeshView& m, const StepBlocks& blocks, const FusedTerms& t, const VerletMove& move,
                         cudaStream_t s);

@@ -3,7 +3,7 @@
 // float operations in the same order on both backends (no fused multiply-add on either side,
 // Eigen's reduction order in the kernels, the reference angle's sine and cosine taken from the
 // host), so those are compared to the bit, or to a stated tolerance where the device sums in
-// another order. The intensity profile samples the image through the texture units on the device
+// another order or fuses multiply-adds (the one-pass lean step of large scenes). The intensity profile samples the image through the texture units on the device
 // (profile_kernels.cu): its tolerance is a share of vertices picking another offset in one step,
 // stated in tst_cuda_profile; the tests here leave it out.
 #include "builtin_plugins.h"
@@ -100,23 +100,28 @@ private slots:
   void forcesMatchTheCpu_data() {
     QTest::addColumn<QStringList>("forces");
     QTest::addColumn<int>("level");  // the level run (each 4 times the vertices of the one before)
-    for (const char* f : {"smoothing", "shape_prior", "gradient", "attraction_points"}) QTest::newRow(f) << QStringList{f} << 0;
-    QTest::newRow("all") << QStringList{"smoothing", "shape_prior", "gradient", "attraction_points"} << 0;
+    QTest::addColumn<double>("tolerance");  // mm; 0: to the bit
+    for (const char* f : {"smoothing", "shape_prior", "gradient", "attraction_points"})
+      QTest::newRow(f) << QStringList{f} << 0 << 0.0;
+    QTest::newRow("all") << QStringList{"smoothing", "shape_prior", "gradient", "attraction_points"} << 0 << 0.0;
     // The two shape forces together with damped Verlet (their pass takes the move, reads every
     // term's weight first, and computes the normals and masses the lean geometry leaves out:
     // fusedSum), in either scene order, with the three geometry paths (four lanes a vertex below
     // 16,384 vertices, one with its own cell centres below 131,072) and, from 131,072, the whole
-    // step in one pass per block of vertices (launchStepInBlocks), also with smoothing alone.
-    QTest::newRow("smoothing, shape_prior") << QStringList{"smoothing", "shape_prior"} << 0;
-    QTest::newRow("shape_prior, smoothing") << QStringList{"shape_prior", "smoothing"} << 0;
-    QTest::newRow("smoothing, shape_prior, 25,600 vertices") << QStringList{"smoothing", "shape_prior"} << 2;
-    QTest::newRow("smoothing, shape_prior, 409,600 vertices") << QStringList{"smoothing", "shape_prior"} << 4;
-    QTest::newRow("shape_prior, smoothing, 409,600 vertices") << QStringList{"shape_prior", "smoothing"} << 4;
-    QTest::newRow("smoothing, 409,600 vertices") << QStringList{"smoothing"} << 4;
+    // step in one pass per block of vertices (launchStepInBlocks), also with smoothing alone. That
+    // pass is compiled with fused multiply-add (it is bound by its instructions), so its rows hold a
+    // tolerance: 1e-3 mm after 100 steps (1e-4 measured on an H100), run to run the same bits.
+    QTest::newRow("smoothing, shape_prior") << QStringList{"smoothing", "shape_prior"} << 0 << 0.0;
+    QTest::newRow("shape_prior, smoothing") << QStringList{"shape_prior", "smoothing"} << 0 << 0.0;
+    QTest::newRow("smoothing, shape_prior, 25,600 vertices") << QStringList{"smoothing", "shape_prior"} << 2 << 0.0;
+    QTest::newRow("smoothing, shape_prior, 409,600 vertices") << QStringList{"smoothing", "shape_prior"} << 4 << 1e-3;
+    QTest::newRow("shape_prior, smoothing, 409,600 vertices") << QStringList{"shape_prior", "smoothing"} << 4 << 1e-3;
+    QTest::newRow("smoothing, 409,600 vertices") << QStringList{"smoothing"} << 4 << 1e-3;
   }
   void forcesMatchTheCpu() {
     QFETCH(QStringList, forces);
     QFETCH(int, level);
+    QFETCH(double, tolerance);
     std::vector<std::string> names;
     for (const QString& f : forces) names.push_back(f.toStdString());
     const auto make = [&] {
@@ -136,18 +141,65 @@ private slots:
       engine.run(steps);
       engine.download();
       diff = std::max(diff, maxDifference(cpu->store(), gpu->store()));
-      QCOMPARE(maxDifference(cpu->store().previousPositions(), gpu->store().previousPositions()), 0.0);
+      const double previousDiff = maxDifference(cpu->store().previousPositions(), gpu->store().previousPositions());
       // The last step's forces, which a batch's other steps need not keep (enqueueStep).
-      QCOMPARE(maxDifference(cpu->store().forces(), gpu->store().forces()), 0.0);
+      const double forceDiff = maxDifference(cpu->store().forces(), gpu->store().forces());
+      if (tolerance == 0.0) {
+        QCOMPARE(previousDiff, 0.0);
+        QCOMPARE(forceDiff, 0.0);
+      } else {
+        QVERIFY2(previousDiff < tolerance, qPrintable(QString::number(previousDiff)));
+        QVERIFY2(forceDiff < tolerance, qPrintable(QString::number(forceDiff)));
+      }
     }
     QCOMPARE(gpu->iteration(), 100L);
+    if (tolerance > 0.0) {  // run to run, the device repeats itself exactly
+      auto again = make();
+      cuda::CudaEngine engine2(*again);
+      engine2.run(100);
+      engine2.download();
+      QCOMPARE(maxDifference(gpu->store(), again->store()), 0.0);
+      QCOMPARE(maxDifference(gpu->store().previousPositions(), again->store().previousPositions()), 0.0);
+    }
     double moved = 0;
     auto init = make();
     moved = maxDifference(cpu->store(), init->store());
     qInfo("%s: max CPU-CUDA difference %.3g mm after 100 iterations (vertices moved up to %.3g mm)",
           qPrintable(forces.join('+')), diff, moved);
     QVERIFY(moved > 0.01);  // the comparison means something only if the forces moved the mesh
-    QCOMPARE(diff, 0.0);
+    if (tolerance == 0.0) QCOMPARE(diff, 0.0);
+    else QVERIFY2(diff < tolerance, qPrintable(QString::number(diff)));
+  }
+
+  // The one-pass lean step where the last block is partly full (its own vertices' arrays copied a
+  // word at a time, the others' in 16-byte pieces): 327,680 + 80 vertices, 80 in the last block.
+  // Within the one-pass rows' tolerance above; run to run the same bits.
+  void lastBlockPartlyFull() {
+    const auto make = [] {
+      EllipsoidImageSpec spec;
+      auto sim = std::make_unique<Simulation>(forceRegistry(), 0);
+      // The large sphere's reference is the image's ellipsoid (the parity scene's), the small one's
+      // a noisy copy of itself: both settle, so that the comparison is not of two chaotic runs.
+      StructureSpec large = sphereStructure("large", 7, 15.0f, spec.centre, 1);
+      for (const Vec3& p : SimplexMesh::sphere(7, 1.0f).positions)
+        large.referencePositions.push_back(onEllipsoid(p, spec.centre, spec.radii));
+      StructureSpec small = sphereStructure("small", 1, 4.0f, spec.centre + Vec3(0, 0, 25), 1);
+      small.referencePositions = withNoise(small.initialPositions, 0.2f, 5);
+      sim->addStructure(std::move(large));
+      sim->addStructure(std::move(small));
+      sim->addForce("smoothing");
+      sim->addForce("shape_prior");
+      sim->setIntegrator("damped_verlet").set(0, "time_step", 0.5);
+      sim->initialize();
+      return sim;
+    };
+    QCOMPARE(make()->store().vertexCount() % 256, Index(80));
+    const ParityRun r = runOnBoth(make, 100);
+    qInfo("last block partly full: max CPU-CUDA difference %.3g mm after 100 steps (moved up to %.3g mm)", r.cpuCuda,
+          r.moved);
+    QVERIFY(r.moved > 0.01);
+    QVERIFY2(r.cpuCuda < 1e-3, qPrintable(QString::number(r.cpuCuda)));
+    QCOMPARE(r.deviceRepeat, 0.0);
   }
 
   // The affine regularisation of the image forces (paper 001 section 3): the device sums the

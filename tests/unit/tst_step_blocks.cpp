@@ -52,12 +52,22 @@ private slots:
           for (int i = from; i < to; ++i) QCOMPARE(vertexOf[a->cellSlots[at[3] + i]], int(members[offsets[c] + (i - from)]));
         }
       }
-      const std::size_t shared = (vertexOf.size() + cells) * 12 + 2 * geometries * 4;
-      QVERIFY(shared <= a->sharedBytes);
+      // The block's arrays fit the shared layout's regions.
+      const cuda::StepBlockLayout mine = cuda::stepBlockLayout(int(vertexOf.size()), cells, geometries, end[3] - at[3]);
+      const cuda::StepBlockLayout& all = a->layout;
+      QVERIFY(mine.centre - mine.pos <= all.centre - all.pos);
+      QVERIFY(mine.previous - mine.centre <= all.previous - all.centre);
+      QVERIFY(mine.area - mine.geometry <= all.area - all.geometry);
+      QVERIFY(mine.cellSlots - mine.cellEnd <= all.cellSlots - all.cellEnd);
+      QVERIFY(mine.words - mine.cellSlots <= all.words - all.cellSlots);
+      // Every region starts on 16 bytes (the kernel's 16-byte copies).
+      for (const int region : {all.pos, all.centre, all.previous, all.geometry, all.area, all.elevation, all.mesh,
+                               all.cellEnd, all.cellSlots, all.words})
+        QCOMPARE(region % 4, 0);
     }
     qInfo("%d vertices in %d blocks: %.2f vertices outside a block have their geometry there, per own vertex; "
           "%zu listed positions, %zu bytes of shared memory at most",
-          n, blocks, double(outsideTotal) / n, a->vertices.size(), a->sharedBytes);
+          n, blocks, double(outsideTotal) / n, a->vertices.size(), 4 * std::size_t(a->layout.words));
   }
 };
 
