@@ -134,7 +134,6 @@ __global__ void __launch_bounds__(kStepBlock, kBlocksPerSM) stepInBlocks(MeshVie
       f = f + shapePriorFrom(x, q[0], q[1], q[2], t.reference ? reference[i] : float4{}, weight[k]);
     }
   }
-  if (t.plus) f = f + t.plus[v];
   if (m.force) m.force[v] = f;
   const float mass = massFromArea(m, mesh, area[i]);
   const float3 previous = make_float3(previousWords[3 * i], previousWords[3 * i + 1], previousWords[3 * i + 2]);
@@ -147,6 +146,9 @@ void launchStepInBlocks(const MeshView& m, const StepBlocks& blocks, const Fused
                         cudaStream_t s) {
   // The kernel has no gradient term's image search: such a term would be left out without a word.
   if (hasGradientTerm(t)) throw std::logic_error("launchStepInBlocks: a gradient term needs the separate passes");
+  // Nor does it add another pass's term (FusedTerms::plus): no caller has one (case (a) keeps the
+  // separate passes), so the kernel leaves it out rather than carry an untested path.
+  if (t.plus) throw std::logic_error("launchStepInBlocks: another pass's term needs the separate passes");
   const unsigned grid = (m.vertices + kStepBlock - 1) / kStepBlock;
   stepInBlocks<<<grid, kStepBlock, 4 * blocks.layout.words, s>>>(m, blocks, t, move);
 }

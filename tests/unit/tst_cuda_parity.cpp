@@ -3,9 +3,10 @@
 // float operations in the same order on both backends (no fused multiply-add on either side,
 // Eigen's reduction order in the kernels, the reference angle's sine and cosine taken from the
 // host), so those are compared to the bit, or to a stated tolerance where the device sums in
-// another order or fuses multiply-adds (the one-pass lean step of large scenes). The intensity profile samples the image through the texture units on the device
-// (profile_kernels.cu): its tolerance is a share of vertices picking another offset in one step,
-// stated in tst_cuda_profile; the tests here leave it out.
+// another order or fuses multiply-adds (the one-pass lean step of large scenes). The intensity
+// profile samples the image through the texture units on the device (profile_kernels.cu): its
+// tolerance is a share of vertices picking another offset in one step, stated in
+// tst_cuda_profile; the tests here leave it out.
 #include "builtin_plugins.h"
 #include "parity_scene.h"
 #include "sinew/core/attachments.h"
