@@ -30,8 +30,8 @@ __device__ __forceinline__ int cellPart(int packed) { return packed >> 16; }
 // the fused multiply-adds. Held to 48 registers, 5 blocks an SM (80 bytes spilled). On an H100
 // (2026-11-27, case (b) at 2,719,744 vertices, us a step; docs/benchmarks.md): loads into
 // registers 153.1; these copies a word at a time 147.7 (6 blocks an SM, 40 registers: 159.2); with
-// fused multiply-adds 141.6; in 16-byte pieces 134.6 (4 blocks an SM, 56 registers and no spill:
-// 146.0).
+// fused multiply-adds 141.6; in 16-byte pieces 133.1-134.6 (4 blocks an SM, 56 registers and no
+// spill: 146.0).
 constexpr int kBlocksPerSM = 5;
 
 // n 4-byte words from global to shared memory, a word a thread at a time (coalesced).

@@ -89,8 +89,9 @@ void launchProfile(const MeshView& m, ParamView p, int kDepth, VolumeView volume
 // launchGeometry run with them null), each vertex's normal and mass are computed in the pass from
 // its neighbours and m.area. With m.force null the forces are not written.
 void launchFusedForcesAndMove(const MeshView& m, const FusedTerms& t, const VerletMove& move, cudaStream_t s);
-// The same step with the geometry in its pass (the lean geometry only: no gradient term, m.mass
-// null; launchGeometry is not needed before it; block_step_kernels.cu). A block takes kStepBlock
+// The same step with the geometry in its pass (the lean geometry only: no gradient term, no other
+// pass's term (FusedTerms::plus null), m.mass null; launchGeometry is not needed before it;
+// block_step_kernels.cu). A block takes kStepBlock
 // consecutive vertices and reads, once each, the positions its step needs (its own, its
 // neighbours' beyond it, and the vertices of their cells) into shared memory; the cell centres,
 // areas and elevations then stay there. StepBlocks holds each block's connectivity as indices into
