@@ -43,8 +43,8 @@ __device__ __forceinline__ void copyWords(void* to, const void* from, int n) {
 // (16-byte aligned), a piece a thread at a time: `from` lands spanShift(from) bytes after `to`.
 __device__ __forceinline__ int spanShift(const void* from) { return int(reinterpret_cast<unsigned long long>(from) & 15); }
 __device__ __forceinline__ void copySpan(void* to, const void* from, int bytes) {
-  const unsigned long long a = reinterpret_cast<unsigned long long>(from), base = a & ~15ull;
-  const int pieces = int((((a + bytes + 15) & ~15ull) - base) / 16);
+  const long long a = static_cast<long long>(reinterpret_cast<unsigned long long>(from)), base = a & ~15ll;
+  const int pieces = spanCopyWords(a, bytes) / 4;
   for (int k = threadIdx.x; k < pieces; k += kStepBlock)
     __pipeline_memcpy_async(static_cast<float4*>(to) + k, reinterpret_cast<const float4*>(base) + k, 16);
 }

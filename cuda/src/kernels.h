@@ -124,6 +124,12 @@ inline StepBlockLayout stepBlockLayout(int positions, int cells, int geometries,
   l.words = at;
   return l;
 }
+// The 4-byte words that the one-pass step's 16-byte-piece copy (copySpan) writes for the bytes
+// [first, first + bytes) of an array (first counted from a 16-byte-aligned address): the layout's
+// regions must hold them, and tst_step_blocks checks that every block's do.
+__host__ __device__ inline int spanCopyWords(long long first, long long bytes) {
+  return int((((first + bytes + 15) & ~15ll) - (first & ~15ll)) / 4);
+}
 struct StepBlocks {
   // Per block, and one more for the ends: where its entries of the arrays below begin (x: vertices,
   // y: geometry, z: cellEnd, w: cellSlots).

@@ -60,6 +60,12 @@ private slots:
       QVERIFY(mine.area - mine.geometry <= all.area - all.geometry);
       QVERIFY(mine.cellSlots - mine.cellEnd <= all.cellSlots - all.cellEnd);
       QVERIFY(mine.words - mine.cellSlots <= all.words - all.cellSlots);
+      // What the 16-byte-piece copies of the block's connectivity write fits its regions (the
+      // uploaded arrays start on 256 bytes, so their offsets decide the pieces).
+      QVERIFY(cuda::spanCopyWords(12LL * at[1], 12LL * geometries) <= all.area - all.geometry);
+      QVERIFY(cuda::spanCopyWords(2LL * at[2], 2LL * cells) <= all.cellSlots - all.cellEnd);
+      QVERIFY(cuda::spanCopyWords(2LL * at[3], 2LL * (end[3] - at[3])) <= all.words - all.cellSlots);
+      QVERIFY(cuda::spanCopyWords(0, 12LL * cuda::kStepBlock) <= all.centre - all.pos);
       // Every region starts on 16 bytes (the kernel's 16-byte copies).
       for (const int region : {all.pos, all.centre, all.previous, all.geometry, all.area, all.elevation, all.mesh,
                                all.cellEnd, all.cellSlots, all.words})
