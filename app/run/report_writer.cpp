@@ -49,7 +49,7 @@ void writeReportJson(const std::filesystem::path& path, const RunReport& r, cons
   j["simulation_seconds"] = r.simulationSeconds;
   j["level_start_seconds"] = r.levelStartSeconds;
   j["stage_seconds"] = Json::object();
-  for (const auto& [name, seconds] : r.stageSeconds) j["stage_seconds"][name] = seconds;
+  for (const auto& [name, seconds] : r.stageClock.stages()) j["stage_seconds"][name] = seconds;
   j["background_seconds"] = Json::object();
   for (const auto& [name, seconds] : r.backgroundSeconds) j["background_seconds"][name] = seconds;
   {

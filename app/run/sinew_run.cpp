@@ -242,6 +242,7 @@ int main(int argc, char** argv) {
       if (!quiet || backendChoice == "cuda") std::fprintf(stderr, "%s\n", m.c_str());
     };
     options.backend = [&](Simulation& sim) { return makeBackend(backendChoice, sim, notice); };
+    options.start = processStart;  // the stages count from the process's start ("startup")
     // The device starts while the scene loads (with -j 1 nothing runs beside the stages).
     if (threads != 1) startDeviceEarly(backendChoice);
     // The output directory is this run's from here on: a second run writing there is refused now,
@@ -251,18 +252,14 @@ int main(int argc, char** argv) {
       std::fprintf(stderr, "removed %d staging folder(s) a killed run left in %s\n", lock.staleRemoved(), outDir.c_str());
     SceneRunner runner(registry, scene, options);
     if (!quiet) std::fprintf(stderr, "loading %s\n", scenePath.c_str());
-    const double startup = since(processStart);
     runner.load();
     RunReport report = runner.run();
-    report.stageSeconds.insert(report.stageSeconds.begin(), {"startup", startup});
-    const auto outputsStart = std::chrono::steady_clock::now();
     for (const auto& s : report.structures)
       for (const Vec3& p : s.surface.points)
         if (!p.allFinite()) throw NumericalError("structure '" + s.name + "' has a non-finite vertex; nothing was written");
     if (scene.thickness) {
-      const auto thicknessStart = std::chrono::steady_clock::now();
       addThickness(report, Executor(threads));
-      report.stageSeconds.emplace_back("thickness", since(thicknessStart));
+      report.stageClock.lap("thickness");
     }
     Staging out(outDir);
     // The outputs are independent files: written at once (one after the other with -j 1); the
@@ -300,15 +297,15 @@ int main(int argc, char** argv) {
     for (auto& w : writes) w.get();
     // report.json cannot time its own writing: the stage ends here, and so does total_seconds
     // (process start to outputs written).
-    report.stageSeconds.emplace_back("write_outputs", since(outputsStart));
-    report.totalSeconds = since(processStart);
+    report.stageClock.lap("write_outputs");
+    report.totalSeconds = report.stageClock.total();
     writeReportJson(out.file("report.json"), report, scene, plugins.plugins());
     out.commit();
     printTable(report);
     if (verbose) {
       std::fflush(stdout);
       std::fprintf(stderr, "stage                 seconds   share\n");
-      for (const auto& [name, seconds] : report.stageSeconds)
+      for (const auto& [name, seconds] : report.stageClock.stages())
         std::fprintf(stderr, "%-20s %8.3f  %5.1f %%\n", name.c_str(), seconds, 100.0 * seconds / report.totalSeconds);
       std::fprintf(stderr, "%-20s %8.3f\n", "total", report.totalSeconds);
       for (const auto& [name, seconds] : report.backgroundSeconds)

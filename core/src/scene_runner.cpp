@@ -71,6 +71,8 @@ Simulation& SceneRunner::simulation() { return *loaded_->sim; }
 void SceneRunner::load() {
   loaded_ = std::make_unique<Loaded>();
   Loaded& L = *loaded_;
+  if (options_.start) L.clock = StageClock(*options_.start);
+  L.clock.lap("startup");
   const int levels = static_cast<int>(scene_.schedule.size());
   // Everything the scene names must exist before any file is read.
   for (size_t f = 0; f < scene_.forces.size(); ++f) {
@@ -109,7 +111,6 @@ void SceneRunner::load() {
   auto log = [&](const std::string& m) {
     if (options_.log) options_.log(m + " (" + std::to_string(since(L.created)).substr(0, 5) + " s)");
   };
-  auto stage = [&](const char* name, Clock::time_point t0) { L.stageSeconds.emplace_back(name, since(t0)); };
   // Every file the scene names starts reading now, in the background, when threads allow: the
   // images' decompression then overlaps the model building. The read_* stages are the waits.
   if (options_.threads != 1 && std::thread::hardware_concurrency() > 1) L.reading = std::launch::async;
@@ -119,21 +120,18 @@ void SceneRunner::load() {
     if (d.reference.label && !d.reference.mesh) L.startLabels(registry_, d.reference.label->labelMap);
     if (d.groundTruth) L.startLabels(registry_, d.groundTruth->labelMap);
   }
-  auto t0 = Clock::now();
   auto labels = [&](const fs::path& p) -> const LabelVolume& { return *L.startLabels(registry_, p).get(); };
   if (scene_.model) {
-    t0 = Clock::now();
     log("reading the model " + scene_.model->string());
     L.model = readModel(registry_, *scene_.model);
     if (L.model->levelCount() < levels)
       sceneError(scene_, "/schedule", std::to_string(levels) + " levels, but the model " + scene_.model->string() +
                                           " has " + std::to_string(L.model->levelCount()));
-    stage("read_model", t0);
+    L.clock.lap("read_model");
     if (!scene_.trainingImage) L.startImage(registry_, L.model->atlasImage);
   }
 
   L.sim = std::make_unique<Simulation>(registry_, options_.threads);
-  t0 = Clock::now();
   std::vector<StructureSpec> specs;
   for (const auto& [a, b] : scene_.contactPairs) {
     std::array<Index, 2> pair{-1, -1};
@@ -280,21 +278,18 @@ void SceneRunner::load() {
     }
     specs.push_back(std::move(spec));
   }
-  L.stageSeconds.emplace_back(L.model ? "structures" : "build_model", since(t0));
-  t0 = Clock::now();
+  L.clock.lap(L.model ? "structures" : "build_model");
   std::vector<const ReferenceSurface*> truths;
   for (const auto& t : L.truth) truths.push_back(t.get());
   if (std::any_of(truths.begin(), truths.end(), [](const ReferenceSurface* t) { return t != nullptr; }))
     L.sampled = std::make_unique<SampledError>(truths, kSampledSpacingMm);
-  L.stageSeconds.emplace_back("ground_truth", since(t0));
-  t0 = Clock::now();
+  L.clock.lap("ground_truth");
   log("reading " + scene_.targetImage.string());
   L.target = L.image(registry_, scene_.targetImage);
-  stage("read_target", t0);
+  L.clock.lap("read_target");
 
-  t0 = Clock::now();
   initialise(specs, log);
-  stage("initialisation", t0);
+  L.clock.lap("initialisation");
   for (size_t i = 0; i < specs.size(); ++i) {
     int inside = 0;
     for (const Vec3& p : specs[i].initialPositions) inside += L.target->containsIndex(L.target->worldToIndex(p));
@@ -335,16 +330,14 @@ void SceneRunner::load() {
   const std::optional<fs::path> training =
       scene_.trainingImage ? scene_.trainingImage : L.model ? std::optional<fs::path>(L.model->atlasImage) : std::nullopt;
   if (training) {
-    t0 = Clock::now();
     log("reading " + training->string());
     L.sim->scene().setTrainingImage(L.image(registry_, *training));
-    stage("read_training", t0);
+    L.clock.lap("read_training");
   }
-  t0 = Clock::now();
   log("training and initialising the forces");
   L.sim->setStabilityGuard(scene_.stability);
   L.sim->initialize();
-  stage("prepare_forces", t0);
+  L.clock.lap("prepare_forces");
   log("ready");
 }
 
@@ -383,14 +376,14 @@ void SceneRunner::initialise(std::vector<StructureSpec>& specs, const std::funct
       o.levels = d.levels;
       o.iterations = d.iterations;
       o.log = options_.log;
-      const auto t1 = Clock::now();
+      L.clock.lap("initialisation");  // its own stage, not counted twice
       RegistrationResult reg;
       try {
         reg = io->registerImages(*L.target, *model, o);
       } catch (const InputError& e) {
         throw InputError(scene_.file.string() + ": /initialise: " + e.what());
       }
-      L.stageSeconds.emplace_back("registration", since(t1));
+      L.clock.lap("registration");
       r.method = std::string("registration (") + (d.affine ? "affine" : "rigid") + ")";
       r.registration = reg.stages;
       r.hasAffine = true;
@@ -483,21 +476,18 @@ RunReport SceneRunner::run() {
   report.threads = sim.executor().threads();
   report.device = cpuDescription(report.threads);
   report.initialisation = L.init;
-  report.stageSeconds = L.stageSeconds;
   {
     const std::lock_guard lock(L.backgroundMutex);
     report.backgroundSeconds = L.backgroundSeconds;
   }
-  auto t0 = Clock::now();
   std::unique_ptr<ExecutionBackend> backend = options_.backend ? options_.backend(sim) : nullptr;
   if (backend) {
     report.backend = backend->name();
     report.device = backend->device();
   }
-  if (options_.backend) report.stageSeconds.emplace_back("start_backend", since(t0));
+  if (options_.backend) L.clock.lap("start_backend");
   // The start and the model, evaluated exactly. With a device running the steps, the host's threads
   // are free meanwhile, so the scoring runs beside the simulation (the surfaces are taken now).
-  t0 = Clock::now();
   std::vector<StructureResult> initial, model;
   const bool initialised = scene_.initialise.method != InitialiseDesc::Method::None;
   for (Index i = 0; i < sim.structureCount(); ++i) {
@@ -523,7 +513,7 @@ RunReport SceneRunner::run() {
   };
   std::future<double> startScores = std::async(scoredBeside ? std::launch::async : std::launch::deferred, scoreStart);
   if (!scoredBeside) startScores.wait();
-  report.stageSeconds.emplace_back("evaluate_start", since(t0));
+  L.clock.lap("evaluate_start");
   // A backend that fails mid-run (device memory, a lost device) hands over to the CPU, which goes on
   // from the last state the backend downloaded.
   auto onBackend = [&](const std::function<void(ExecutionBackend&)>& work) {
@@ -548,9 +538,7 @@ RunReport SceneRunner::run() {
   long total = 0, done = 0;
   for (const auto& l : scene_.schedule) total += l.iterations;
   double simSeconds = 0.0;  // the steps' time alone: the timeline's clock
-  // The stage covers the whole loop but its sampling (level changes, progress reports included),
-  // so that the stages add up to the run however the scheduler interrupts it between timers.
-  const auto loopStart = Clock::now();
+  // The stage covers the whole loop but its sampling (level changes, progress reports included).
   const double samplingBefore = L.samplingSeconds;
   // The timeline's first and last samples take the exact evaluation's scores of the same positions
   // (the start's and the end's, computed anyway), filled in below: the curve ends on the final
@@ -603,15 +591,13 @@ RunReport SceneRunner::run() {
   }
   report.simulationSeconds = simSeconds;
   const double loopSampling = L.samplingSeconds - samplingBefore;
-  report.stageSeconds.emplace_back("simulation", std::max(since(loopStart) - loopSampling, simSeconds));
-  report.stageSeconds.emplace_back("sample_error", L.samplingSeconds);
-  t0 = Clock::now();
+  L.clock.split("simulation", "sample_error", loopSampling);
   const double startScoring = startScores.get();
   const size_t structures = size_t(sim.structureCount());
   for (size_t i = 0; i < structures; ++i)  // the first sample (the start's positions)
     report.timeline[i].assdMm = initial[i].assdFinalMm, report.timeline[i].hd95Mm = initial[i].hd95Mm;
   if (scoredBeside) {
-    report.stageSeconds.emplace_back("evaluate_start_wait", since(t0));
+    L.clock.lap("evaluate_start_wait");
     report.backgroundSeconds.emplace_back("evaluate_start", startScoring);
   }
   std::vector<StageResult> firstStages;  // before the levels'
@@ -624,7 +610,6 @@ RunReport SceneRunner::run() {
   if (initialised) stageOf("initialisation", L.init.seconds, initial);
   report.stages.insert(report.stages.begin(), firstStages.begin(), firstStages.end());
   report.stability = sim.stabilityEvents();
-  t0 = Clock::now();
   std::vector<StructureResult> end = evaluateEnd(backend.get());
   for (Index i = 0; i < sim.structureCount(); ++i) {
     StructureResult r = std::move(end[i]);
@@ -641,9 +626,8 @@ RunReport SceneRunner::run() {
       s.assdMm = report.structures[i].assdFinalMm, s.hd95Mm = report.structures[i].hd95Mm;
       report.stages.back().assdMm[i] = s.assdMm;
     }
-  report.stageSeconds.emplace_back("evaluate_end", since(t0));
+  L.clock.lap("evaluate_end");
   if (sim.structureCount() > 1) {
-    t0 = Clock::now();
     std::vector<const TriangleMesh*> start, end;
     for (Index i = 0; i < sim.structureCount(); ++i) {
       start.push_back(&initial[i].surface);
@@ -656,9 +640,10 @@ RunReport SceneRunner::run() {
       r.a = o.a, r.b = o.b, r.afterMm3 = o.volumeMm3;
     }
     for (const auto& [key, r] : pairs) report.overlaps.push_back(r);
-    report.stageSeconds.emplace_back("overlaps", since(t0));
+    L.clock.lap("overlaps");
   }
-  report.totalSeconds = since(L.created);
+  report.stageClock = L.clock;
+  report.totalSeconds = L.clock.total();
   return report;
 }
 

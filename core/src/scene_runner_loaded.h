@@ -43,8 +43,8 @@ struct SceneRunner::Loaded {
   std::vector<std::vector<Vec3>> modelPositions;         // level 0, before the initialisation
   InitialisationResult init;
   SpatialMap trainingMap;  // target -> training image: the inverse of the initialisation
-  std::vector<std::pair<std::string, double>> stageSeconds;
   Clock::time_point created = Clock::now();
+  StageClock clock{created};  // the run's stages (RunOptions::start sets its start)
 
   template <class T, class Read>
   Pending<T>& startReading(std::map<std::filesystem::path, Pending<T>>& files, const std::filesystem::path& p, Read read) {

@@ -9,8 +9,10 @@
 #include "sinew/core/scene.h"
 #include "sinew/core/shape_guard.h"
 #include "sinew/core/simulation.h"
+#include "sinew/core/stage_clock.h"
 #include "sinew/core/surface_distance.h"
 
+#include <chrono>
 #include <functional>
 #include <limits>
 #include <memory>
@@ -82,7 +84,7 @@ struct RunReport {
   std::string backend = "cpu";
   std::string device;
   int threads = 0;
-  double totalSeconds = 0.0;       // wall time of load + run + evaluation
+  double totalSeconds = 0.0;       // wall time of load + run + evaluation (stageClock.total())
   double simulationSeconds = 0.0;  // time spent in simulation steps
   std::vector<double> levelStartSeconds;
   std::vector<StructureResult> structures;
@@ -90,7 +92,10 @@ struct RunReport {
   std::vector<StabilityEvent> stability;  // the stability guard's rollbacks
   std::vector<StageResult> stages;
   InitialisationResult initialisation;
-  std::vector<std::pair<std::string, double>> stageSeconds;  // wall time of each set-up stage, in order
+  // Every stage's wall time, in order: laps of one clock from the run's start (RunOptions::start),
+  // so they add up to totalSeconds. A caller with work of its own after run() (writing the outputs)
+  // laps it here and sets totalSeconds to stageClock.total().
+  StageClock stageClock;
   // Work that ran beside the stages (each input file's read, the start's evaluation), with its own
   // wall time; the stages count only the waits for it.
   std::vector<std::pair<std::string, double>> backgroundSeconds;
@@ -108,6 +113,9 @@ struct RunOptions {
   std::function<void(const std::string&)> log;  // what is being loaded, for long set-ups
   // Creates the backend that runs the steps (after load); null or returning null: the CPU.
   std::function<std::unique_ptr<ExecutionBackend>(Simulation&)> backend;
+  // When the run's clock starts (default: the runner's creation); the time to load() is the stage
+  // "startup". sinew-run passes its process's start.
+  std::optional<std::chrono::steady_clock::time_point> start;
 };
 
 // "outputs.thickness": every final surface's medial radius per point (point data
