@@ -22,6 +22,12 @@ void startDeviceEarly(const std::string& choice) {
 #endif
 }
 
+void finishDeviceStart() {
+#ifdef SINEW_WITH_CUDA
+  if (early.valid()) early.wait();
+#endif
+}
+
 std::unique_ptr<ExecutionBackend> makeBackend(const std::string& choice, Simulation& sim,
                                               const std::function<void(const std::string&)>& notice) {
   if (choice == "cpu") return nullptr;

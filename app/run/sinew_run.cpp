@@ -245,6 +245,7 @@ int main(int argc, char** argv) {
     options.start = processStart;  // the stages count from the process's start ("startup")
     // The device starts while the scene loads (with -j 1 nothing runs beside the stages).
     if (threads != 1) startDeviceEarly(backendChoice);
+    const DeviceStartWait deviceStarted;  // whatever way main is left from here
     // The output directory is this run's from here on: a second run writing there is refused now,
     // not after the work, and what killed runs left in it is cleared.
     const OutputLock lock(outDir);
