@@ -370,6 +370,18 @@ itk::ImageIOBase::Pointer imageIOFor(const std::string& extension) {
   return nullptr;
 }
 
+// ITK 5.2's NiftiImageIO writes a global string of libITKIONIFTI while it reads a header: two
+// headers read at once on two threads wrote the same address (ThreadSanitizer, sinew-run on a
+// subject scene, 2026-11-27), and the runner reads every input image on its own thread. Concurrent
+// writes to one std::string corrupt the heap: the likely cause of the rare "malloc(): unaligned
+// tcache chunk detected" in CI (docs/reliability.md). Every NIfTI header read and every NIfTI
+// write holds this lock; the voxels' reading and decompression stay parallel.
+std::unique_lock<std::mutex> niftiLock(const std::string& extension) {
+  static std::mutex niftiMutex;
+  if (extension == ".nii" || extension == ".nii.gz") return std::unique_lock(niftiMutex);
+  return {};
+}
+
 // A single-file image (not a DICOM series), its header checked, read straight into the volume's
 // buffer: no second full-size copy (the training image is 230 MB as floats).
 template <class Pixel>
@@ -391,6 +403,7 @@ Volume<Pixel> readNonSeries(const fs::path& path) {
                    " image of a format Sinew reads (NIfTI, NRRD, MetaImage; DICOM as a folder), or it is corrupt");
   io->SetFileName(path.string());
   try {
+    const auto lock = niftiLock(extension);
     io->ReadImageInformation();
   } catch (const itk::ExceptionObject& e) {
     fail(path, "cannot read the image header: " + brief(e));
@@ -413,7 +426,10 @@ Volume<Pixel> readNonSeries(const fs::path& path) {
   auto reader = itk::ImageFileReader<ImageType>::New();
   reader->SetImageIO(io);
   reader->SetFileName(path.string());
-  reader->UpdateOutputInformation();
+  {
+    const auto lock = niftiLock(extension);
+    reader->UpdateOutputInformation();
+  }
   ImageType* image = reader->GetOutput();
   Volume<Pixel> volume(geometryOf(*image));
   image->GetPixelContainer()->SetImportPointer(volume.voxels().data(), volume.voxels().size(), false);
@@ -475,7 +491,8 @@ void writeItk(const fs::path& path, ItkImage* image) {
   AtomicOutput out(path);
   // The writer the name says, not ITK's factory: sinew-run writes its outputs on several threads at
   // once, and a factory lookup there once found no NIfTI writer (H100 host, 2026-11-24).
-  const itk::ImageIOBase::Pointer io = imageIOFor(ioExtension(path));
+  const std::string extension = ioExtension(path);
+  const itk::ImageIOBase::Pointer io = imageIOFor(extension);
   if (!io) fail(path, "cannot be written: give it a .nii, .nii.gz, .nrrd, .nhdr, .mha or .mhd name");
   try {
     auto writer = itk::ImageFileWriter<ItkImage>::New();
@@ -483,6 +500,7 @@ void writeItk(const fs::path& path, ItkImage* image) {
     writer->SetFileName(out.tempPath().string());
     writer->SetInput(image);
     writer->UseCompressionOn();
+    const auto lock = niftiLock(extension);
     writer->Update();
   } catch (const itk::ExceptionObject& e) {
     fail(path, "cannot write the image: " + brief(e));
