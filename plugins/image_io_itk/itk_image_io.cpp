@@ -370,12 +370,13 @@ itk::ImageIOBase::Pointer imageIOFor(const std::string& extension) {
   return nullptr;
 }
 
-// ITK 5.2's NiftiImageIO writes a global string of libITKIONIFTI while it reads a header: two
-// headers read at once on two threads wrote the same address (ThreadSanitizer, sinew-run on a
-// subject scene, 2026-11-27), and the runner reads every input image on its own thread. Concurrent
-// writes to one std::string corrupt the heap: the likely cause of the rare "malloc(): unaligned
-// tcache chunk detected" in CI (docs/reliability.md). Every NIfTI header read and every NIfTI
-// write holds this lock; the voxels' reading and decompression stay parallel.
+// ITK 5.2's NiftiImageIO::ReadImageInformation compares a global string of libITKIONIFTI with the
+// file name and assigns it when they differ: two headers read at once on two threads wrote the
+// same address (ThreadSanitizer, sinew-run on a subject scene, 2026-11-27), and the runner reads
+// every input image on its own thread. Two assignments at once that both grow the string free its
+// buffer twice: the likely cause of the rare "malloc(): unaligned tcache chunk detected" in CI
+// (docs/reliability.md). Every NIfTI header read and every NIfTI write holds this lock; the
+// voxels' reading and decompression stay parallel.
 std::unique_lock<std::mutex> niftiLock(const std::string& extension) {
   static std::mutex niftiMutex;
   if (extension == ".nii" || extension == ".nii.gz") return std::unique_lock(niftiMutex);
