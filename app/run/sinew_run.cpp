@@ -180,9 +180,6 @@ void listPlugins(const PluginLoader& loader, const Registry& registry) {
 
 int main(int argc, char** argv) {
   const auto processStart = std::chrono::steady_clock::now();
-  auto since = [](std::chrono::steady_clock::time_point t0) {
-    return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  };
   CLI::App cli{"sinew-run: segment one subject with the deformable models a scene file describes."};
   cli.footer(kExitCodes);
   std::string scenePath, outDir = "sinew-output";
@@ -235,7 +232,7 @@ int main(int argc, char** argv) {
                      p.file.empty() ? "built in" : ("loaded from " + p.file.string()).c_str());
     }
     ProgressPrinter progress(quiet);
-    RunOptions options{threads, std::ref(progress), {}, {}};
+    RunOptions options{threads, std::ref(progress), {}, {}, {}};
     if (!quiet) options.log = [](const std::string& m) { std::fprintf(stderr, "%s\n", m.c_str()); };
     // Falling back to the CPU is always announced when the CUDA backend was asked for explicitly.
     auto notice = [&](const std::string& m) {
