@@ -232,14 +232,14 @@ int main(int argc, char** argv) {
                      p.file.empty() ? "built in" : ("loaded from " + p.file.string()).c_str());
     }
     ProgressPrinter progress(quiet);
-    RunOptions options{threads, std::ref(progress), {}, {}, {}};
+    // The stages count from the process's start ("startup").
+    RunOptions options{threads, std::ref(progress), {}, {}, processStart};
     if (!quiet) options.log = [](const std::string& m) { std::fprintf(stderr, "%s\n", m.c_str()); };
     // Falling back to the CPU is always announced when the CUDA backend was asked for explicitly.
     auto notice = [&](const std::string& m) {
       if (!quiet || backendChoice == "cuda") std::fprintf(stderr, "%s\n", m.c_str());
     };
     options.backend = [&](Simulation& sim) { return makeBackend(backendChoice, sim, notice); };
-    options.start = processStart;  // the stages count from the process's start ("startup")
     // The device starts while the scene loads (with -j 1 nothing runs beside the stages).
     if (threads != 1) startDeviceEarly(backendChoice);
     const DeviceStartWait deviceStarted;  // whatever way main is left from here

@@ -104,8 +104,8 @@ private slots:
       QVERIFY2(o["dice"].toDouble() > 0.75, qPrintable(o["name"].toString()));
     }
     // The stage times are reported, the registration among them, and they add up to the total:
-    // the registration, timed inside the initialisation, is not counted in both (it was: 8.99 s of
-    // stages in a 6.43 s run).
+    // the registration, timed inside the initialisation, is not counted in both (it was: subject
+    // 206's report held 8.99 s of stages in a 6.43 s run).
     QVERIFY(report["stage_seconds"].toObject().contains("registration"));
     QVERIFY(report["stage_seconds"].toObject().contains("read_model"));
     double stageSum = 0.0;

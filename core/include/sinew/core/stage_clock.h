@@ -18,18 +18,14 @@ public:
 
   // The time since the previous lap (or the start), given to `name`. Returns it.
   double lap(const std::string& name) {
-    const Clock::time_point now = Clock::now();
-    const double seconds = std::chrono::duration<double>(now - last_).count();
-    last_ = now;
+    const double seconds = sinceLastLap();
     add(name, seconds);
     return seconds;
   }
   // The time since the previous lap, split: `secondSeconds` of it (clamped to it) to `second`, the
   // rest to `first` (a loop and the sampling inside it, timed apart).
   void split(const std::string& first, const std::string& second, double secondSeconds) {
-    const Clock::time_point now = Clock::now();
-    const double seconds = std::chrono::duration<double>(now - last_).count();
-    last_ = now;
+    const double seconds = sinceLastLap();
     const double part = secondSeconds < 0.0 ? 0.0 : secondSeconds > seconds ? seconds : secondSeconds;
     add(first, seconds - part);
     add(second, part);
@@ -40,6 +36,13 @@ public:
   double total() const { return std::chrono::duration<double>(last_ - start_).count(); }
 
 private:
+  // The time since the previous lap, which now ends.
+  double sinceLastLap() {
+    const Clock::time_point now = Clock::now();
+    const double seconds = std::chrono::duration<double>(now - last_).count();
+    last_ = now;
+    return seconds;
+  }
   void add(const std::string& name, double seconds) {
     for (auto& [stage, s] : stages_)
       if (stage == name) {
