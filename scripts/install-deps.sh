@@ -3,7 +3,7 @@
 set -euo pipefail
 packages=(
   cmake ninja-build g++ pkg-config dpkg-dev file
-  libeigen3-dev libtbb-dev nlohmann-json3-dev libnanoflann-dev libcli11-dev zlib1g-dev
+  libeigen3-dev libtbb-dev nlohmann-json3-dev libnanoflann-dev libcli11-dev zlib1g-dev libdeflate-dev
   qt6-base-dev libqt6opengl6-dev fonts-dejavu-core
   xvfb xauth libgl1-mesa-dri libglx-mesa0
   libinsighttoolkit5-dev libvtk9-dev

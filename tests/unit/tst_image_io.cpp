@@ -10,7 +10,10 @@
 #include <itkMetaDataObject.h>
 #include <itkNumericSeriesFileNames.h>
 
+#include <zlib.h>
+
 #include <fstream>
+#include <iterator>
 
 using namespace sinew;
 using namespace sinew::testing;
@@ -181,6 +184,74 @@ private slots:
     expectRefusal(io(), path("nameless.mha"), "ElementDataFile names no data file");
     std::ofstream(path("folder.mhd")) << header << "ElementDataFile = empty_dir\n";
     expectRefusal(io(), path("folder.mhd"), "is not a regular file");
+  }
+
+  // A .nii.gz is decompressed in one pass (libdeflate) into a temporary copy that ITK reads: every
+  // gzip member is read and checked (CRC-32, length), a bad stream is refused by the file's name,
+  // and no copy is left in the temporary directory, whatever the outcome.
+  void compressedNiftiStreams() {
+    const fs::path temporary = path("tmp");
+    fs::create_directories(temporary);
+    const QByteArray oldTmp = qgetenv("TMPDIR");
+    qputenv("TMPDIR", QByteArray::fromStdString(temporary.string()));
+    const Image3D im = obliqueImage();
+    io().writeImage(path("plain.nii"), im);
+    std::string bytes;
+    {
+      std::ifstream in(path("plain.nii"), std::ios::binary);
+      bytes.assign(std::istreambuf_iterator<char>(in), {});
+    }
+    const auto gzipped = [](const std::string& data) {  // one gzip member
+      z_stream z{};
+      deflateInit2(&z, 6, Z_DEFLATED, 15 + 16, 8, Z_DEFAULT_STRATEGY);
+      std::string out(deflateBound(&z, uLong(data.size())), '\0');
+      z.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(data.data()));
+      z.avail_in = uInt(data.size());
+      z.next_out = reinterpret_cast<Bytef*>(out.data());
+      z.avail_out = uInt(out.size());
+      deflate(&z, Z_FINISH);
+      out.resize(z.total_out);
+      deflateEnd(&z);
+      return out;
+    };
+    const auto write = [&](const char* name, const std::string& data) { std::ofstream(path(name), std::ios::binary) << data; };
+    const auto expectSameImage = [&](const char* name) {
+      const Image3D back = io().readImage(path(name));
+      expectSameSpace(im, back);
+      QCOMPARE(back.voxels(), im.voxels());
+    };
+    write("one.nii.gz", gzipped(bytes));
+    expectSameImage("one.nii.gz");
+    // Two members, as concatenated gzip files are: read to the end of the second.
+    const std::size_t half = bytes.size() / 2;
+    write("two.nii.gz", gzipped(bytes.substr(0, half)) + gzipped(bytes.substr(half)));
+    expectSameImage("two.nii.gz");
+    // Not compressed at all, for all its name: read as it is (as zlib reads such a file).
+    write("raw.nii.gz", bytes);
+    expectSameImage("raw.nii.gz");
+    // The stored CRC-32 wrong: the decompressed bytes are not what was compressed.
+    std::string crc = gzipped(bytes);
+    crc[crc.size() - 8] ^= 0x55;
+    write("crc.nii.gz", crc);
+    expectRefusal(io(), path("crc.nii.gz"), "corrupt");
+    // The second member cut short.
+    const std::string first = gzipped(bytes.substr(0, half)), second = gzipped(bytes.substr(half));
+    write("short.nii.gz", first + second.substr(0, second.size() / 2));
+    expectRefusal(io(), path("short.nii.gz"), "corrupt");
+    // A sound stream whose voxels stop early: ITK refuses the copy, the message names the file.
+    write("few.nii.gz", gzipped(bytes.substr(0, bytes.size() - 40)));
+    write("few.nii", bytes.substr(0, bytes.size() - 40));  // likewise uncompressed (ITK read it, the rest zeros)
+    expectRefusal(io(), path("few.nii"), "truncated");
+    try {
+      io().readImage(path("few.nii.gz"));
+      QFAIL("accepted few.nii.gz");
+    } catch (const InputError& e) {
+      const QString message = e.what();
+      QVERIFY2(message.contains("few.nii.gz") && !message.contains("sinew-read-"), qPrintable(message));
+    }
+    if (oldTmp.isNull()) qunsetenv("TMPDIR");
+    else qputenv("TMPDIR", oldTmp);
+    QVERIFY(fs::is_empty(temporary));
   }
 
   // Detached NRRD headers (.nhdr): read with their data file, field names case-insensitive as teem
