@@ -4,6 +4,8 @@
 #include <Eigen/Geometry>
 #include <QtTest>
 
+#include <cstring>
+
 using namespace sinew;
 using namespace sinew::testing;
 
@@ -158,6 +160,50 @@ private slots:
     qInfo("intensity profile: ASSD %.3f -> %.3f voxels", before, after);
     QVERIFY(before > 1.0);
     QVERIFY(after < 0.5);
+  }
+
+  // The profile force's line sampler: the values of sampleIndex at every sample, to the bit, for
+  // lines inside the image (the path without clamps), across its border, outside it, along each
+  // axis up to the last cell, and of one sample.
+  void sampleLineEqualsSampleIndex() {
+    ImageGeometry g;
+    g.size = {13, 9, 7};
+    g.spacing = Eigen::Vector3d(0.9, 1.1, 1.7);
+    Image3D im(g);
+    // Tiny values (odd indices) beside large ones: a + (b - a) * 1 is then not b, so a sample on
+    // the last voxel plane tells whether it was taken from the last cell, as sampleIndex takes it.
+    for (std::size_t i = 0; i < im.voxels().size(); ++i)
+      im.voxels()[i] = i % 2 ? 1e-7f * float(i % 13 + 1) : float((i * 7919) % 1013) * 0.37f - 50.0f;
+    struct Line {
+      Vec3 start, step;
+      int count;
+    };
+    std::vector<Line> lines = {
+        {Vec3(1.2f, 1.7f, 0.4f), Vec3(0.31f, 0.17f, 0.13f), 30},   // inside
+        {Vec3(0.3f, 7.2f, 5.1f), Vec3(-0.05f, 0.02f, 0.03f), 40},  // leaves through x = 0 and z = 6
+        {Vec3(-3.0f, -2.0f, 9.0f), Vec3(0.2f, 0.1f, -0.1f), 50},   // starts outside, crosses in
+        {Vec3(5.5f, 4.5f, 3.5f), Vec3(0.0f, 0.0f, 0.0f), 1},       // one sample
+    };
+    // Along each axis, to just short of the last voxel plane and onto it. From a voxel whose last
+    // one along the line is tiny and the one before large (the voxel index's parity), the values
+    // on the plane are exactly the two cells' blend; from (1.5, 1.5, 1.5) the lines cross cells.
+    for (int a = 0; a < 3; ++a)
+      for (const Vec3& start : {a == 0 ? Vec3(0, 1, 0) : Vec3(1, 0, 0), Vec3(1.5f, 1.5f, 1.5f)}) {
+        Vec3 step = Vec3::Zero();
+        step[a] = 0.25f;
+        const int cells = g.size[a] - 1;
+        lines.push_back({start, step, 4 * cells});      // the last sample 0.25 short of it
+        lines.push_back({start, step, 4 * cells + 1});  // the last sample on it
+      }
+    for (const Line& l : lines) {
+      std::vector<float> got(std::size_t(l.count));
+      im.sampleLine(l.start, l.step, l.count, got.data());
+      for (int q = 0; q < l.count; ++q) {
+        const float want = im.sampleIndex(l.start + float(q) * l.step);
+        QVERIFY2(std::memcmp(&got[q], &want, sizeof want) == 0,
+                 qPrintable(QString("sample %1: %2 against %3").arg(q).arg(got[q]).arg(want)));
+      }
+    }
   }
 
   void attractionPointCapturesItsClosestVertex() {

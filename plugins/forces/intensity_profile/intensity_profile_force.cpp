@@ -49,11 +49,15 @@ public:
       const int reach = static_cast<int>(std::floor(p.getf(meshOf[v], kDepth) / spacing_));
       thread_local std::vector<float> line;
       line.resize(length_ + 2 * reach);
-      for (int q = 0; q < static_cast<int>(line.size()); ++q)
-        line[q] = image.sample(x[v] + (offset(q) - reach * spacing_) * normal[v]);
+      // In index space, as the CUDA kernel's searchLine: sample q at start + q * step, without the
+      // clamps where the whole line is inside (Volume::sampleLine; the demo's simulation stage
+      // about 1.2-1.4 times faster than with a world-to-index product and clamps per sample).
+      const Vec3 step = spacing_ * image.worldToIndexDirection(normal[v]);
+      const Vec3 start = image.worldToIndex(x[v]) + (static_cast<float>(-inside_ - reach) + 0.5f) * step;  // offset(0) - reach
+      image.sampleLine(start, step, static_cast<int>(line.size()), line.data());
       // The windows' sums side by side (window j + reach starts at line[j + reach]): each window
       // adds its samples in the same order as one window at a time would, so the scores are the
-      // same bit for bit (and the CUDA kernel's), but the loop over windows vectorises.
+      // same bit for bit, but the loop over windows vectorises.
       const int windows = 2 * reach + 1;
       thread_local std::vector<float> sums;
       sums.assign(3 * static_cast<size_t>(windows), 0.0f);

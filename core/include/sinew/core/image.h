@@ -76,6 +76,40 @@ public:
     return lerp(lerp(c00, c10, f[1]), lerp(c01, c11, f[1]), f[2]);
   }
 
+  // The index-space step of a world-space direction (worldToIndex(p + d) - worldToIndex(p)).
+  Vec3 worldToIndexDirection(const Vec3& d) const { return toIndex_ * d; }
+
+  // sampleIndex at start + q * step for q = 0 .. count - 1 (a search line). A line whose ends lie
+  // inside the clamping limits in every axis (so every sample between them does: float rounding of
+  // start + q * step is monotonic in q) skips the clamps; the values are sampleIndex's.
+  void sampleLine(const Vec3& start, const Vec3& step, int count, T* out) const {
+    if (count <= 0) return;
+    const auto& s = geometry_.size;
+    const Vec3 end = start + static_cast<float>(count - 1) * step;
+    bool inside = true;
+    for (int a = 0; a < 3; ++a) {
+      const float top = static_cast<float>(s[a] - 1);  // sampleIndex clamps i0 below s - 1 (its last cell)
+      inside = inside && start[a] >= 0.0f && end[a] >= 0.0f && start[a] < top && end[a] < top;
+    }
+    if (!inside) {
+      for (int q = 0; q < count; ++q) out[q] = sampleIndex(start + static_cast<float>(q) * step);
+      return;
+    }
+    const std::size_t dy = static_cast<std::size_t>(s[0]), dz = dy * static_cast<std::size_t>(s[1]);
+    const T* v = voxels_.data();
+    for (int q = 0; q < count; ++q) {
+      const Vec3 idx = start + static_cast<float>(q) * step;
+      const int i = static_cast<int>(idx[0]), j = static_cast<int>(idx[1]), k = static_cast<int>(idx[2]);
+      const float fx = idx[0] - static_cast<float>(i), fy = idx[1] - static_cast<float>(j), fz = idx[2] - static_cast<float>(k);
+      const T* c = v + offset(i, j, k);
+      const T c00 = lerp(c[0], c[1], fx);
+      const T c10 = lerp(c[dy], c[dy + 1], fx);
+      const T c01 = lerp(c[dz], c[dz + 1], fx);
+      const T c11 = lerp(c[dz + dy], c[dz + dy + 1], fx);
+      out[q] = lerp(lerp(c00, c10, fy), lerp(c01, c11, fy), fz);
+    }
+  }
+
   bool containsIndex(const Vec3& idx) const {
     for (int a = 0; a < 3; ++a)
       if (!(idx[a] >= -0.5f && idx[a] <= geometry_.size[a] - 0.5f)) return false;
