@@ -213,15 +213,15 @@ double checkNiftiHeader(const fs::path& path) {
     check(76, 8, false);
     check(256, 18, false);
   }
-  std::int64_t offset = 0;
+  double offset = 0.0;  // compared as a double: a NIfTI-1 header's float may be anything (fuzz_image)
   if (nifti2) {
     std::uint64_t bits;
     std::memcpy(&bits, h + 168, 8);
-    offset = static_cast<std::int64_t>(swapped ? __builtin_bswap64(bits) : bits);
+    offset = double(static_cast<std::int64_t>(swapped ? __builtin_bswap64(bits) : bits));
   } else {
-    offset = static_cast<std::int64_t>(valueAt(108, false));
+    offset = valueAt(108, false);
   }
-  return offset > 0 && offset < (std::int64_t(1) << 40) ? double(offset) : 0.0;
+  return offset > 0.0 && offset < 1e12 ? std::floor(offset) : 0.0;
 }
 
 // The file that holds the voxels (the image file itself, or the data file a detached header names,
