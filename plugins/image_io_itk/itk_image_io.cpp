@@ -163,8 +163,11 @@ void checkNrrdHeader(const fs::path& path, bool detached) {
 // ITK's NIfTI reader aborts the process (vnl's assert_finite, in the orientation's SVD) on a header
 // whose voxel size, quaternion or affine rows hold a NaN, an infinity, or values so large that the
 // orientation overflows (found by fuzz_image): they are checked here first, for NIfTI-1 (and
-// Analyze) and NIfTI-2, either byte order, compressed or not. The version is told by the magic,
-// the byte order by dim[0] (1-7), as the NIfTI library does; sizeof_hdr is not trusted.
+// Analyze) and NIfTI-2, either byte order, compressed or not. The byte order is told by dim[0]
+// (1-7), as the NIfTI library does. The library picks the layout by sizeof_hdr (348 or 540, either
+// byte order) before the magic: a header with NIfTI-2's magic and another size was read as NIfTI-1
+// (found by fuzz_image on the H100 host, 2026-11-27). So the NIfTI-2 layout is checked where the
+// size or the magic says NIfTI-2, and the NIfTI-1 layout wherever the size is not 540.
 // Returns the header's vox_offset (where the voxels start in a single file; 0 when it cannot tell).
 double checkNiftiHeader(const fs::path& path) {
   gzFile f = gzopen(path.c_str(), "rb");  // reads uncompressed files as they are
@@ -173,54 +176,57 @@ double checkNiftiHeader(const fs::path& path) {
   const int n = gzread(f, h, sizeof h);
   gzclose(f);
   if (n < 348) return 0.0;  // ITK says what is wrong with it
-  const bool nifti2 = n >= 540 && std::memcmp(h + 4, "n+2", 3) == 0;
-  bool swapped = false;
-  if (nifti2) {
-    std::int64_t dim0;
-    std::memcpy(&dim0, h + 16, 8);
-    swapped = !(dim0 >= 1 && dim0 <= 7);
-  } else {
-    std::int16_t dim0;
-    std::memcpy(&dim0, h + 40, 2);
-    swapped = !(dim0 >= 1 && dim0 <= 7);
-  }
-  auto valueAt = [&](int at, bool isDouble) {
-    double v;
-    if (isDouble) {
-      std::uint64_t bits;
-      std::memcpy(&bits, h + at, 8);
-      if (swapped) bits = __builtin_bswap64(bits);
-      std::memcpy(&v, &bits, 8);
+  std::uint32_t size;
+  std::memcpy(&size, h, 4);
+  const bool size540 = size == 540 || __builtin_bswap32(size) == 540;
+  const bool nifti2 = n >= 540 && (size540 || std::memcmp(h + 4, "n+2", 3) == 0), nifti1 = !size540;
+  // Checks one layout's voxel size and orientation; returns its vox_offset.
+  const auto checkLayout = [&](bool two) {
+    bool swapped = false;
+    if (two) {
+      std::int64_t dim0;
+      std::memcpy(&dim0, h + 16, 8);
+      swapped = !(dim0 >= 1 && dim0 <= 7);
     } else {
-      std::uint32_t bits;
-      std::memcpy(&bits, h + at, 4);
-      if (swapped) bits = __builtin_bswap32(bits);
-      float x;
-      std::memcpy(&x, &bits, 4);
-      v = x;
+      std::int16_t dim0;
+      std::memcpy(&dim0, h + 40, 2);
+      swapped = !(dim0 >= 1 && dim0 <= 7);
     }
-    return v;
-  };
-  auto check = [&](int at, int count, bool isDouble) {
-    for (int k = 0; k < count; ++k)
-      if (!(std::abs(valueAt(at + k * (isDouble ? 8 : 4), isDouble)) <= 1e9))
-        fail(path, "has a NaN, infinite or absurd (beyond 1e9) voxel size or orientation in its NIfTI header");
-  };
-  if (nifti2) {
-    check(104, 8, true);   // pixdim
-    check(352, 18, true);  // quatern_b..qoffset_z, srow_x, srow_y, srow_z
-  } else {
+    const auto valueAt = [&](int at, bool isDouble) {
+      double v;
+      if (isDouble) {
+        std::uint64_t bits;
+        std::memcpy(&bits, h + at, 8);
+        if (swapped) bits = __builtin_bswap64(bits);
+        std::memcpy(&v, &bits, 8);
+      } else {
+        std::uint32_t bits;
+        std::memcpy(&bits, h + at, 4);
+        if (swapped) bits = __builtin_bswap32(bits);
+        float x;
+        std::memcpy(&x, &bits, 4);
+        v = x;
+      }
+      return v;
+    };
+    const auto check = [&](int at, int count, bool isDouble) {
+      for (int k = 0; k < count; ++k)
+        if (!(std::abs(valueAt(at + k * (isDouble ? 8 : 4), isDouble)) <= 1e9))
+          fail(path, "has a NaN, infinite or absurd (beyond 1e9) voxel size or orientation in its NIfTI header");
+    };
+    if (two) {
+      check(104, 8, true);   // pixdim
+      check(352, 18, true);  // quatern_b..qoffset_z, srow_x, srow_y, srow_z
+      std::uint64_t bits;
+      std::memcpy(&bits, h + 168, 8);
+      return double(static_cast<std::int64_t>(swapped ? __builtin_bswap64(bits) : bits));
+    }
     check(76, 8, false);
     check(256, 18, false);
-  }
-  double offset = 0.0;  // compared as a double: a NIfTI-1 header's float may be anything (fuzz_image)
-  if (nifti2) {
-    std::uint64_t bits;
-    std::memcpy(&bits, h + 168, 8);
-    offset = double(static_cast<std::int64_t>(swapped ? __builtin_bswap64(bits) : bits));
-  } else {
-    offset = valueAt(108, false);
-  }
+    return valueAt(108, false);  // a float: compared as a double, whatever it holds (fuzz_image)
+  };
+  const double offset1 = nifti1 ? checkLayout(false) : 0.0, offset2 = nifti2 ? checkLayout(true) : 0.0;
+  const double offset = size540 ? offset2 : offset1;
   return offset > 0.0 && offset < 1e12 ? std::floor(offset) : 0.0;
 }
 
