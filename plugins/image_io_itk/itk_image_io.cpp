@@ -179,7 +179,9 @@ double checkNiftiHeader(const fs::path& path) {
   std::uint32_t size;
   std::memcpy(&size, h, 4);
   const bool size540 = size == 540 || __builtin_bswap32(size) == 540;
-  const bool nifti2 = n >= 540 && (size540 || std::memcmp(h + 4, "n+2", 3) == 0), nifti1 = !size540;
+  // The library reads such a header as NIfTI-2 whatever its length (found by fuzz_image).
+  if (size540 && n < 540) fail(path, "its NIfTI-2 header is cut short (" + std::to_string(n) + " of 540 bytes)");
+  const bool nifti2 = size540 || (n >= 540 && std::memcmp(h + 4, "n+2", 3) == 0), nifti1 = !size540;
   // Checks one layout's voxel size and orientation; returns its vox_offset.
   const auto checkLayout = [&](bool two) {
     bool swapped = false;
