@@ -67,13 +67,10 @@ public:
       i0[a] = std::min(static_cast<int>(c[a]), std::max(s[a] - 2, 0));
       f[a] = c[a] - static_cast<float>(i0[a]);
     }
-    const int i1 = std::min(i0[0] + 1, s[0] - 1), j1 = std::min(i0[1] + 1, s[1] - 1),
-              k1 = std::min(i0[2] + 1, s[2] - 1);
-    const T c00 = lerp(at(i0[0], i0[1], i0[2]), at(i1, i0[1], i0[2]), f[0]);
-    const T c10 = lerp(at(i0[0], j1, i0[2]), at(i1, j1, i0[2]), f[0]);
-    const T c01 = lerp(at(i0[0], i0[1], k1), at(i1, i0[1], k1), f[0]);
-    const T c11 = lerp(at(i0[0], j1, k1), at(i1, j1, k1), f[0]);
-    return lerp(lerp(c00, c10, f[1]), lerp(c01, c11, f[1]), f[2]);
+    // The cell's far corners one voxel on, or the same voxel on an axis of one voxel.
+    const std::size_t dx = i0[0] + 1 < s[0], dy = (i0[1] + 1 < s[1]) * std::size_t(s[0]),
+                      dz = (i0[2] + 1 < s[2]) * std::size_t(s[0]) * std::size_t(s[1]);
+    return blendCell(&at(i0[0], i0[1], i0[2]), dx, dy, dz, f[0], f[1], f[2]);
   }
 
   // The index-space step of a world-space direction (worldToIndex(p + d) - worldToIndex(p)).
@@ -96,17 +93,11 @@ public:
       return;
     }
     const std::size_t dy = static_cast<std::size_t>(s[0]), dz = dy * static_cast<std::size_t>(s[1]);
-    const T* v = voxels_.data();
     for (int q = 0; q < count; ++q) {
       const Vec3 idx = start + static_cast<float>(q) * step;
       const int i = static_cast<int>(idx[0]), j = static_cast<int>(idx[1]), k = static_cast<int>(idx[2]);
-      const float fx = idx[0] - static_cast<float>(i), fy = idx[1] - static_cast<float>(j), fz = idx[2] - static_cast<float>(k);
-      const T* c = v + offset(i, j, k);
-      const T c00 = lerp(c[0], c[1], fx);
-      const T c10 = lerp(c[dy], c[dy + 1], fx);
-      const T c01 = lerp(c[dz], c[dz + 1], fx);
-      const T c11 = lerp(c[dz + dy], c[dz + dy + 1], fx);
-      out[q] = lerp(lerp(c00, c10, fy), lerp(c01, c11, fy), fz);
+      out[q] = blendCell(&at(i, j, k), 1, dy, dz, idx[0] - static_cast<float>(i), idx[1] - static_cast<float>(j),
+                         idx[2] - static_cast<float>(k));
     }
   }
 
@@ -118,6 +109,14 @@ public:
 
 private:
   static T lerp(const T& a, const T& b, float t) { return a + (b - a) * t; }
+  // Trilinear blend of the cell whose first corner is c, its other corners dx, dy, dz voxels on.
+  static T blendCell(const T* c, std::size_t dx, std::size_t dy, std::size_t dz, float fx, float fy, float fz) {
+    const T c00 = lerp(c[0], c[dx], fx);
+    const T c10 = lerp(c[dy], c[dy + dx], fx);
+    const T c01 = lerp(c[dz], c[dz + dx], fx);
+    const T c11 = lerp(c[dz + dy], c[dz + dy + dx], fx);
+    return lerp(lerp(c00, c10, fy), lerp(c01, c11, fy), fz);
+  }
 
   ImageGeometry geometry_;
   std::vector<T> voxels_;
