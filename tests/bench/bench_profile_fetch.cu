@@ -90,50 +90,41 @@ __device__ __forceinline__ int3 cellOf(float3 p, float3& f) {
   return c;
 }
 
-__global__ void viaTexture(const Vertex* vs, int n, cudaTextureObject_t image, float* out) {
-  const int t = blockIdx.x * blockDim.x + threadIdx.x, v = t / kLanes, part = t % kLanes;
-  if (v >= n) return;
-  const Vertex vx = vs[v];
-  float sum = 0.0f;
-#pragma unroll
-  for (int s = part; s < kSamples; s += kLanes) {
-    const float3 p = position(vx, float(s));
-    sum += tex3D<float>(image, p.x + 0.5f, p.y + 0.5f, p.z + 0.5f);
-  }
-  sum += __shfl_xor_sync(0xffffffffu, sum, 1);
-  if (part == 0) out[v] = sum;
-}
-
-__global__ void viaCornerTexture(const Vertex* vs, int n, cudaTextureObject_t corners, float* out) {
-  const int t = blockIdx.x * blockDim.x + threadIdx.x, v = t / kLanes, part = t % kLanes;
-  if (v >= n) return;
-  const Vertex vx = vs[v];
-  float sum = 0.0f;
-#pragma unroll
-  for (int s = part; s < kSamples; s += kLanes) {
+// The ways a sample is fetched: each takes the sample's texel-space position.
+struct ViaTexture {
+  cudaTextureObject_t image;
+  __device__ float operator()(float3 p) const { return tex3D<float>(image, p.x + 0.5f, p.y + 0.5f, p.z + 0.5f); }
+};
+struct ViaCornerTexture {
+  cudaTextureObject_t corners;
+  __device__ float operator()(float3 p) const {
     float3 f;
-    const int3 c = cellOf(position(vx, float(s)), f);
-    sum += blend(tex3D<uint4>(corners, c.x + 0.5f, c.y + 0.5f, c.z + 0.5f), f);
+    const int3 c = cellOf(p, f);
+    return blend(tex3D<uint4>(corners, c.x + 0.5f, c.y + 0.5f, c.z + 0.5f), f);
   }
-  sum += __shfl_xor_sync(0xffffffffu, sum, 1);
-  if (part == 0) out[v] = sum;
-}
-
+};
 // kBlend: 0 halves blended in halves (y, z) then float (x), 1 halves widened, 2 16-bit integers,
 // 3 a 16-bit base and half differences.
 template <int kBlend>
-__global__ void viaGlobal(const Vertex* vs, int n, const uint4* __restrict__ corners, float* out) {
+struct ViaGlobal {
+  const uint4* __restrict__ corners;
+  __device__ float operator()(float3 p) const {
+    float3 f;
+    const int3 c = cellOf(p, f);
+    const uint4 corner = __ldg(corners + (c.z * kSize + c.y) * kSize + c.x);
+    return kBlend == 0 ? blend(corner, f) : kBlend == 1 ? blendWide(corner, f) : kBlend == 2 ? blendIntegers(corner, f) : blendDeltas(corner, f);
+  }
+};
+
+// Each vertex's samples, fetched by `fetch` on kLanes lanes, summed.
+template <class Fetch>
+__global__ void sumSamples(const Vertex* vs, int n, Fetch fetch, float* out) {
   const int t = blockIdx.x * blockDim.x + threadIdx.x, v = t / kLanes, part = t % kLanes;
   if (v >= n) return;
   const Vertex vx = vs[v];
   float sum = 0.0f;
 #pragma unroll
-  for (int s = part; s < kSamples; s += kLanes) {
-    float3 f;
-    const int3 c = cellOf(position(vx, float(s)), f);
-    const uint4 corner = __ldg(corners + (c.z * kSize + c.y) * kSize + c.x);
-    sum += kBlend == 0 ? blend(corner, f) : kBlend == 1 ? blendWide(corner, f) : kBlend == 2 ? blendIntegers(corner, f) : blendDeltas(corner, f);
-  }
+  for (int s = part; s < kSamples; s += kLanes) sum += fetch(position(vx, float(s)));
   sum += __shfl_xor_sync(0xffffffffu, sum, 1);
   if (part == 0) out[v] = sum;
 }
@@ -296,17 +287,17 @@ int main(int argc, char** argv) {
     std::printf("| %s | %.1f | %.1f | %.2e |\n", name, us, double(n) * kSamples / us / 1e3, worst);
   };
   for (int round = 0; round < 2; ++round) {
-    report("texture (trilinear filter)", microseconds([&] { viaTexture<<<blocks, threads>>>(vs, n, imageTexture, outTexture); }, repeats), outTexture);
+    report("texture (trilinear filter)", microseconds([&] { sumSamples<<<blocks, threads>>>(vs, n, ViaTexture{imageTexture}, outTexture); }, repeats), outTexture);
     report("corners as halves, unfiltered texture fetch, half blend",
-           microseconds([&] { viaCornerTexture<<<blocks, threads>>>(vs, n, cornerTexture, outOther); }, repeats), outOther);
+           microseconds([&] { sumSamples<<<blocks, threads>>>(vs, n, ViaCornerTexture{cornerTexture}, outOther); }, repeats), outOther);
     report("corners as halves, 16-byte global load, half blend",
-           microseconds([&] { viaGlobal<0><<<blocks, threads>>>(vs, n, cornersGlobal, outOther); }, repeats), outOther);
+           microseconds([&] { sumSamples<<<blocks, threads>>>(vs, n, ViaGlobal<0>{cornersGlobal}, outOther); }, repeats), outOther);
     report("corners as halves, 16-byte global load, float blend",
-           microseconds([&] { viaGlobal<1><<<blocks, threads>>>(vs, n, cornersGlobal, outOther); }, repeats), outOther);
+           microseconds([&] { sumSamples<<<blocks, threads>>>(vs, n, ViaGlobal<1>{cornersGlobal}, outOther); }, repeats), outOther);
     report("corners as 16-bit integers, 16-byte global load, float blend",
-           microseconds([&] { viaGlobal<2><<<blocks, threads>>>(vs, n, integersGlobal, outOther); }, repeats), outOther);
+           microseconds([&] { sumSamples<<<blocks, threads>>>(vs, n, ViaGlobal<2>{integersGlobal}, outOther); }, repeats), outOther);
     report("a 16-bit corner and half differences, 16-byte global load, half blend",
-           microseconds([&] { viaGlobal<3><<<blocks, threads>>>(vs, n, deltasGlobal, outOther); }, repeats), outOther);
+           microseconds([&] { sumSamples<<<blocks, threads>>>(vs, n, ViaGlobal<3>{deltasGlobal}, outOther); }, repeats), outOther);
   }
   return 0;
 }
