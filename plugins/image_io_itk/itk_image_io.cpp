@@ -1,6 +1,7 @@
 // Image IO through ITK: NIfTI (.nii, .nii.gz), NRRD (.nrrd, .nhdr), MetaImage (.mha, .mhd) and
 // DICOM series (a directory). ITK keeps images in LPS world coordinates and converts NIfTI's RAS
 // on read and write, so every image in Sinew is LPS (docs/architecture.md, "Physical space").
+#include "compressed_input.h"
 #include "itk_convert.h"
 #include "itk_registration.h"
 #include "sinew/core/registry.h"
@@ -15,9 +16,6 @@
 #include <itkNrrdImageIO.h>
 #include <itkImageSeriesReader.h>
 
-#include <libdeflate.h>
-#include <stdlib.h>
-#include <unistd.h>
 #include <zlib.h>
 
 #include <algorithm>
@@ -237,6 +235,7 @@ double checkNiftiHeader(const fs::path& path) {
 struct DataFile {
   fs::path path;
   bool compressed = false;
+  itk_input::MetaImageData meta;  // a MetaImage's: where MetaIO looks for compressed voxels
 };
 
 DataFile dataFileOf(const fs::path& path, const std::string& extension) {
@@ -246,6 +245,14 @@ DataFile dataFileOf(const fs::path& path, const std::string& extension) {
   DataFile found{extension == ".nrrd" || extension == ".mha" ? path : fs::path{}, !meta};  // NRRD: raw unless it says
   std::ifstream in(path, std::ios::binary);
   std::string line;
+  bool binary = true;  // MetaIO's default for images
+  // MetaIO reads a flag as true when its value starts with T, t or 1.
+  const auto flag = [](const std::string& value) { return !value.empty() && (value[0] == 'T' || value[0] == 't' || value[0] == '1'); };
+  const auto number = [](const std::string& value) {
+    double v = 0;
+    std::istringstream(value) >> v;
+    return v;
+  };
   for (int lines = 0; lines < 200 && std::getline(in, line); ++lines) {
     if (!line.empty() && line.back() == '\r') line.pop_back();
     const auto at = meta ? line.find('=') : line.find(':');
@@ -261,14 +268,25 @@ DataFile dataFileOf(const fs::path& path, const std::string& extension) {
     // NRRD's field names are case-insensitive for teem ("Data file" is its data file).
     if (!meta) std::transform(key.begin(), key.end(), key.begin(), [](unsigned char c) { return char(std::tolower(c)); });
     if (!meta && key == "encoding") found.compressed = value != "raw";
-    if (meta && key == "CompressedData") found.compressed = value == "True" || value == "true";
+    if (meta && key == "BinaryData") binary = flag(value);
+    if (meta && key == "CompressedData") found.compressed = flag(value);
+    if (meta && key == "CompressedDataSize") found.meta.compressedSize = number(value);
+    if (meta && key == "HeaderSize") found.meta.headerSize = number(value);
     if ((meta && key == "ElementDataFile") || (!meta && (key == "data file" || key == "datafile"))) {
-      if (value == "LOCAL") found.path = path;
+      found.meta.local = meta && (value == "LOCAL" || value == "Local" || value == "local");
+      if (found.meta.local || (!meta && value == "LOCAL")) found.path = path;
       else if (value.find_first_of(" %") != std::string::npos || value == "LIST") found.path.clear();  // several files
       else found.path = path.parent_path() / value;
-      if (meta) break;  // the header ends here
+      if (meta) {
+        const auto end = in.tellg();  // -1 where the header ends without a newline: no data follow
+        std::error_code ec;
+        found.meta.afterHeader = end >= 0 ? std::uintmax_t(end) : fs::file_size(path, ec);
+        break;  // the header ends here
+      }
     }
   }
+  found.compressed = found.compressed && (binary || !meta);  // MetaIO reads text data as they are
+  found.meta.file = found.path;
   return found;
 }
 
@@ -293,103 +311,8 @@ void checkDataFits(const fs::path& path, const std::string& extension, itk::Imag
     fail(path, "its header claims " + std::to_string(std::uintmax_t(need)) + " bytes of voxels" +
                    (voxelOffset > 0 ? " from byte " + std::to_string(std::uintmax_t(voxelOffset)) : std::string()) + ", more than " +
                    data.path.filename().string() + " (" + std::to_string(size) + " bytes) can hold (truncated or corrupt?)");
-}
-
-// ITK's NIfTI reader does not notice a gzip stream that ends early (it reads zeros) or a corrupt
-// one, and inflates with zlib. So a .nii.gz is decompressed here instead, in one pass with
-// libdeflate (ch2better.nii.gz's 35 MB in 0.055 s on the 2-core machine, where gzip -d takes 0.24
-// s), every gzip member's CRC-32 and length checked, into an uncompressed copy in the temporary
-// directory, which ITK reads and which is removed when the read ends. Before, the stream was
-// decompressed twice: by ITK, and by a check beside it (docs/benchmarks.md).
-class PlainCopy {
-public:
-  explicit PlainCopy(fs::path p) : path_(std::move(p)) {}
-  PlainCopy(PlainCopy&& other) noexcept : path_(std::exchange(other.path_, {})) {}
-  PlainCopy& operator=(PlainCopy&& other) noexcept {
-    std::swap(path_, other.path_);
-    return *this;
-  }
-  ~PlainCopy() {
-    std::error_code ec;
-    if (!path_.empty()) fs::remove(path_, ec);
-  }
-  const fs::path& path() const { return path_; }
-
-private:
-  fs::path path_;
-};
-
-std::vector<unsigned char> wholeFile(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) fail(path, "cannot be opened");
-  std::vector<unsigned char> bytes;
-  std::error_code ec;
-  const auto size = fs::file_size(path, ec);
-  if (!ec) bytes.resize(size);
-  in.read(reinterpret_cast<char*>(bytes.data()), std::streamsize(bytes.size()));
-  if (!in && !ec) fail(path, "cannot be read");
-  return bytes;
-}
-
-bool gzipMagicAt(const std::vector<unsigned char>& bytes, std::size_t at) {
-  return bytes.size() >= at + 2 && bytes[at] == 0x1f && bytes[at + 1] == 0x8b;
-}
-
-// The decompressed stream (gzip members one after another; anything after the last member that
-// does not start another one is ignored, as zlib's gzread does), or a refusal naming the file.
-std::vector<unsigned char> inflateGzip(const fs::path& path, const std::vector<unsigned char>& in) {
-  // The first guess is the last member's stated length (its last 4 bytes), no more than deflate's
-  // largest ratio (1032:1) allows; a buffer too small grows.
-  std::uint32_t stated = 0;
-  std::memcpy(&stated, in.data() + in.size() - 4, 4);
-  const std::size_t ceiling = 1032 * in.size() + (1 << 20);
-  std::size_t capacity = std::min<std::size_t>(std::max<std::size_t>(stated, 1 << 16), ceiling);
-  std::unique_ptr<libdeflate_decompressor, void (*)(libdeflate_decompressor*)> inflater(libdeflate_alloc_decompressor(),
-                                                                                      libdeflate_free_decompressor);
-  if (!inflater) throw std::bad_alloc();
-  std::vector<unsigned char> out;
-  std::size_t read = 0, written = 0;
-  while (read < in.size() && (read == 0 || gzipMagicAt(in, read))) {
-    std::size_t used = 0, made = 0;
-    out.resize(std::max(out.size(), written + capacity));
-    const libdeflate_result r = libdeflate_gzip_decompress_ex(inflater.get(), in.data() + read, in.size() - read,
-                                                              out.data() + written, out.size() - written, &used, &made);
-    if (r == LIBDEFLATE_INSUFFICIENT_SPACE && out.size() < ceiling) {
-      capacity = std::min(2 * (out.size() - written), ceiling);
-      continue;  // the member again, into more room
-    }
-    if (r != LIBDEFLATE_SUCCESS) fail(path, "the compressed data ends early or is corrupt (truncated file?)");
-    read += used, written += made;
-  }
-  out.resize(written);
-  return out;
-}
-
-// The plain copy of a .nii.gz for ITK to read; none for a file that is not gzip-compressed (ITK
-// reads it as it is, as zlib would), for a header that names a separate data file, or where the
-// temporary directory takes no copy (ITK then reads the file itself, already checked).
-std::optional<PlainCopy> decompressedCopy(const fs::path& path) {
-  const std::vector<unsigned char> packed = wholeFile(path);
-  if (!gzipMagicAt(packed, 0)) return std::nullopt;
-  if (packed.size() < 18) fail(path, "the compressed data ends early or is corrupt (truncated file?)");
-  const std::vector<unsigned char> plain = inflateGzip(path, packed);
-  const bool singleFile = (plain.size() >= 348 && std::memcmp(plain.data() + 344, "n+1", 4) == 0) ||
-                          (plain.size() >= 540 && std::memcmp(plain.data() + 4, "n+2", 4) == 0);
-  if (!singleFile) return std::nullopt;  // ITK says what is wrong with it
-  std::error_code ec;
-  std::string name = (fs::temp_directory_path(ec) / "sinew-read-XXXXXX.nii").string();
-  if (ec) return std::nullopt;
-  const int fd = mkstemps(name.data(), 4);
-  if (fd < 0) return std::nullopt;
-  PlainCopy copy{fs::path(name)};
-  std::size_t done = 0;
-  while (done < plain.size()) {
-    const ssize_t n = ::write(fd, plain.data() + done, plain.size() - done);
-    if (n <= 0) break;
-    done += std::size_t(n);
-  }
-  if (::close(fd) != 0 || done < plain.size()) return std::nullopt;  // the copy goes with `copy`
-  return copy;
+  if ((extension == ".mha" || extension == ".mhd") && data.compressed)
+    itk_input::checkCompressedMetaImage(path, data.meta, io.GetImageSizeInBytes());
 }
 
 template <class Pixel>
@@ -549,7 +472,7 @@ Volume<Pixel> readItk(const fs::path& path) {
   using ImageType = itk::Image<Pixel, 3>;
   std::error_code ec;
   if (!fs::exists(path, ec)) fail(path, "no such file or directory");
-  std::optional<PlainCopy> copy;
+  std::optional<itk_input::PlainCopy> copy;
   // What is said about the copy is said about the file.
   const auto named = [&](std::string message) {
     if (!copy) return message;
@@ -575,8 +498,8 @@ Volume<Pixel> readItk(const fs::path& path) {
       reader->Update();
       return toVolume<Pixel>(*reader->GetOutput());
     }
-    // A .nii.gz is checked and decompressed first; ITK reads the copy (decompressedCopy).
-    if (ioExtension(path) == ".nii.gz") copy = decompressedCopy(path);
+    // A .nii.gz is checked and decompressed first; ITK reads the copy (decompressedNiftiCopy).
+    if (ioExtension(path) == ".nii.gz") copy = itk_input::decompressedNiftiCopy(path);
     return readNonSeries<Pixel>(copy ? copy->path() : path);
   } catch (const itk::ExceptionObject& e) {
     fail(path, "cannot read the voxel data (truncated or corrupt file?): " + named(brief(e)));

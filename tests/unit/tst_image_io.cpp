@@ -258,6 +258,57 @@ private slots:
     else qputenv("TMPDIR", oldTmp);
   }
 
+  // Compressed MetaImage data (.mha with LOCAL data, .mhd with a data file): MetaIO finds the stream
+  // by CompressedDataSize, or without it inflates the whole file from its first byte. Where that
+  // misses, it returned uninitialised voxels without an error, or never returned (found by
+  // fuzz_image); the stream is now inflated first and must hold exactly the header's voxels.
+  void compressedMetaImageData() {
+    const Image3D im = obliqueImage();
+    io().writeImage(path("local.mha"), im);  // compressed, CompressedDataSize stated
+    QCOMPARE(io().readImage(path("local.mha")).voxels(), im.voxels());
+    std::string bytes;
+    {
+      std::ifstream in(path("local.mha"), std::ios::binary);
+      bytes.assign(std::istreambuf_iterator<char>(in), {});
+    }
+    const std::size_t sizeLine = bytes.find("CompressedDataSize = "), sizeEnd = bytes.find('\n', sizeLine) + 1;
+    const std::size_t data = bytes.find("ElementDataFile = LOCAL\n") + 24;
+    QVERIFY(sizeLine != std::string::npos && data > 24);
+    const std::string header = bytes.substr(0, data), stream = bytes.substr(data);
+    const auto write = [&](const char* name, const std::string& content) { std::ofstream(path(name), std::ios::binary) << content; };
+    // LOCAL data without their size: MetaIO would inflate the header (ITK 5.2 returned garbage).
+    write("unsized.mha", bytes.substr(0, sizeLine) + bytes.substr(sizeEnd));
+    expectRefusal(io(), path("unsized.mha"), "CompressedDataSize");
+    write("cut.mha", bytes.substr(0, bytes.size() - 5));
+    expectRefusal(io(), path("cut.mha"), "beyond the end");
+    std::string flipped = bytes;
+    flipped[data + stream.size() / 2] ^= 0x5a;
+    write("flipped.mha", flipped);
+    expectRefusal(io(), path("flipped.mha"), "corrupt");
+    // A sound stream that holds fewer voxels than the header declares (one slice more).
+    std::string taller = bytes;
+    const std::size_t dims = taller.find("DimSize = 12 10 7");
+    QVERIFY(dims != std::string::npos);
+    taller.replace(dims, 17, "DimSize = 12 10 8");
+    write("taller.mha", taller);
+    expectRefusal(io(), path("taller.mha"), "fewer");
+    // The stream in a data file beside the header, with and without its size: both read.
+    write("beside.zraw", stream);
+    std::string detached = header;
+    detached.replace(detached.find("LOCAL"), 5, "beside.zraw");
+    write("sized.mhd", detached);
+    QCOMPARE(io().readImage(path("sized.mhd")).voxels(), im.voxels());
+    const std::string unsized = detached.substr(0, sizeLine) + detached.substr(sizeEnd);
+    write("unsized.mhd", unsized);
+    QCOMPARE(io().readImage(path("unsized.mhd")).voxels(), im.voxels());
+    // A header skip without the size: MetaIO would inflate the skipped bytes too.
+    write("skipped.zraw", std::string(16, '\0') + stream);
+    std::string skipped = unsized;
+    skipped.replace(skipped.find("ElementDataFile = beside.zraw"), 29, "HeaderSize = 16\nElementDataFile = skipped.zraw");
+    write("skipped.mhd", skipped);
+    expectRefusal(io(), path("skipped.mhd"), "HeaderSize");
+  }
+
   // Detached NRRD headers (.nhdr): read with their data file, field names case-insensitive as teem
   // reads them; a bad header is refused by name, and a read that fails after teem opened the data
   // file (corrupt gzip, a skip past the end, bad text) leaves no descriptor open (found by
