@@ -77,10 +77,13 @@ int main(int argc, char** argv) {
       const auto list = readLabelList(labelList);
       log("reading " + atlas);
       const LabelVolume labels = registry.imageIOFor(atlas).readLabels(atlas);
+      const auto extents = labelExtents(labels);  // one pass, not one per structure and surface
       for (const std::string& key : splitList(structures)) {
         const LabelEntry& e = findLabel(list, key, labelList);
         log("structure '" + e.name + "' (label " + std::to_string(e.value) + "): " + std::to_string(levels) + " levels");
-        BuiltModel b = buildModelFromLabel(registry, labels, atlas, e.value, e.name, coarseSpacing, levels, executor);
+        const auto extent = extents.find(e.value);
+        BuiltModel b = buildModelFromLabel(registry, labels, atlas, e.value, e.name, coarseSpacing, levels, executor,
+                                           extent == extents.end() ? nullptr : &extent->second);
         model.structures.push_back({e.name, e.value, std::move(b.levels), std::move(b.positions)});
       }
     } else {

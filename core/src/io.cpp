@@ -17,6 +17,29 @@ std::string ioExtension(const std::filesystem::path& path) {
   return dot == std::string::npos ? std::string() : name.substr(dot);
 }
 
+std::unordered_map<std::int32_t, LabelExtent> labelExtents(const LabelVolume& labels) {
+  std::unordered_map<std::int32_t, LabelExtent> out;
+  const auto& size = labels.geometry().size;
+  // Row by row, run by run: a run of one label widens its extent once.
+  for (int k = 0; k < size[2]; ++k)
+    for (int j = 0; j < size[1]; ++j) {
+      const std::int32_t* row = &labels.at(0, j, k);
+      for (int i = 0; i < size[0];) {
+        const std::int32_t label = row[i];
+        int end = i + 1;
+        while (end < size[0] && row[end] == label) ++end;
+        const auto [it, added] = out.try_emplace(label);
+        LabelExtent& e = it->second;
+        if (added) e.lo = {i, j, k}, e.hi = {end - 1, j, k};
+        e.lo = {std::min(e.lo[0], i), std::min(e.lo[1], j), std::min(e.lo[2], k)};
+        e.hi = {std::max(e.hi[0], end - 1), std::max(e.hi[1], j), std::max(e.hi[2], k)};
+        e.count += std::size_t(end - i);
+        i = end;
+      }
+    }
+  return out;
+}
+
 AtomicOutput::AtomicOutput(std::filesystem::path target) : target_(std::move(target)) {
   static std::atomic<int> counter{0};
   const std::string ext = ioExtension(target_) == "/" ? "" : ioExtension(target_);

@@ -44,12 +44,12 @@ BuiltModel buildModel(const TriangleMesh& coarse, const TriangleMesh& surface, i
 
 BuiltModel buildModelFromLabel(const Registry& registry, const LabelVolume& labels, const std::filesystem::path& file,
                                int label, const std::string& name, double coarseSpacingMm, int levelCount,
-                               const Executor& executor) {
+                               const Executor& executor, const LabelExtent* extent) {
   TriangleMesh coarse, surface;
   const auto& builder = registry.labelSurfaceBuilder();
   try {
-    surface = builder.labelSurface(labels, label, {20, 0});
-    coarse = builder.labelSurface(labels, label, {20, trianglesForSpacing(surface, coarseSpacingMm)});
+    surface = builder.labelSurface(labels, label, {20, 0, extent});
+    coarse = builder.labelSurface(labels, label, {20, trianglesForSpacing(surface, coarseSpacingMm), extent});
     validateClosedManifold(coarse);
   } catch (const InputError& e) {
     throw InputError(file.string() + ": structure '" + name + "': " + e.what());

@@ -173,25 +173,42 @@ void SceneRunner::load() {
   std::vector<std::optional<BuiltModel>> builtFromLabel(n);
   std::vector<std::unique_ptr<ReferenceSurface>> truthSurfaces(n);
   std::vector<std::size_t> truthCounts(n, 0);
+  // Every label's extent, one pass over each label map (which the surfaces then need not scan, each
+  // for its own label, twice for a reference): its own task, beside each other's.
+  std::map<fs::path, std::unordered_map<std::int32_t, LabelExtent>> extents;
+  for (const auto& [path, map] : labelMap) extents[path];
+  L.sim->executor().forEach(
+      Index(extents.size()), [&](Index k) {
+        auto it = std::next(extents.begin(), k);
+        it->second = labelExtents(*labelMap.at(it->first));
+      },
+      1);
+  const auto extentOf = [&](const fs::path& map, std::int32_t label) -> const LabelExtent* {
+    const auto& all = extents.at(map);
+    const auto it = all.find(label);
+    return it == all.end() ? nullptr : &it->second;  // absent: the builder says so
+  };
   const auto buildReference = [&](size_t i) {
     const StructureDesc& d = scene_.structures[i];
     if (d.reference.mesh || !d.reference.label) return;
-    builtFromLabel[i] = buildModelFromLabel(registry_, *labelMap.at(d.reference.label->labelMap), d.reference.label->labelMap,
-                                            d.reference.label->label, d.name, scene_.coarseSpacingMm, levels,
-                                            L.sim->executor());
+    const fs::path& map = d.reference.label->labelMap;
+    builtFromLabel[i] = buildModelFromLabel(registry_, *labelMap.at(map), map, d.reference.label->label, d.name,
+                                            scene_.coarseSpacingMm, levels, L.sim->executor(),
+                                            extentOf(map, d.reference.label->label));
   };
   const auto buildTruth = [&](size_t i) {
     const StructureDesc& d = scene_.structures[i];
     if (!d.groundTruth) return;
+    const LabelExtent* extent = extentOf(d.groundTruth->labelMap, d.groundTruth->label);
     try {
       truthSurfaces[i] = std::make_unique<ReferenceSurface>(
-          registry_.labelSurfaceBuilder().labelSurface(*labelMap.at(d.groundTruth->labelMap), d.groundTruth->label, {0, 0}),
+          registry_.labelSurfaceBuilder().labelSurface(*labelMap.at(d.groundTruth->labelMap), d.groundTruth->label,
+                                                       {0, 0, extent}),
           static_cast<float>(scene_.surfaceSampleSpacingMm));
     } catch (const InputError& e) {
       throw InputError(d.groundTruth->labelMap.string() + ": ground truth of '" + d.name + "': " + e.what());
     }
-    const LabelVolume& gt = *labelMap.at(d.groundTruth->labelMap);
-    truthCounts[i] = std::size_t(std::count(gt.voxels().begin(), gt.voxels().end(), d.groundTruth->label));
+    truthCounts[i] = extent ? extent->count : 0;
   };
   if (std::any_of(scene_.structures.begin(), scene_.structures.end(),
                   [](const StructureDesc& d) { return (d.reference.label && !d.reference.mesh) || d.groundTruth; }))

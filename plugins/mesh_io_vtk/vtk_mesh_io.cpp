@@ -36,6 +36,7 @@
 #include <algorithm>
 #include <cmath>
 #include <type_traits>
+#include <stdexcept>
 
 namespace sinew {
 
@@ -245,7 +246,14 @@ TriangleMesh labelSurface(const LabelVolume& labels, std::int32_t label, const L
   // volume: a structure is a small part of a brain, and the iso-surface costs what the mask holds.
   int lo[3] = {g.size[0], g.size[1], g.size[2]}, hi[3] = {-1, -1, -1};
   std::size_t count = 0;
-  for (int k = 0; k < g.size[2]; ++k)
+  if (opt.extent) {  // the caller's (labelExtents): no scan
+    for (int a = 0; a < 3; ++a) {
+      lo[a] = opt.extent->lo[a], hi[a] = opt.extent->hi[a];
+      if (lo[a] < 0 || lo[a] > hi[a] || hi[a] >= g.size[a]) throw std::invalid_argument("labelSurface: an extent outside the label map");
+    }
+    count = opt.extent->count;
+  }
+  for (int k = 0; k < (opt.extent ? 0 : g.size[2]); ++k)
     for (int j = 0; j < g.size[1]; ++j) {
       // A row is counted first (a loop that vectorises: most rows hold none of the label), and only
       // a row that holds it is searched for its ends.

@@ -133,6 +133,50 @@ private slots:
     QVERIFY(s.triangles.size() <= 400);
     QVERIFY_THROWS_EXCEPTION(InputError, io().labelSurface(labels, 9, {}));
   }
+
+  // labelExtents: every label's box and count in one pass, the same as each label's own scan; a
+  // surface built from a given extent is the one built by scanning.
+  void labelExtentsMatchEachLabelsScan() {
+    ImageGeometry g;
+    g.size = {23, 17, 11};
+    LabelVolume labels(g, 0);
+    for (int k = 0; k < 11; ++k)
+      for (int j = 0; j < 17; ++j)
+        for (int i = 0; i < 23; ++i) {
+          if ((i - 11) * (i - 11) + (j - 8) * (j - 8) + 4 * (k - 5) * (k - 5) < 40) labels.at(i, j, k) = 3;
+          if (i >= 19 && j <= 4 && k >= 2) labels.at(i, j, k) = -7;  // a box in a corner, a negative label
+          if ((i * 7 + j * 3 + k) % 97 == 0) labels.at(i, j, k) = 12;  // scattered single voxels
+        }
+    const auto extents = labelExtents(labels);
+    std::size_t total = 0;
+    for (const std::int32_t label : {0, 3, -7, 12}) {
+      LabelExtent expected{{g.size[0], g.size[1], g.size[2]}, {-1, -1, -1}, 0};
+      for (int k = 0; k < 11; ++k)
+        for (int j = 0; j < 17; ++j)
+          for (int i = 0; i < 23; ++i)
+            if (labels.at(i, j, k) == label) {
+              const std::array<int, 3> at{i, j, k};
+              for (int a = 0; a < 3; ++a) expected.lo[a] = std::min(expected.lo[a], at[a]), expected.hi[a] = std::max(expected.hi[a], at[a]);
+              ++expected.count;
+            }
+      QVERIFY2(extents.count(label), qPrintable(QString::number(label)));
+      const LabelExtent& e = extents.at(label);
+      QCOMPARE(e.lo, expected.lo);
+      QCOMPARE(e.hi, expected.hi);
+      QCOMPARE(e.count, expected.count);
+      total += e.count;
+    }
+    QCOMPARE(extents.size(), std::size_t(4));
+    QCOMPARE(total, labels.voxels().size());
+    const TriangleMesh scanned = io().labelSurface(labels, 3, {5, 0});
+    const TriangleMesh told = io().labelSurface(labels, 3, {5, 0, &extents.at(3)});
+    QCOMPARE(told.points.size(), scanned.points.size());
+    for (std::size_t p = 0; p < told.points.size(); ++p) QCOMPARE(told.points[p], scanned.points[p]);
+    QCOMPARE(told.triangles, scanned.triangles);
+    LabelExtent outside = extents.at(3);
+    outside.hi[0] = g.size[0];
+    QVERIFY_THROWS_EXCEPTION(std::invalid_argument, io().labelSurface(labels, 3, {5, 0, &outside}));
+  }
 };
 
 QTEST_GUILESS_MAIN(TestMeshIO)

@@ -6,10 +6,12 @@
 #include "sinew/core/spatial_map.h"
 #include "sinew/core/triangle_mesh.h"
 
+#include <array>
 #include <cstdint>
 #include <filesystem>
 #include <functional>
 #include <string>
+#include <unordered_map>
 #include <vector>
 
 namespace sinew {
@@ -59,11 +61,23 @@ struct ImageIODescriptor {
   std::function<void(const std::filesystem::path&, const Eigen::Matrix4d&)> writeTransform;
 };
 
+// Where a label lies in a label map: the bounding box of its voxels (index space, both ends
+// included) and their count.
+struct LabelExtent {
+  std::array<int, 3> lo{}, hi{};
+  std::size_t count = 0;
+};
+// Every label's extent, background (0) too, in one pass over the map: a surface builder told a
+// label's extent need not scan the whole map for it, once per structure and level.
+std::unordered_map<std::int32_t, LabelExtent> labelExtents(const LabelVolume& labels);
+
 // Options for building a surface from a label: the iso-surface of the label's mask, optionally
 // smoothed and decimated to about `targetTriangles` (0 keeps every marching-cubes triangle).
+// `extent`: the label's (labelExtents), when the caller knows it; otherwise the builder finds it.
 struct LabelSurfaceOptions {
   int smoothingIterations = 0;
   int targetTriangles = 0;
+  const LabelExtent* extent = nullptr;
 };
 
 struct MeshIODescriptor {

@@ -20,10 +20,11 @@ BuiltModel buildModel(const TriangleMesh& coarse, const TriangleMesh& surface, i
 
 // A structure's reference at every level from one label of a label map (the label's surface, smoothed,
 // decimated to about coarseSpacingMm between level-0 vertices, and the dense surface to relax on),
-// through the registry's label-surface builder. Throws InputError naming the label map.
+// through the registry's label-surface builder. Throws InputError naming the label map. `extent`:
+// the label's (labelExtents), when the caller knows it.
 BuiltModel buildModelFromLabel(const Registry& registry, const LabelVolume& labels, const std::filesystem::path& file,
                                int label, const std::string& name, double coarseSpacingMm, int levelCount,
-                               const Executor& executor);
+                               const Executor& executor, const LabelExtent* extent = nullptr);
 // The same from a closed triangle mesh (its dual is level 0); throws InputError naming the file.
 BuiltModel buildModelFromMesh(const TriangleMesh& mesh, const std::filesystem::path& file, int levelCount,
                               const Executor& executor);
