@@ -28,11 +28,12 @@ std::unordered_map<std::int32_t, LabelExtent> labelExtents(const LabelVolume& la
         const std::int32_t label = row[i];
         int end = i + 1;
         while (end < size[0] && row[end] == label) ++end;
-        const auto [it, added] = out.try_emplace(label);
+        const auto [it, added] = out.try_emplace(label, LabelExtent{{i, j, k}, {end - 1, j, k}, 0});
         LabelExtent& e = it->second;
-        if (added) e.lo = {i, j, k}, e.hi = {end - 1, j, k};
-        e.lo = {std::min(e.lo[0], i), std::min(e.lo[1], j), std::min(e.lo[2], k)};
-        e.hi = {std::max(e.hi[0], end - 1), std::max(e.hi[1], j), std::max(e.hi[2], k)};
+        if (!added) {
+          e.lo = {std::min(e.lo[0], i), std::min(e.lo[1], j), e.lo[2]};  // rows come in k, then j order
+          e.hi = {std::max(e.hi[0], end - 1), std::max(e.hi[1], j), k};
+        }
         e.count += std::size_t(end - i);
         i = end;
       }
