@@ -130,10 +130,18 @@ void checkCompressedMetaImage(const fs::path& header, const MetaImageData& data,
   if (!(data.compressedSize >= 0) || !(data.headerSize >= 0) || !std::isfinite(data.compressedSize) ||
       !std::isfinite(data.headerSize))
     bad("CompressedDataSize and HeaderSize must be byte counts (HeaderSize -1 is not read with compressed data)");
-  const auto stated = std::uintmax_t(data.compressedSize), skip = std::uintmax_t(data.headerSize);
-  if (stated == 0 && data.local) bad("the voxels follow the header (LOCAL) but CompressedDataSize does not say how many bytes they take");
-  if (stated == 0 && skip > 0) bad("a HeaderSize skip needs CompressedDataSize, or the skipped bytes are read as data");
+  // MetaIO truncates both to whole bytes.
+  const bool sized = data.compressedSize >= 1.0, skips = data.headerSize >= 1.0;
+  if (!sized && data.local) bad("the voxels follow the header (LOCAL) but CompressedDataSize does not say how many bytes they take");
+  if (!sized && skips) bad("a HeaderSize skip needs CompressedDataSize, or the skipped bytes are read as data");
   const std::vector<unsigned char> bytes = wholeFile(data.file);
+  // Compared as doubles first: a value beyond any integer type is not converted (found by review;
+  // the conversion would be undefined behaviour).
+  const double fileBytes = double(bytes.size());
+  if (data.compressedSize > fileBytes || data.headerSize > fileBytes)
+    bad("CompressedDataSize or HeaderSize goes beyond the end of " + data.file.filename().string() + " (" +
+        std::to_string(bytes.size()) + " bytes; truncated?)");
+  const auto stated = std::uintmax_t(data.compressedSize), skip = std::uintmax_t(data.headerSize);
   const std::uintmax_t start = stated == 0 ? 0 : skip > 0 ? skip : data.local ? data.afterHeader : 0;
   const std::uintmax_t size = stated == 0 ? bytes.size() : stated;
   if (start > bytes.size() || size > bytes.size() - start)

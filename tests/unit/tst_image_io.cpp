@@ -281,6 +281,9 @@ private slots:
     expectRefusal(io(), path("unsized.mha"), "CompressedDataSize");
     write("cut.mha", bytes.substr(0, bytes.size() - 5));
     expectRefusal(io(), path("cut.mha"), "beyond the end");
+    // A size beyond any integer (not converted: that would be undefined behaviour).
+    write("huge.mha", bytes.substr(0, sizeLine) + "CompressedDataSize = 1e30\n" + bytes.substr(sizeEnd));
+    expectRefusal(io(), path("huge.mha"), "beyond the end");
     std::string flipped = bytes;
     flipped[data + stream.size() / 2] ^= 0x5a;
     write("flipped.mha", flipped);
