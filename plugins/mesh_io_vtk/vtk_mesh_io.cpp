@@ -36,6 +36,7 @@
 #include <algorithm>
 #include <cmath>
 #include <type_traits>
+#include <optional>
 #include <stdexcept>
 
 namespace sinew {
@@ -244,32 +245,19 @@ TriangleMesh labelSurface(const LabelVolume& labels, std::int32_t label, const L
   const ImageGeometry& g = labels.geometry();
   // The mask covers the label's bounding box and one voxel of background around it, not the whole
   // volume: a structure is a small part of a brain, and the iso-surface costs what the mask holds.
-  int lo[3] = {g.size[0], g.size[1], g.size[2]}, hi[3] = {-1, -1, -1};
-  std::size_t count = 0;
-  if (opt.extent) {  // the caller's (labelExtents): no scan
-    for (int a = 0; a < 3; ++a) {
-      lo[a] = opt.extent->lo[a], hi[a] = opt.extent->hi[a];
-      if (lo[a] < 0 || lo[a] > hi[a] || hi[a] >= g.size[a]) throw std::invalid_argument("labelSurface: an extent outside the label map");
-    }
-    count = opt.extent->count;
+  // The caller's extent when it has one, else this label's from one pass (labelExtents).
+  std::optional<LabelExtent> found;
+  if (!opt.extent) {
+    const auto all = labelExtents(labels);
+    if (const auto it = all.find(label); it != all.end()) found = it->second;
   }
-  for (int k = 0; k < (opt.extent ? 0 : g.size[2]); ++k)
-    for (int j = 0; j < g.size[1]; ++j) {
-      // A row is counted first (a loop that vectorises: most rows hold none of the label), and only
-      // a row that holds it is searched for its ends.
-      const std::int32_t* row = &labels.at(0, j, k);
-      int inRow = 0;
-      for (int i = 0; i < g.size[0]; ++i) inRow += row[i] == label;
-      if (inRow == 0) continue;
-      count += std::size_t(inRow);
-      int first = 0, last = g.size[0] - 1;
-      while (row[first] != label) ++first;
-      while (row[last] != label) --last;
-      lo[0] = std::min(lo[0], first), hi[0] = std::max(hi[0], last);
-      lo[1] = std::min(lo[1], j), hi[1] = std::max(hi[1], j);
-      lo[2] = std::min(lo[2], k), hi[2] = std::max(hi[2], k);
-    }
-  if (count == 0) throw InputError("label " + std::to_string(label) + " is absent from the label map");
+  const LabelExtent* extent = opt.extent ? opt.extent : found ? &*found : nullptr;
+  if (!extent || extent->count == 0) throw InputError("label " + std::to_string(label) + " is absent from the label map");
+  int lo[3], hi[3];
+  for (int a = 0; a < 3; ++a) {
+    lo[a] = extent->lo[a], hi[a] = extent->hi[a];
+    if (lo[a] < 0 || lo[a] > hi[a] || hi[a] >= g.size[a]) throw std::invalid_argument("labelSurface: an extent outside the label map");
+  }
   vtkNew<vtkImageData> mask;
   const int px = hi[0] - lo[0] + 3, py = hi[1] - lo[1] + 3, pz = hi[2] - lo[2] + 3;
   mask->SetDimensions(px, py, pz);
