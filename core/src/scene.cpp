@@ -395,7 +395,7 @@ SceneDesc parseScene(const std::string& text, const fs::path& file) {
     const Node g = root.at("stability");
     g.expectObject({"guard", "max_step_mm", "max_retries", "min_volume_ratio", "max_volume_ratio", "max_drift_mm",
                     "max_outside_fraction", "max_inverted_fraction", "max_collapsed_fraction",
-                    "max_self_intersecting_fraction"});
+                    "max_self_intersecting_fraction", "max_swinging_fraction"});
     if (g.has("guard")) s.stability.enabled = g.at("guard").boolean();
     if (g.has("max_step_mm")) s.stability.maxStepMm = g.at("max_step_mm").number();
     if (!(s.stability.maxStepMm > 0.0)) g.at("max_step_mm").fail("must be positive");
@@ -418,6 +418,7 @@ SceneDesc parseScene(const std::string& text, const fs::path& file) {
     fraction("max_inverted_fraction", shape.maxInvertedFraction);
     fraction("max_collapsed_fraction", shape.maxCollapsedFraction);
     fraction("max_self_intersecting_fraction", shape.maxSelfIntersectingFraction);
+    fraction("max_swinging_fraction", shape.maxSwingingFraction);
   }
   if (root.has("report")) {
     const Node r = root.at("report");
@@ -534,7 +535,8 @@ std::string sceneToJson(const SceneDesc& s) {
                     {"max_outside_fraction", s.stability.shape.maxOutsideFraction},
                     {"max_inverted_fraction", s.stability.shape.maxInvertedFraction},
                     {"max_collapsed_fraction", s.stability.shape.maxCollapsedFraction},
-                    {"max_self_intersecting_fraction", s.stability.shape.maxSelfIntersectingFraction}};
+                    {"max_self_intersecting_fraction", s.stability.shape.maxSelfIntersectingFraction},
+                    {"max_swinging_fraction", s.stability.shape.maxSwingingFraction}};
   j["report"] = {{"sample_interval", s.sampleInterval}, {"surface_sample_spacing_mm", s.surfaceSampleSpacingMm}};
   j["outputs"] = {{"mesh_format", s.meshFormat}, {"meshes", s.writeMeshes}, {"label_map", s.labelMapName}, {"thickness", s.thickness}};
   return j.dump(2) + "\n";

@@ -26,7 +26,11 @@ void SceneRunner::runShapeGuarded(const std::function<void()>& runChunk, int chu
   for (int attempt = 0;; ++attempt) {
     runChunk();
     if (!report.numericalFailure.empty()) return;
-    const std::string problem = shapeGuard_.check(store, sim.scene().targetImage().geometry(), sim.stabilityGuard().shape, names);
+    // The swing check needs a few steps: over one or two, a vertex moving steadily also ends
+    // within two steps of where it began.
+    const std::span<const Vec3> swingFrom = chunk >= 4 ? std::span<const Vec3>(chunkStart_.positions) : std::span<const Vec3>();
+    const std::string problem =
+        shapeGuard_.check(store, sim.scene().targetImage().geometry(), sim.stabilityGuard().shape, names, swingFrom);
     if (problem.empty()) return;
     if (options_.log) options_.log("stability guard: " + problem + "; the last " + std::to_string(chunk) + " steps undone");
     sim.countExternalSteps(-chunk);

@@ -8,6 +8,7 @@
 #include <tbb/parallel_reduce.h>
 
 #include <cstdio>
+#include <stdexcept>
 
 namespace sinew {
 
@@ -55,10 +56,11 @@ struct CellSums {
 };
 struct VertexSums {
   Eigen::Vector3d position = Eigen::Vector3d::Zero();
-  Index outside = 0;
+  Index outside = 0, swinging = 0;
   VertexSums& operator+=(const VertexSums& o) {
     position += o.position;
     outside += o.outside;
+    swinging += o.swinging;
     return *this;
   }
 };
@@ -110,19 +112,19 @@ void ShapeGuard::followLevel(MeshStore& store) {
 }
 
 std::string ShapeGuard::check(MeshStore& store, const ImageGeometry& image, const ShapeLimits& limits,
-                              const std::vector<std::string>& names) const {
+                              const std::vector<std::string>& names, std::span<const Vec3> chunkStart) const {
   // Structures are checked at once (a million vertices in the workstation, at every chunk); the
   // first problem in structure order is reported, as if one after the other.
   const Index count = std::min<Index>(store.meshCount(), Index(volume_.size()));
   std::vector<std::string> problems(count);
-  tbb::parallel_for(Index(0), count, [&](Index m) { problems[m] = checkOne(store, m, image, limits, names); });
+  tbb::parallel_for(Index(0), count, [&](Index m) { problems[m] = checkOne(store, m, image, limits, names, chunkStart); });
   for (auto& p : problems)
     if (!p.empty()) return std::move(p);
   return {};
 }
 
 std::string ShapeGuard::checkOne(MeshStore& store, Index m, const ImageGeometry& image, const ShapeLimits& limits,
-                                 const std::vector<std::string>& names) const {
+                                 const std::vector<std::string>& names, std::span<const Vec3> chunkStart) const {
   const Eigen::Matrix3f toIndex = image.indexToWorldMatrix().inverse().cast<float>();
   const Vec3 origin = image.origin.cast<float>();
   const auto inside = [&](const Vec3& p) {
@@ -148,9 +150,16 @@ std::string ShapeGuard::checkOne(MeshStore& store, Index m, const ImageGeometry&
     s.inverted += now.dot(cellArea_[c]) < 0.0f;
     s.collapsed += now.norm() < 0.01f * cellArea_[c].norm();
   });
+  const bool swingCheck = !chunkStart.empty() && store.has(Attribute::PreviousPosition);
+  const auto previous = swingCheck ? store.previousPositions() : std::span<Vec3>();
+  if (swingCheck && (chunkStart.size() != x.size() || previous.size() != x.size()))
+    throw std::invalid_argument("ShapeGuard::check: the chunk's start has another vertex count than the store");
   const VertexSums vertexSums = deterministicSum(r.vertexBegin, r.vertexEnd, VertexSums{}, [&](VertexSums& s, Index v) {
     s.position += x[v].cast<double>();
     s.outside += !inside(x[v]);
+    if (!swingCheck) return;
+    const float step = (x[v] - previous[v]).norm();
+    s.swinging += step > ShapeLimits::kSwingStepMm && (x[v] - chunkStart[v]).norm() < 2.0f * step;
   });
   const double ratio = volume_[m] > 0.0 ? cellSums.volume6 / 6.0 / volume_[m] : 1.0;
   if (!(ratio >= limits.minVolumeRatio && ratio <= limits.maxVolumeRatio)) {
@@ -184,6 +193,15 @@ std::string ShapeGuard::checkOne(MeshStore& store, Index m, const ImageGeometry&
     std::snprintf(text, sizeof text,
                   "shape check: %s has %.3g %% of its cells collapsed below 1 %% of their area at the start (limit %.3g %%)",
                   name.c_str(), 100.0 * collapsed / cells, 100.0 * limits.maxCollapsedFraction);
+    return text;
+  }
+  const Index swinging = vertexSums.swinging;
+  if (swinging >= ShapeLimits::kMinSwinging && swinging > limits.maxSwingingFraction * double(r.vertexCount())) {
+    std::snprintf(text, sizeof text,
+                  "shape check: %s swings: %lld of its %lld vertices moved more than %.3g mm in the last step but "
+                  "ended the chunk within two such steps of where they began it (limit %.3g %%)",
+                  name.c_str(), static_cast<long long>(swinging), static_cast<long long>(r.vertexCount()),
+                  double(ShapeLimits::kSwingStepMm), 100.0 * limits.maxSwingingFraction);
     return text;
   }
   // Last: the dearest check, on a sample of the surface.

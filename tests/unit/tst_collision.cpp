@@ -3,6 +3,7 @@
 // inside another is pushed out, and a sphere inside another (or on it) stops the run with the reason;
 // a vertex clear of the other structures skips its search with the result the search would give;
 // a vertex pressed into another structure is held out by the hold.
+#include "sinew/core/shape_guard.h"
 #include "sinew/core/collision_tree.h"
 #include "sinew/core/contact_links.h"
 #include "sinew/core/voxelize.h"
@@ -187,9 +188,10 @@ private slots:
   // The stability suite's collision cases: stiff contacts (weight 1) with the default step, with a
   // step four times as long, and with implicit Euler at a long step. Each ends finite with the
   // overlap resolved, or stops cleanly through the stability guard; the default step and implicit
-  // Euler also come to rest. The explicit long step does not: after the guard halves it once, the
-  // contact and the shape prior together overshoot and keep the surfaces swinging by a millimetre
-  // or two a step, which no check sees yet (docs/collisions.md; a motion guard is issue 16's).
+  // Euler also come to rest. The explicit long step does not here: after the step guard halves it
+  // once, the contact and the shape prior together overshoot and keep the surfaces swinging by a
+  // millimetre or two a step. Through sinew-run the shape guard's swing check sees that and halves
+  // the step again (swingingContactsHalveTheStepUntilTheyRest, below).
   void stiffContactsAndLongStepsConvergeOrStopCleanly_data() {
     QTest::addColumn<QString>("integrator");
     QTest::addColumn<double>("timeStep");
@@ -217,6 +219,45 @@ private slots:
       for (const Vec3& p : sim->store().positions()) QVERIFY(p.allFinite());
       qInfo("%s, dt %g: stopped cleanly: %s", qPrintable(integrator), timeStep, e.what());
     }
+  }
+
+  // The dt 2 case above under the runner's shape guard (SceneRunner::runShapeGuarded: chunks of 10
+  // steps, each checked and, on a violation, undone with the step halved): the swing check sees the
+  // surfaces swinging, and the halved step lets them come to rest.
+  void swingingContactsHalveTheStepUntilTheyRest() {
+    auto sim = twoSpheres(15.0f, 1.0f, 10.0f, "damped_verlet", 2.0);
+    const double before = overlap(*sim);
+    ShapeGuard guard;
+    guard.capture(sim->store());
+    ImageGeometry image;
+    image.size = {200, 200, 200};
+    image.origin = Eigen::Vector3d(-100, -100, -100);
+    const std::vector<std::string> names{"a", "b"};
+    int swings = 0;
+    double largest = 0.0;
+    for (int chunk = 0; chunk < 100; ++chunk) {
+      const std::vector<Vec3> start(sim->store().positions().begin(), sim->store().positions().end());
+      std::vector<Vec3> startPrevious(sim->store().previousPositions().begin(), sim->store().previousPositions().end());
+      for (int attempt = 0;; ++attempt) {
+        largest = 0.0;
+        for (int i = 0; i < 10; ++i) {
+          sim->step();
+          largest = std::max(largest, largestStep(*sim));
+        }
+        const std::string problem = guard.check(sim->store(), image, ShapeLimits{}, names, start);
+        if (problem.empty()) break;
+        QVERIFY2(problem.find("swings") != std::string::npos, problem.c_str());
+        ++swings;
+        sim->recover(start, startPrevious, problem, attempt);
+      }
+    }
+    for (const Vec3& p : sim->store().positions()) QVERIFY(p.allFinite());
+    const double after = overlap(*sim);
+    qInfo("verlet, dt 2 with the swing check: %d swings seen, time step %g at the end, overlap %.1f -> %.2f mm^3, "
+          "largest step in the last 10 steps %.3g mm", swings, sim->stabilityEvents().back().timeStep, before, after, largest);
+    QVERIFY(swings >= 1);
+    QVERIFY(after < 0.01 * before);
+    QVERIFY(largest < 0.015);
   }
 
   // Half of a small sphere inside a large one: it is pushed out and comes to rest against it. (Only

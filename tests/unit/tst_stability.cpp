@@ -269,6 +269,29 @@ private Q_SLOTS:
     qInfo("cap through the bottom: %lld of %lld sampled triangles cross", (long long)cap.intersecting, (long long)cap.sampled);
     QVERIFY(cap.sampled >= 400 && cap.fraction() > ShapeLimits{}.maxSelfIntersectingFraction);  // the default fires too
     QCOMPARE(sampleSelfIntersections(s, s.positions(), 1).intersecting, Index(0));  // the other structure
+
+    // Swinging: the ball's vertices ended the chunk where they began it, yet each moved 0.5 mm in
+    // the last step; the other structure is still. Moving steadily instead (3 mm over the chunk,
+    // 0.3 mm in the last step) is no swing, and without the chunk's start there is no such check.
+    const auto swing = [&](float lastStepMm, const Vec3& net, std::span<const Vec3> from) {
+      auto x = s.positionsForWrite();
+      auto previous = s.previousPositions();
+      for (Index v = 0; v < s.vertexCount(); ++v) {
+        const bool ball = s.meshOfVertex()[v] == 0;
+        x[v] = ball ? Vec3(start[v] + net) : start[v];
+        previous[v] = ball ? Vec3(x[v] - lastStepMm * Vec3(0.6f, 0.8f, 0.0f)) : start[v];
+      }
+      return QString::fromStdString(guard.check(s, image, ShapeLimits{}, names, from));
+    };
+    const QString swinging = swing(0.5f, Vec3::Zero(), start);
+    QVERIFY2(swinging.contains("structure 'ball' swings") && swinging.contains(QString("%1 of its %1 vertices").arg(s.range(0).vertexCount())),
+             qPrintable(swinging));
+    QCOMPARE(swing(0.3f, Vec3(3, 0, 0), start), QString());
+    QCOMPARE(swing(0.5f, Vec3::Zero(), {}), QString());
+    QCOMPARE(swing(0.2f, Vec3::Zero(), start), QString());  // below the step that counts
+    ShapeLimits anySwing;
+    anySwing.maxSwingingFraction = 1.0;
+    QCOMPARE(QString::fromStdString(guard.check(s, image, anySwing, names, start)), QString());
   }
 
   // The sampling's binning against brute force: a sphere crumpled by random moves of up to several

@@ -25,13 +25,14 @@ public:
   // reference; volumes and centroids stay those of the start. Call before each chunk.
   void followLevel(MeshStore& store);
   // What is wrong, naming the structure and the check, or "" when every structure is within the
-  // limits. names: the structures' names in store order.
+  // limits. names: the structures' names in store order. chunkStart: the positions the chunk of
+  // steps just run began from (empty: the swing check is skipped).
   std::string check(MeshStore& store, const ImageGeometry& image, const ShapeLimits& limits,
-                    const std::vector<std::string>& names) const;
+                    const std::vector<std::string>& names, std::span<const Vec3> chunkStart = {}) const;
 
 private:
   std::string checkOne(MeshStore& store, Index mesh, const ImageGeometry& image, const ShapeLimits& limits,
-                       const std::vector<std::string>& names) const;
+                       const std::vector<std::string>& names, std::span<const Vec3> chunkStart) const;
 
   std::vector<double> volume_;
   std::vector<Vec3> centroid_;

@@ -25,6 +25,13 @@ struct ShapeLimits {
   // Sampled triangles of the surface (self_intersection.h) that cross another part of the same
   // surface, as a share of the sample; the same allowance as folded cells.
   double maxSelfIntersectingFraction = 0.05;
+  // Vertices swinging at the end of a chunk, as a share of the structure's: each moved more than
+  // kSwingStepMm in the last step, yet ended the chunk less than two such steps from where it
+  // began it (back and forth, the signature of an explicit step too long for the contacts and the
+  // shape prior together). The demo's few trembling light vertices stay under 4 %.
+  double maxSwingingFraction = 0.1;
+  static constexpr float kSwingStepMm = 0.25f;
+  static constexpr int kMinSwinging = 10;  // fewer swinging vertices never count (small coarse levels)
 };
 
 struct StabilityGuard {
