@@ -333,6 +333,49 @@ private slots:
     QVERIFY(report.structures[0].assdFinalMm < report.structures[0].assdInitialMm);
   }
 
+  // The swing check as the runner wires it (the chunk's start handed to the shape guard, the chunk
+  // undone and the step halved, the backend reloaded): a stand-in backend whose first two chunks end
+  // back where they began, each vertex's last step 0.5 mm, is caught twice; then it steps normally.
+  void swingCheckUndoesSwingingChunks() {
+    struct SwingingBackend final : ExecutionBackend {
+      Simulation& sim;
+      int& reloads;
+      SwingingBackend(Simulation& s, int& r) : sim(s), reloads(r) {}
+      std::string name() const override { return "swinging"; }
+      std::string device() const override { return "host"; }
+      void run(int iterations) override {
+        MeshStore& store = sim.store();
+        const std::vector<Vec3> start(store.positions().begin(), store.positions().end());
+        sim.run(iterations);
+        if (reloads >= 2) return;
+        auto x = store.positionsForWrite();
+        auto previous = store.previousPositions();
+        for (Index v = 0; v < store.vertexCount(); ++v) x[v] = start[v], previous[v] = start[v] - Vec3(0, 0, 0.5f);
+      }
+      void download() override {}
+      void reload() override { ++reloads; }
+      void levelChanged() override {}
+    };
+    int reloads = 0;
+    RunOptions options;
+    options.backend = [&](Simulation& sim) -> std::unique_ptr<ExecutionBackend> {
+      return std::make_unique<SwingingBackend>(sim, reloads);
+    };
+    SceneRunner runner(builtinRegistry(), readScene(writeScene("swinging.json")), options);
+    runner.load();
+    const RunReport report = runner.run();
+    QVERIFY2(report.numericalFailure.empty(), report.numericalFailure.c_str());
+    QCOMPARE(reloads, 2);
+    QCOMPARE(report.stability.size(), std::size_t(2));
+    for (const StabilityEvent& e : report.stability) {
+      QVERIFY2(e.reason.find("structure 'ellipsoid' swings") != std::string::npos, e.reason.c_str());
+      QVERIFY(e.recovered);
+    }
+    QCOMPARE(report.stability[0].timeStep, 0.25);
+    QCOMPARE(report.stability[1].timeStep, 0.125);
+    QVERIFY(report.structures[0].assdFinalMm < report.structures[0].assdInitialMm);
+  }
+
   // One run at a time per output directory: a second one is refused at once, naming the first; a
   // killed run blocks nothing (the kernel drops its lock) and what it left is cleared by the next.
   void outputDirectoryIsHeldByOneRun() {
