@@ -7,12 +7,14 @@
 #include <itkAffineTransform.h>
 #include <itkBinShrinkImageFilter.h>
 #include <itkCenteredTransformInitializer.h>
+#include <itkGradientRecursiveGaussianImageFilter.h>
 #include <itkImageRegistrationMethodv4.h>
 #include <itkMultiThreaderBase.h>
 #include <itkMattesMutualInformationImageToImageMetricv4.h>
 #include <itkMatrixOffsetTransformBase.h>
 #include <itkRegistrationParameterScalesFromPhysicalShift.h>
 #include <itkRegularStepGradientDescentOptimizerv4.h>
+#include <itkSmoothingRecursiveGaussianImageFilter.h>
 #include <itkTransformFactory.h>
 #include <itkTransformFileReader.h>
 #include <itkTransformFileWriter.h>
@@ -44,9 +46,10 @@ std::string fmt(double v) {
   return b;
 }
 
-ImageType::Pointer binned(const Image3D& v) {
+ImageType::Pointer binned(const Image3D& v, itk::ThreadIdType threads) {
   ImageType::Pointer image = toItk<float>(v);
   auto shrink = itk::BinShrinkImageFilter<ImageType, ImageType>::New();
+  shrink->SetNumberOfWorkUnits(threads);
   shrink->SetInput(image);
   itk::BinShrinkImageFilter<ImageType, ImageType>::ShrinkFactorsType factors;
   for (int a = 0; a < 3; ++a)
@@ -54,6 +57,60 @@ ImageType::Pointer binned(const Image3D& v) {
   shrink->SetShrinkFactors(factors);
   shrink->Update();
   return shrink->GetOutput();
+}
+
+// The images of one resolution level, made once and used by the probe and by both stages: what
+// ImageRegistrationMethodv4 would make again for each stage at each level (the smoothed images) and
+// what each metric would make again at each Initialize (the moving image's gradient, a recursive
+// Gaussian over the whole image). The same filters with the same settings, so the result is the
+// same to the bit; these filters compute every voxel on its own, so they may use every thread
+// (only the metric's sums need one: SerialItk).
+using GradientFilterType = itk::GradientRecursiveGaussianImageFilter<ImageType, itk::Image<itk::CovariantVector<double, 3>, 3>>;
+struct PyramidLevel {
+  unsigned shrink = 1;  // of the virtual domain (the fixed image's grid)
+  ImageType::Pointer fixed, moving;
+  GradientFilterType::Pointer movingGradient;
+};
+
+ImageType::Pointer smoothed(ImageType* image, double sigmaMm, itk::ThreadIdType threads) {
+  auto smooth = itk::SmoothingRecursiveGaussianImageFilter<ImageType, ImageType>::New();
+  smooth->SetNumberOfWorkUnits(threads);
+  smooth->SetSigmaArray(itk::SmoothingRecursiveGaussianImageFilter<ImageType, ImageType>::SigmaArrayType(sigmaMm));
+  smooth->SetInput(image);
+  smooth->Update();
+  ImageType::Pointer out = smooth->GetOutput();
+  out->DisconnectPipeline();
+  return out;
+}
+
+// The metric's default gradient filter (ImageToImageMetricv4::InitializeDefaultMovingImageGradientFilter).
+GradientFilterType::Pointer gradientOf(ImageType* moving, itk::ThreadIdType threads) {
+  auto f = GradientFilterType::New();
+  double maximumSpacing = 0.0;
+  for (int a = 0; a < 3; ++a) maximumSpacing = std::max(maximumSpacing, moving->GetSpacing()[a]);
+  f->SetSigma(maximumSpacing);
+  f->SetNormalizeAcrossScale(true);
+  f->SetUseImageDirection(true);
+  f->SetNumberOfWorkUnits(threads);
+  f->SetInput(moving);
+  f->Update();
+  return f;
+}
+
+// Levels coarse to fine: the virtual domain shrunk by 2^(levels-1-l), both images smoothed by half
+// of that many working voxels (none at the finest).
+std::vector<PyramidLevel> pyramidOf(ImageType* fixed, ImageType* moving, int levels, itk::ThreadIdType threads) {
+  std::vector<PyramidLevel> out(std::size_t(std::max(1, levels)));
+  for (std::size_t l = 0; l < out.size(); ++l) {
+    const unsigned factor = 1u << (out.size() - 1 - l);
+    const double sigma = 0.5 * factor * kWorkingSpacingMm * (factor > 1);
+    PyramidLevel& level = out[l];
+    level.shrink = factor;
+    level.fixed = sigma > 0 ? smoothed(fixed, sigma, threads) : ImageType::Pointer(fixed);
+    level.moving = sigma > 0 ? smoothed(moving, sigma, threads) : ImageType::Pointer(moving);
+    level.movingGradient = gradientOf(level.moving, threads);
+  }
+  return out;
 }
 
 Eigen::Matrix4d toMatrix(const itk::MatrixOffsetTransformBase<double, 3, 3>& t) {
@@ -65,17 +122,21 @@ Eigen::Matrix4d toMatrix(const itk::MatrixOffsetTransformBase<double, 3, 3>& t) 
   return m;
 }
 
-double metricValue(MetricType* metric, itk::Transform<double, 3, 3>* transform, ImageType* fixed, ImageType* moving) {
-  metric->SetFixedImage(fixed);
-  metric->SetMovingImage(moving);
+double metricValue(MetricType* metric, itk::Transform<double, 3, 3>* transform, const PyramidLevel& finest) {
+  metric->SetFixedImage(finest.fixed);
+  metric->SetMovingImage(finest.moving);
+  metric->SetMovingImageGradientFilter(finest.movingGradient);
   metric->SetMovingTransform(transform);
   metric->Initialize();
   return metric->GetValue();
 }
 
-// One stage (rigid or affine) over the pyramid; the transform is optimised in place.
+// One stage (rigid or affine) over the pyramid; the transform is optimised in place. Each level
+// is a one-level ImageRegistrationMethodv4 on that level's images, with one metric and one
+// optimizer for the stage, as a multi-level method would run them; its sampling seeds are the
+// ones a multi-level method would take at that level (two per level: the points and their jitter).
 template <class TransformType>
-RegistrationStage runStage(const char* name, TransformType* transform, ImageType* fixed, ImageType* moving,
+RegistrationStage runStage(const char* name, TransformType* transform, const std::vector<PyramidLevel>& pyramid,
                            const RegistrationOptions& o, double initialStepMm) {
   const auto t0 = Clock::now();
   using RegistrationType = itk::ImageRegistrationMethodv4<ImageType, ImageType, TransformType>;
@@ -91,41 +152,43 @@ RegistrationStage runStage(const char* name, TransformType* transform, ImageType
   optimizer->SetNumberOfIterations(o.iterations);
   optimizer->SetReturnBestParametersAndValue(true);
 
-  auto registration = RegistrationType::New();
-  registration->SetFixedImage(fixed);
-  registration->SetMovingImage(moving);
-  registration->SetMetric(metric);
-  registration->SetOptimizer(optimizer);
-  registration->SetInitialTransform(transform);
-  registration->InPlaceOn();
-  const int levels = std::max(1, o.levels);
-  typename RegistrationType::ShrinkFactorsArrayType shrink(levels);
-  typename RegistrationType::SmoothingSigmasArrayType sigmas(levels);
-  typename RegistrationType::MetricSamplingPercentageArrayType percent(levels);
-  const double voxels = double(fixed->GetLargestPossibleRegion().GetNumberOfPixels());
-  for (int l = 0; l < levels; ++l) {
-    const int factor = 1 << (levels - 1 - l);
-    shrink[l] = factor;
-    sigmas[l] = 0.5 * factor * kWorkingSpacingMm * (factor > 1);
-    percent[l] = std::min(1.0, kSamplesPerLevel * factor * factor * factor / voxels);
-  }
-  registration->SetNumberOfLevels(levels);
-  registration->SetShrinkFactorsPerLevel(shrink);
-  registration->SetSmoothingSigmasPerLevel(sigmas);
-  registration->SmoothingSigmasAreSpecifiedInPhysicalUnitsOn();
-  registration->SetMetricSamplingStrategy(RegistrationType::MetricSamplingStrategyEnum::RANDOM);
-  registration->SetMetricSamplingPercentagePerLevel(percent);
-  registration->MetricSamplingReinitializeSeed(int(o.seed));
-
+  const double voxels = double(pyramid.back().fixed->GetLargestPossibleRegion().GetNumberOfPixels());
   RegistrationStage stage;
   stage.name = name;
-  try {
-    registration->Update();
-  } catch (const itk::ExceptionObject& e) {
-    std::string d = e.GetDescription();
-    while (!d.empty() && (d.back() == '\n' || d.back() == ' ')) d.pop_back();
-    throw InputError(std::string("registration, ") + name + " stage: " + d +
-                     " (do the target and the model's atlas image overlap?)");
+  for (std::size_t l = 0; l < pyramid.size(); ++l) {
+    const PyramidLevel& level = pyramid[l];
+    auto registration = RegistrationType::New();
+    registration->SetFixedImage(level.fixed);
+    registration->SetMovingImage(level.moving);
+    metric->SetMovingImageGradientFilter(level.movingGradient);  // computed already: Initialize reuses it
+    // The method takes the metric's virtual domain when it has one, which after a coarser level is
+    // that level's shrunk grid: the full grid again, for the method to shrink.
+    metric->SetVirtualDomainFromImage(level.fixed);
+    registration->SetMetric(metric);
+    registration->SetOptimizer(optimizer);
+    registration->SetInitialTransform(transform);
+    registration->InPlaceOn();
+    typename RegistrationType::ShrinkFactorsArrayType shrink(1);
+    typename RegistrationType::SmoothingSigmasArrayType sigmas(1);
+    typename RegistrationType::MetricSamplingPercentageArrayType percent(1);
+    shrink[0] = level.shrink;
+    sigmas[0] = 0.0;  // smoothed in the pyramid
+    percent[0] = std::min(1.0, kSamplesPerLevel * std::pow(double(level.shrink), 3) / voxels);
+    registration->SetNumberOfLevels(1);
+    registration->SetShrinkFactorsPerLevel(shrink);
+    registration->SetSmoothingSigmasPerLevel(sigmas);
+    registration->SmoothingSigmasAreSpecifiedInPhysicalUnitsOn();
+    registration->SetMetricSamplingStrategy(RegistrationType::MetricSamplingStrategyEnum::RANDOM);
+    registration->SetMetricSamplingPercentagePerLevel(percent);
+    registration->MetricSamplingReinitializeSeed(int(o.seed + 2 * l));
+    try {
+      registration->Update();
+    } catch (const itk::ExceptionObject& e) {
+      std::string d = e.GetDescription();
+      while (!d.empty() && (d.back() == '\n' || d.back() == ' ')) d.pop_back();
+      throw InputError(std::string("registration, ") + name + " stage: " + d +
+                       " (do the target and the model's atlas image overlap?)");
+    }
   }
   stage.metric = optimizer->GetValue();
   stage.iterations = int(optimizer->GetCurrentIteration());
@@ -138,8 +201,9 @@ RegistrationStage runStage(const char* name, TransformType* transform, ImageType
 }  // namespace
 
 namespace {
-// ITK on one thread while the registration's objects are made and run. With more, the transform
-// differs in its last digits from run to run (ITK 5.2's Mattes metric adds the threads' joint-PDF
+// ITK on one thread while the registration's metric is made and run (the pyramid's filters are
+// given the threads explicitly: they compute each voxel on its own). With more threads in the
+// metric, the transform differs in its last digits from run to run (ITK 5.2's Mattes metric adds the threads' joint-PDF
 // derivatives into a shared buffer in whatever order its mutex is taken, and capping the metric's
 // work units alone did not make it repeat), and the segmentation after it by up to 0.1 mm ASSD per
 // structure. Objects take the global default when they are made, so the others are not affected.
@@ -151,6 +215,7 @@ public:
     itk::MultiThreaderBase::SetGlobalDefaultNumberOfThreads(1);
   }
   ~SerialItk() { itk::MultiThreaderBase::SetGlobalDefaultNumberOfThreads(before_); }
+  itk::ThreadIdType threadsBefore() const { return before_; }  // for the filters that may use them
   SerialItk(const SerialItk&) = delete;
   SerialItk& operator=(const SerialItk&) = delete;
 
@@ -166,7 +231,14 @@ private:
 
 RegistrationResult registerImagesItk(const Image3D& target, const Image3D& model, const RegistrationOptions& o) {
   const SerialItk serial;
-  const ImageType::Pointer fixed = binned(target), moving = binned(model);
+  const itk::ThreadIdType threads = serial.threadsBefore();
+  const ImageType::Pointer fixed = binned(target, threads), moving = binned(model, threads);
+  std::vector<PyramidLevel> pyramid;
+  try {
+    pyramid = pyramidOf(fixed, moving, o.levels, threads);
+  } catch (const itk::ExceptionObject& e) {
+    throw InputError(std::string("registration, smoothing the images: ") + e.GetDescription());
+  }
   RegistrationResult result;
 
   auto rigid = RigidType::New();
@@ -184,7 +256,7 @@ RegistrationResult registerImagesItk(const Image3D& target, const Image3D& model
     auto probe = MetricType::New();
     probe->SetNumberOfHistogramBins(o.histogramBins);
     try {
-      before = metricValue(probe, rigid, fixed, moving);
+      before = metricValue(probe, rigid, pyramid.back());
     } catch (const itk::ExceptionObject& e) {
       std::string d = e.GetDescription();
       while (!d.empty() && (d.back() == '\n' || d.back() == ' ')) d.pop_back();
@@ -192,14 +264,14 @@ RegistrationResult registerImagesItk(const Image3D& target, const Image3D& model
                        "): do the target and the model's atlas image overlap, and does the target hold an image?");
     }
   }
-  result.stages.push_back(runStage("rigid", rigid.GetPointer(), fixed, moving, o, 2.0));
+  result.stages.push_back(runStage("rigid", rigid.GetPointer(), pyramid, o, 2.0));
   Eigen::Matrix4d m = toMatrix(*rigid);
   if (o.affine) {
     auto affine = AffineType::New();
     affine->SetCenter(rigid->GetCenter());
     affine->SetMatrix(rigid->GetMatrix());
     affine->SetTranslation(rigid->GetTranslation());
-    result.stages.push_back(runStage("affine", affine.GetPointer(), fixed, moving, o, 1.0));
+    result.stages.push_back(runStage("affine", affine.GetPointer(), pyramid, o, 1.0));
     m = toMatrix(*affine);
   }
   const RegistrationStage& last = result.stages.back();
