@@ -30,10 +30,6 @@ namespace fs = std::filesystem;
 // Colin27 (tst_sampled_error): 0.004 mm of ASSD at most, the same as at 1 mm, in half the time.
 constexpr float kSampledSpacingMm = 2.0f;
 
-[[noreturn]] void sceneError(const SceneDesc& s, const std::string& where, const std::string& problem) {
-  throw InputError(s.file.string() + ": " + where + ": " + problem);
-}
-
 Eigen::Matrix3f rotation(const Placement& p) {
   const Vec3 axis = Eigen::Vector3d(p.rotationAxis[0], p.rotationAxis[1], p.rotationAxis[2]).normalized().cast<float>();
   return Eigen::AngleAxisf(static_cast<float>(p.rotationDeg * M_PI / 180.0), axis).toRotationMatrix();
@@ -55,6 +51,10 @@ void applyParams(const SceneDesc& scene, ParamTable& table, const std::vector<st
   }
 }
 }  // namespace
+
+void sceneError(const SceneDesc& s, const std::string& where, const std::string& problem) {
+  throw InputError(s.file.string() + ": " + where + ": " + problem);
+}
 
 bool RunReport::hasGroundTruth() const {
   for (const auto& s : structures)
@@ -130,6 +130,7 @@ void SceneRunner::load() {
     L.clock.lap("read_model");
     if (!scene_.trainingImage) L.startImage(registry_, L.model->atlasImage);
   }
+  L.startRegistration(registry_, scene_, log, std::launch::async);
 
   L.sim = std::make_unique<Simulation>(registry_, options_.threads);
   std::vector<StructureSpec> specs;
@@ -356,100 +357,6 @@ void SceneRunner::load() {
   L.sim->initialize();
   L.clock.lap("prepare_forces");
   log("ready");
-}
-
-// The map of the "initialise" stage, applied to every structure's reference shapes (all levels) and
-// initial positions: the model moves into the target as a whole. Initial meshes given as files
-// are in the target already and stay.
-void SceneRunner::initialise(std::vector<StructureSpec>& specs, const std::function<void(const std::string&)>& log) {
-  Loaded& L = *loaded_;
-  const InitialiseDesc& d = scene_.initialise;
-  if (d.method == InitialiseDesc::Method::None) return;
-  for (const auto& s : specs) L.modelPositions.push_back(s.initialPositions);
-  InitialisationResult& r = L.init;
-  SpatialMap map, inverse;
-  const auto t0 = Clock::now();
-  switch (d.method) {
-    case InitialiseDesc::Method::None: break;
-    case InitialiseDesc::Method::Registration: {
-      const std::optional<fs::path> moving = d.movingImage ? d.movingImage
-                                             : L.model       ? std::optional<fs::path>(L.model->atlasImage)
-                                                             : scene_.trainingImage;
-      if (!moving)
-        sceneError(scene_, "/initialise/registration",
-                   "registration needs the model's atlas image: name a \"model\", a training image or \"moving_image\"");
-      const ImageIODescriptor* io = nullptr;
-      try {
-        io = &registry_.imageRegistration();
-      } catch (const InputError& e) {
-        sceneError(scene_, "/initialise/registration", e.what());
-      }
-      log("reading " + moving->string());
-      const std::shared_ptr<Image3D> model = L.image(registry_, *moving);
-      log(std::string("registering ") + moving->filename().string() + " to the target (" +
-          (d.affine ? "rigid, then affine" : "rigid") + ")");
-      RegistrationOptions o;
-      o.affine = d.affine;
-      o.levels = d.levels;
-      o.iterations = d.iterations;
-      o.log = options_.log;
-      L.clock.lap("initialisation");  // its own stage, not counted twice
-      RegistrationResult reg;
-      try {
-        reg = io->registerImages(*L.target, *model, o);
-      } catch (const InputError& e) {
-        throw InputError(scene_.file.string() + ": /initialise: " + e.what());
-      }
-      L.clock.lap("registration");
-      r.method = std::string("registration (") + (d.affine ? "affine" : "rigid") + ")";
-      r.registration = reg.stages;
-      r.hasAffine = true;
-      r.targetToModel = reg.targetToModel;
-      map = SpatialMap::affine(reg.targetToModel.inverse());
-      inverse = SpatialMap::affine(reg.targetToModel);
-      break;
-    }
-    case InitialiseDesc::Method::Transform: {
-      try {
-        r.targetToModel = registry_.imageRegistration().readTransform(d.transform);
-      } catch (const InputError& e) {
-        sceneError(scene_, "/initialise/transform", e.what());
-      }
-      r.method = "transform " + d.transform.string();
-      r.hasAffine = true;
-      map = SpatialMap::affine(r.targetToModel.inverse());
-      inverse = SpatialMap::affine(r.targetToModel);
-      break;
-    }
-    case InitialiseDesc::Method::Landmarks:
-      try {
-        // The spline's inverse has no closed form: the spline through the swapped pairs stands in
-        // for it (exact at the landmarks), to train on the atlas image.
-        std::vector<LandmarkPair> swapped;
-        for (const auto& p : d.landmarks) swapped.push_back({p.target, p.model});
-        map = d.thinPlateSpline ? SpatialMap::fitThinPlateSpline(d.landmarks) : SpatialMap::fitAffine(d.landmarks);
-        inverse = d.thinPlateSpline ? SpatialMap::fitThinPlateSpline(swapped)
-                                    : SpatialMap::affine(map.affinePart().inverse());
-      } catch (const InputError& e) {
-        sceneError(scene_, "/initialise/landmarks", e.what());
-      }
-      r.method = "landmarks: " + map.describe();
-      r.hasAffine = !map.hasSpline();
-      r.targetToModel = map.affinePart().inverse();
-      break;
-  }
-  for (size_t i = 0; i < specs.size(); ++i) {
-    StructureSpec& s = specs[i];
-    map.applyInPlace(s.referencePositions);
-    for (auto& level : s.finerReferences) map.applyInPlace(level);
-    if (!scene_.structures[i].initial.mesh) map.applyInPlace(s.initialPositions);
-    for (const Vec3& p : s.initialPositions)
-      if (!p.allFinite())
-        sceneError(scene_, "/initialise", "the initialisation maps structure '" + s.name + "' to non-finite positions");
-  }
-  L.trainingMap = inverse;
-  r.seconds = since(t0);
-  log("initialisation: " + r.method);
 }
 
 const InitialisationResult& SceneRunner::initialisation() const { return loaded_->init; }

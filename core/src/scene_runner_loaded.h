@@ -18,6 +18,9 @@ namespace sinew {
 using Clock = std::chrono::steady_clock;
 inline double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
+// Throws InputError naming the scene file and the JSON path ("/initialise/transform").
+[[noreturn]] void sceneError(const SceneDesc& s, const std::string& where, const std::string& problem);
+
 struct SceneRunner::Loaded {
   // Files are read in the background from the start of load() (when more than one thread may run),
   // each once; whoever needs one waits for it, and a reading error surfaces there.
@@ -66,6 +69,22 @@ struct SceneRunner::Loaded {
     return startReading(labelMaps, p, [&registry](const std::filesystem::path& f) { return registry.imageIOFor(f).readLabels(f); });
   }
   std::shared_ptr<Image3D> image(const Registry& registry, const std::filesystem::path& p) { return startImage(registry, p).get(); }
+
+  // The initialisation's registration, started in the background as soon as the model is read (it
+  // needs only the target and the model's atlas image), so that making the structures and the
+  // ground truths overlaps it; initialise() waits for it. Its log lines are kept until then.
+  // Declared last: a load that fails while it runs waits for it before anything it uses goes.
+  struct PendingRegistration {
+    std::vector<std::string> log;
+    double seconds = 0.0;
+    bool beside = false;  // in the background (its time is reported beside the stages)
+    std::future<RegistrationResult> result;
+  } registration;
+  // Starts it, unless it has started or the scene does not register; the policy: std::launch::async
+  // beside the loading (only when files are read in the background), deferred to the first wait.
+  // Scene errors (no atlas image, no registration plugin) are thrown here.
+  void startRegistration(const Registry& registry, const SceneDesc& scene,
+                         const std::function<void(const std::string&)>& log, std::launch policy);
 };
 
 }  // namespace sinew
