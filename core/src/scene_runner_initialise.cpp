@@ -9,8 +9,8 @@ namespace fs = std::filesystem;
 
 // The registration of the "initialise" stage, started as soon as its images are named: in the
 // background when files are read so (Loaded::registration), else deferred to initialise(). A scene
-// whose registration cannot start (no atlas image, no registration plugin) starts nothing here;
-// initialise() reports why.
+// whose registration cannot run (no atlas image, no registration plugin) fails here, when load()
+// starts it, before any structure is made.
 void SceneRunner::Loaded::startRegistration(const Registry& registry, const SceneDesc& scene,
                                             const std::function<void(const std::string&)>& log, std::launch policy) {
   const InitialiseDesc& d = scene.initialise;
