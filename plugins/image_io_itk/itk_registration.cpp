@@ -203,10 +203,10 @@ RegistrationStage runStage(const char* name, TransformType* transform, const std
 namespace {
 // ITK on one thread while the registration's metric is made and run (the pyramid's filters are
 // given the threads explicitly: they compute each voxel on its own). With more threads in the
-// metric, the transform differs in its last digits from run to run (ITK 5.2's Mattes metric adds the threads' joint-PDF
-// derivatives into a shared buffer in whatever order its mutex is taken, and capping the metric's
-// work units alone did not make it repeat), and the segmentation after it by up to 0.1 mm ASSD per
-// structure. Objects take the global default when they are made, so the others are not affected.
+// metric, the transform differs in its last digits from run to run (ITK 5.2's Mattes metric adds
+// the threads' joint-PDF derivatives into a shared buffer in whatever order its mutex is taken, and
+// capping the metric's work units alone did not make it repeat), and the segmentation after it by
+// up to 0.1 mm ASSD per structure. Objects take the global default when they are made, so the others are not affected.
 // Registrations in one process run one at a time, so that each restores what it found. Other ITK
 // objects made meanwhile (a label map still being read) also get one thread: slower, not wrong.
 class SerialItk {

@@ -44,12 +44,13 @@ ImageType::Pointer binnedTo2mm(const Image3D& v) {
 }
 
 // ITK's multi-level method over two levels (virtual domain shrunk by 2 and smoothed by 2 mm, then
-// the 2 mm grid), 40,000 random samples a level, seeded with 1.
+// the 2 mm grid), 40,000 random samples a level; bins, iterations and seed from the options.
 template <class TransformType>
-void multiLevelStage(TransformType* transform, ImageType* fixed, ImageType* moving, double step) {
+void multiLevelStage(TransformType* transform, ImageType* fixed, ImageType* moving, double step,
+                     const RegistrationOptions& o) {
   using RegistrationType = itk::ImageRegistrationMethodv4<ImageType, ImageType, TransformType>;
   auto metric = MetricType::New();
-  metric->SetNumberOfHistogramBins(32);
+  metric->SetNumberOfHistogramBins(o.histogramBins);
   auto optimizer = OptimizerType::New();
   auto scales = itk::RegistrationParameterScalesFromPhysicalShift<MetricType>::New();
   scales->SetMetric(metric);
@@ -57,7 +58,7 @@ void multiLevelStage(TransformType* transform, ImageType* fixed, ImageType* movi
   optimizer->SetLearningRate(step);
   optimizer->SetMinimumStepLength(0.01);
   optimizer->SetRelaxationFactor(0.5);
-  optimizer->SetNumberOfIterations(100);
+  optimizer->SetNumberOfIterations(o.iterations);
   optimizer->SetReturnBestParametersAndValue(true);
   auto registration = RegistrationType::New();
   registration->SetFixedImage(fixed);
@@ -79,11 +80,11 @@ void multiLevelStage(TransformType* transform, ImageType* fixed, ImageType* movi
   registration->SmoothingSigmasAreSpecifiedInPhysicalUnitsOn();
   registration->SetMetricSamplingStrategy(RegistrationType::MetricSamplingStrategyEnum::RANDOM);
   registration->SetMetricSamplingPercentagePerLevel(percent);
-  registration->MetricSamplingReinitializeSeed(1);
+  registration->MetricSamplingReinitializeSeed(int(o.seed));
   registration->Update();
 }
 
-Eigen::Matrix4d multiLevelRegistration(const Image3D& target, const Image3D& model) {
+Eigen::Matrix4d multiLevelRegistration(const Image3D& target, const Image3D& model, const RegistrationOptions& o) {
   const auto threads = itk::MultiThreaderBase::GetGlobalDefaultNumberOfThreads();
   itk::MultiThreaderBase::SetGlobalDefaultNumberOfThreads(1);  // as the plugin's metric runs
   const ImageType::Pointer fixed = binnedTo2mm(target), moving = binnedTo2mm(model);
@@ -94,12 +95,12 @@ Eigen::Matrix4d multiLevelRegistration(const Image3D& target, const Image3D& mod
   init->SetMovingImage(moving);
   init->MomentsOn();
   init->InitializeTransform();
-  multiLevelStage(rigid.GetPointer(), fixed, moving, 2.0);
+  multiLevelStage(rigid.GetPointer(), fixed, moving, 2.0, o);
   auto affine = itk::AffineTransform<double, 3>::New();
   affine->SetCenter(rigid->GetCenter());
   affine->SetMatrix(rigid->GetMatrix());
   affine->SetTranslation(rigid->GetTranslation());
-  multiLevelStage(affine.GetPointer(), fixed, moving, 1.0);
+  multiLevelStage(affine.GetPointer(), fixed, moving, 1.0, o);
   itk::MultiThreaderBase::SetGlobalDefaultNumberOfThreads(threads);
   Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
   for (int r = 0; r < 3; ++r) {
@@ -130,9 +131,11 @@ private slots:
     moved.voxels() = target.voxels();
     target = std::move(moved);
 
-    RegistrationOptions options;  // the defaults: rigid then affine, 2 levels
+    RegistrationOptions options;  // the defaults: rigid then affine, 2 levels (the oracle's shape)
+    QCOMPARE(options.levels, 2);
+    QVERIFY(options.affine);
     const RegistrationResult plugin = io.registerImages(target, model, options);
-    const Eigen::Matrix4d reference = multiLevelRegistration(target, model);
+    const Eigen::Matrix4d reference = multiLevelRegistration(target, model, options);
     const double difference = (plugin.targetToModel - reference).cwiseAbs().maxCoeff();
     qInfo("largest difference from ITK's multi-level method: %.3g (translation %.2f mm, %d + %d iterations)",
           difference, plugin.targetToModel.block<3, 1>(0, 3).norm(), plugin.stages[0].iterations,
