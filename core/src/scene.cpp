@@ -193,7 +193,7 @@ StructureDesc readStructureRest(const Node& n, StructureDesc& s) {
 }
 
 InitialiseDesc readInitialise(const Node& n) {
-  n.expectObject({"registration", "iterations", "levels", "moving_image", "transform", "landmarks", "landmark_fit"});
+  n.expectObject({"registration", "iterations", "levels", "samples", "moving_image", "transform", "landmarks", "landmark_fit"});
   InitialiseDesc d;
   const int methods = int(n.has("registration")) + int(n.has("transform")) + int(n.has("landmarks"));
   if (methods != 1) n.fail("give exactly one of 'registration', 'transform' or 'landmarks'");
@@ -206,9 +206,11 @@ InitialiseDesc readInitialise(const Node& n) {
     if (d.iterations < 1 || d.iterations > 10000) n.at("iterations").fail("must be in [1, 10000]");
     if (n.has("levels")) d.levels = n.at("levels").integer();
     if (d.levels < 1 || d.levels > 4) n.at("levels").fail("must be in [1, 4]");
+    if (n.has("samples")) d.samples = n.at("samples").integer();
+    if (d.samples < 1000 || d.samples > 100000000) n.at("samples").fail("must be in [1000, 100000000]");
     if (n.has("moving_image")) d.movingImage = n.at("moving_image").path();
   } else {
-    for (const char* k : {"iterations", "levels", "moving_image"})
+    for (const char* k : {"iterations", "levels", "samples", "moving_image"})
       if (n.has(k)) n.at(k).fail("goes with 'registration'");
   }
   if (n.has("transform")) {
@@ -513,7 +515,7 @@ std::string sceneToJson(const SceneDesc& s) {
     case InitialiseDesc::Method::None: break;
     case InitialiseDesc::Method::Registration:
       j["initialise"] = {{"registration", init.affine ? "affine" : "rigid"}, {"levels", init.levels},
-                         {"iterations", init.iterations}};
+                         {"iterations", init.iterations}, {"samples", init.samples}};
       if (init.movingImage) j["initialise"]["moving_image"] = fs::absolute(*init.movingImage).string();
       break;
     case InitialiseDesc::Method::Transform:

@@ -35,7 +35,9 @@ void SceneRunner::Loaded::startRegistration(const Registry& registry, const Scen
   o.affine = d.affine;
   o.levels = d.levels;
   o.iterations = d.iterations;
+  o.samplesPerLevel = d.samples;
   o.log = [&lines = registration.log](const std::string& line) { lines.push_back(line); };
+  o.cancelled = [&cancel = registration.cancel] { return cancel.load(); };
   registration.beside = policy == std::launch::async;
   registration.result = std::async(policy, [io, target, atlas, o, file = scene.file, &seconds = registration.seconds] {
     const std::shared_ptr<Image3D> fixed = target.get(), moving = atlas.get();  // their errors name their files

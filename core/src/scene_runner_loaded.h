@@ -6,6 +6,7 @@
 #include "sinew/core/sampled_error.h"
 #include "sinew/core/scene_runner.h"
 
+#include <atomic>
 #include <chrono>
 #include <filesystem>
 #include <future>
@@ -73,12 +74,18 @@ struct SceneRunner::Loaded {
   // The initialisation's registration, started in the background as soon as the model is read (it
   // needs only the target and the model's atlas image), so that making the structures and the
   // ground truths overlaps it; initialise() waits for it. Its log lines are kept until then.
-  // Declared last: a load that fails while it runs waits for it before anything it uses goes.
+  // Declared last: a load that fails while it runs cancels it, and waits for it to stop (at its
+  // optimiser's next iteration or its next step) before anything it uses goes.
   struct PendingRegistration {
     std::vector<std::string> log;
     double seconds = 0.0;
     bool beside = false;  // in the background (its time is reported beside the stages)
+    std::atomic<bool> cancel = false;  // before `result`: read until the task has stopped
     std::future<RegistrationResult> result;
+    PendingRegistration() = default;
+    PendingRegistration(const PendingRegistration&) = delete;
+    PendingRegistration& operator=(const PendingRegistration&) = delete;
+    ~PendingRegistration() { cancel = true; }  // then `result` goes first, waiting for the task
   } registration;
   // Starts it, unless it has started or the scene does not register; the policy: std::launch::async
   // beside the loading (only when files are read in the background), deferred to the first wait.

@@ -38,7 +38,6 @@ using Clock = std::chrono::steady_clock;
 // Registration runs on images of about this voxel size (mm): bin-averaged once, so the v4
 // pyramid never smooths a full-resolution atlas (a 0.5 mm brain has 57 M voxels).
 constexpr double kWorkingSpacingMm = 2.0;
-constexpr double kSamplesPerLevel = 40000.0;
 
 std::string fmt(double v) {
   char b[32];
@@ -151,6 +150,13 @@ RegistrationStage runStage(const char* name, TransformType* transform, const std
   optimizer->SetRelaxationFactor(0.5);
   optimizer->SetNumberOfIterations(o.iterations);
   optimizer->SetReturnBestParametersAndValue(true);
+  // A cancelled registration stops at the optimiser's next iteration (about 10 ms on the 2-core
+  // machine with the default samples), not at the stage's end.
+  bool stopped = false;
+  if (o.cancelled)
+    optimizer->AddObserver(itk::IterationEvent(), [&](const itk::EventObject&) {
+      if (!stopped && o.cancelled()) stopped = true, optimizer->StopOptimization();
+    });
 
   const double voxels = double(pyramid.back().fixed->GetLargestPossibleRegion().GetNumberOfPixels());
   RegistrationStage stage;
@@ -173,7 +179,7 @@ RegistrationStage runStage(const char* name, TransformType* transform, const std
     typename RegistrationType::MetricSamplingPercentageArrayType percent(1);
     shrink[0] = level.shrink;
     sigmas[0] = 0.0;  // smoothed in the pyramid
-    percent[0] = std::min(1.0, kSamplesPerLevel * std::pow(double(level.shrink), 3) / voxels);
+    percent[0] = std::min(1.0, double(o.samplesPerLevel) * std::pow(double(level.shrink), 3) / voxels);
     registration->SetNumberOfLevels(1);
     registration->SetShrinkFactorsPerLevel(shrink);
     registration->SetSmoothingSigmasPerLevel(sigmas);
@@ -189,6 +195,7 @@ RegistrationStage runStage(const char* name, TransformType* transform, const std
       throw InputError(std::string("registration, ") + name + " stage: " + d +
                        " (do the target and the model's atlas image overlap?)");
     }
+    if (stopped) throw RegistrationCancelled();
   }
   stage.metric = optimizer->GetValue();
   stage.iterations = int(optimizer->GetCurrentIteration());
@@ -230,15 +237,22 @@ private:
 }  // namespace
 
 RegistrationResult registerImagesItk(const Image3D& target, const Image3D& model, const RegistrationOptions& o) {
-  const SerialItk serial;
+  const auto checkCancelled = [&o] {
+    if (o.cancelled && o.cancelled()) throw RegistrationCancelled();
+  };
+  checkCancelled();
+  const SerialItk serial;  // may wait for another registration: asked again after it
+  checkCancelled();
   const itk::ThreadIdType threads = serial.threadsBefore();
   const ImageType::Pointer fixed = binned(target, threads), moving = binned(model, threads);
+  checkCancelled();
   std::vector<PyramidLevel> pyramid;
   try {
     pyramid = pyramidOf(fixed, moving, o.levels, threads);
   } catch (const itk::ExceptionObject& e) {
     throw InputError(std::string("registration, smoothing the images: ") + e.GetDescription());
   }
+  checkCancelled();
   RegistrationResult result;
 
   auto rigid = RigidType::New();

@@ -108,15 +108,17 @@ private slots:
     const std::string base = R"({"version": 1, "images": {"target": "t.nii.gz"},
       "structures": [{"name": "a", "label": 1}], "forces": {"smoothing": {}},
       "schedule": [{"iterations": 5, "affine_regularisation": 0.5}], "model": "m/", )";
-    const SceneDesc s = parseScene(base + R"("initialise": {"registration": "rigid", "levels": 3}})", "/d/s.json");
+    const SceneDesc s = parseScene(base + R"("initialise": {"registration": "rigid", "levels": 3, "samples": 20000}})", "/d/s.json");
     QVERIFY(s.model && *s.model == fs::path("/d/m/"));
     QCOMPARE(s.schedule[0].affineRegularisation, 0.5);
     QVERIFY(s.initialise.method == InitialiseDesc::Method::Registration);
     QVERIFY(!s.initialise.affine);
     QCOMPARE(s.initialise.levels, 3);
+    QCOMPARE(s.initialise.samples, 20000);
     // Written and read back, it is the same scene.
     const SceneDesc again = parseScene(sceneToJson(s), "/d/s.json");
     QVERIFY(again.initialise.method == InitialiseDesc::Method::Registration && !again.initialise.affine);
+    QCOMPARE(again.initialise.samples, 20000);
     QCOMPARE(again.schedule[0].affineRegularisation, 0.5);
     expectError([&] { parseScene(base + R"("initialise": {"registration": "affine", "transform": "x.tfm"}})", "s.json"); },
                 "/initialise: give exactly one of");
@@ -124,6 +126,8 @@ private slots:
                 "/initialise/landmarks: landmark pairs: 1 landmark pairs; at least 4");
     expectError([&] { parseScene(base + R"("initialise": {"transform": "x.tfm", "levels": 2}})", "s.json"); },
                 "/initialise/levels: goes with 'registration'");
+    expectError([&] { parseScene(base + R"("initialise": {"registration": "affine", "samples": 100}})", "s.json"); },
+                "/initialise/samples: must be in [1000, 100000000]");
     std::string noModel = base;
     noModel.replace(noModel.find(R"("model": "m/", )"), 15, "");
     expectError([&] { parseScene(noModel + R"("report": {}})", "s.json"); }, "missing required key 'reference'");

@@ -28,8 +28,18 @@ struct RegistrationOptions {
   int levels = 2;                 // multi-resolution levels on images binned to about 2 mm (4, 2 mm)
   int iterations = 100;           // per level and stage at most
   int histogramBins = 32;
+  int samplesPerLevel = 10000;    // random voxels of the working grid the metric samples, per level
   std::uint32_t seed = 1;         // the metric's random sampling: fixed, so runs repeat exactly
   std::function<void(const std::string&)> log;
+  // Asked between the registration's steps and its optimiser's iterations (when set): true stops
+  // it, and it throws RegistrationCancelled. A run whose loading failed meanwhile stops it so.
+  std::function<bool()> cancelled;
+};
+
+// Thrown by a registration whose RegistrationOptions::cancelled said true.
+class RegistrationCancelled : public std::runtime_error {
+public:
+  RegistrationCancelled() : std::runtime_error("registration cancelled") {}
 };
 
 struct RegistrationStage {

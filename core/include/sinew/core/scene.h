@@ -77,6 +77,7 @@ struct InitialiseDesc {
   bool affine = true;           // registration: rigid then affine; false: rigid only
   int levels = 2;               // registration pyramid levels
   int iterations = 100;         // registration iterations per level and stage
+  int samples = 10000;          // registration: the metric's random voxels per level
   std::optional<std::filesystem::path> movingImage;  // default: the model's atlas, else the training image
   std::filesystem::path transform;                   // an ITK transform file, target -> model
   std::vector<LandmarkPair> landmarks;
