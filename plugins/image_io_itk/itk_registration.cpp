@@ -64,7 +64,8 @@ ImageType::Pointer binned(const Image3D& v, itk::ThreadIdType threads) {
 // Gaussian over the whole image). The same filters with the same settings, so the result is the
 // same to the bit; these filters compute every voxel on its own, so they may use every thread
 // (only the metric's sums need one: SerialItk).
-using GradientFilterType = itk::GradientRecursiveGaussianImageFilter<ImageType, itk::Image<itk::CovariantVector<double, 3>, 3>>;
+using GradientImageType = itk::Image<itk::CovariantVector<double, 3>, 3>;
+using GradientFilterType = itk::GradientRecursiveGaussianImageFilter<ImageType, GradientImageType>;
 struct PyramidLevel {
   unsigned shrink = 1;  // of the virtual domain (the fixed image's grid)
   ImageType::Pointer fixed, moving;
@@ -151,11 +152,12 @@ RegistrationStage runStage(const char* name, TransformType* transform, const std
   optimizer->SetNumberOfIterations(o.iterations);
   optimizer->SetReturnBestParametersAndValue(true);
   // A cancelled registration stops at the optimiser's next iteration (about 10 ms on the 2-core
-  // machine with the default samples), not at the stage's end.
+  // machine with the default samples), not at the stage's end. Asked at every iteration, so that
+  // an iteration after the stop would show (tst_registration).
   bool stopped = false;
   if (o.cancelled)
     optimizer->AddObserver(itk::IterationEvent(), [&](const itk::EventObject&) {
-      if (!stopped && o.cancelled()) stopped = true, optimizer->StopOptimization();
+      if (o.cancelled()) stopped = true, optimizer->StopOptimization();
     });
 
   const double voxels = double(pyramid.back().fixed->GetLargestPossibleRegion().GetNumberOfPixels());
@@ -213,7 +215,8 @@ namespace {
 // metric, the transform differs in its last digits from run to run (ITK 5.2's Mattes metric adds
 // the threads' joint-PDF derivatives into a shared buffer in whatever order its mutex is taken, and
 // capping the metric's work units alone did not make it repeat), and the segmentation after it by
-// up to 0.1 mm ASSD per structure. Objects take the global default when they are made, so the others are not affected.
+// up to 0.1 mm ASSD per structure. Objects take the global default when they are made, so the
+// others are not affected.
 // Registrations in one process run one at a time, so that each restores what it found. Other ITK
 // objects made meanwhile (a label map still being read) also get one thread: slower, not wrong.
 class SerialItk {
