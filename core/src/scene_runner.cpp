@@ -417,11 +417,13 @@ RunReport SceneRunner::run() {
   for (Index i = 0; i < sim.structureCount(); ++i) {
     const auto x = sim.store().mesh(sim.store().positions(), i);
     initial.push_back(surfaceOf(i, std::vector<Vec3>(x.begin(), x.end())));
-    model.push_back(initialised && sim.level() == 0 ? surfaceOf(i, L.modelPositions[i]) : StructureResult{});
+    model.push_back(initialised && sim.level() == 0 && L.modelScores.empty() ? surfaceOf(i, L.modelPositions[i]) : StructureResult{});
   }
   const bool ownModel = initialised && sim.level() == 0;
+  const bool modelScored = ownModel && !L.modelScores.empty();  // by initialise(), beside the registration
+  if (modelScored) model = L.modelScores;
   const bool scoredBeside = backend && L.reading == std::launch::async;
-  const auto scoreStart = [this, &initial, &model, ownModel, scoredBeside] {
+  const auto scoreStart = [this, &initial, &model, ownModel, modelScored, scoredBeside] {
     const auto t1 = Clock::now();
     // In the run's way, structures side by side as well (each one's sort and Dice are serial);
     // beside a device, one after another, so as not to crowd out the thread that drives it.
@@ -429,8 +431,8 @@ RunReport SceneRunner::run() {
         Index(initial.size()),
         [&](Index i) {
           score(i, initial[i], true);
-          if (ownModel) score(i, model[i], true);
-          else model[i] = initial[i];
+          if (!ownModel) model[i] = initial[i];
+          else if (!modelScored) score(i, model[i], true);
         },
         scoredBeside ? Index(initial.size()) : Index(1));
     return since(t1);

@@ -68,6 +68,17 @@ void SceneRunner::initialise(std::vector<StructureSpec>& specs, const std::funct
     case InitialiseDesc::Method::Registration: {
       L.startRegistration(registry_, scene_, log, std::launch::deferred);  // unless started: one thread
       L.clock.lap("initialisation");  // its own stage, not counted twice
+      // The model's placement does not depend on the registration, which runs on one thread: its
+      // exact evaluation fills the others here instead of waiting, not after it (run()).
+      if (L.registration.beside && std::any_of(L.truth.begin(), L.truth.end(), [](const auto& t) { return t != nullptr; })) {
+        for (size_t i = 0; i < specs.size(); ++i) {
+          StructureResult m;
+          m.surface = tessellate(specs[i].levels.levels[0], L.modelPositions[i]);
+          L.modelScores.push_back(std::move(m));
+        }
+        L.sim->executor().forEach(Index(specs.size()), [&](Index i) { score(i, L.modelScores[size_t(i)], true); }, 1);
+        L.clock.lap("evaluate_model");
+      }
       const RegistrationResult reg = L.registration.result.get();
       for (const std::string& line : L.registration.log)
         if (options_.log) options_.log(line);

@@ -45,6 +45,9 @@ struct SceneRunner::Loaded {
   std::shared_ptr<Image3D> target;
   std::optional<Model> model;
   std::vector<std::vector<Vec3>> modelPositions;         // level 0, before the initialisation
+  // The model stage's scores (one per structure), when initialise() took them while the
+  // registration ran beside; empty otherwise, and run() takes them with the start's.
+  std::vector<StructureResult> modelScores;
   InitialisationResult init;
   SpatialMap trainingMap;  // target -> training image: the inverse of the initialisation
   Clock::time_point created = Clock::now();

@@ -30,11 +30,11 @@ Volume<T> toVolume(const ItkImage& image) {
   return v;
 }
 
-template <class Pixel, class T>
-typename itk::Image<Pixel, 3>::Pointer toItk(const Volume<T>& v) {
+// An ITK image of g's geometry, its buffer not yet allocated.
+template <class Pixel>
+typename itk::Image<Pixel, 3>::Pointer itkImageOf(const ImageGeometry& g) {
   using ImageType = itk::Image<Pixel, 3>;
   auto image = ImageType::New();
-  const ImageGeometry& g = v.geometry();
   typename ImageType::SizeType size;
   typename ImageType::SpacingType spacing;
   typename ImageType::PointType origin;
@@ -49,9 +49,24 @@ typename itk::Image<Pixel, 3>::Pointer toItk(const Volume<T>& v) {
   image->SetSpacing(spacing);
   image->SetOrigin(origin);
   image->SetDirection(direction);
+  return image;
+}
+
+template <class Pixel, class T>
+typename itk::Image<Pixel, 3>::Pointer toItk(const Volume<T>& v) {
+  auto image = itkImageOf<Pixel>(v.geometry());
   image->Allocate();
   Pixel* buffer = image->GetBufferPointer();
-  for (std::size_t i = 0; i < g.voxelCount(); ++i) buffer[i] = static_cast<Pixel>(v.voxels()[i]);
+  for (std::size_t i = 0; i < v.geometry().voxelCount(); ++i) buffer[i] = static_cast<Pixel>(v.voxels()[i]);
+  return image;
+}
+
+// v's voxels seen as an ITK image, not copied: for filters that only read their input. v must
+// outlive the image, and nothing may write through it.
+template <class Pixel>
+typename itk::Image<Pixel, 3>::Pointer itkViewOf(const Volume<Pixel>& v) {
+  auto image = itkImageOf<Pixel>(v.geometry());
+  image->GetPixelContainer()->SetImportPointer(const_cast<Pixel*>(v.voxels().data()), v.geometry().voxelCount(), false);
   return image;
 }
 

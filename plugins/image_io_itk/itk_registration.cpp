@@ -46,7 +46,7 @@ std::string fmt(double v) {
 }
 
 ImageType::Pointer binned(const Image3D& v, itk::ThreadIdType threads) {
-  ImageType::Pointer image = toItk<float>(v);
+  const ImageType::Pointer image = itkViewOf(v);  // read only: no copy of a full-resolution atlas
   auto shrink = itk::BinShrinkImageFilter<ImageType, ImageType>::New();
   shrink->SetNumberOfWorkUnits(threads);
   shrink->SetInput(image);
@@ -237,6 +237,18 @@ private:
   std::lock_guard<std::mutex> lock_;
   itk::ThreadIdType before_;
 };
+
+// Inside SerialItk, the global default raised again while objects that may use every thread are
+// made: filters that make filters of their own take it for those when they are made, not the outer
+// filter's work units (GradientRecursiveGaussianImageFilter's smoothing and derivative filters: with
+// one thread, each moving gradient took about 75 ms on the 2-core machine, whatever its work units).
+class AllItkThreads {
+public:
+  explicit AllItkThreads(itk::ThreadIdType threads) { itk::MultiThreaderBase::SetGlobalDefaultNumberOfThreads(threads); }
+  ~AllItkThreads() { itk::MultiThreaderBase::SetGlobalDefaultNumberOfThreads(1); }
+  AllItkThreads(const AllItkThreads&) = delete;
+  AllItkThreads& operator=(const AllItkThreads&) = delete;
+};
 }  // namespace
 
 RegistrationResult registerImagesItk(const Image3D& target, const Image3D& model, const RegistrationOptions& o) {
@@ -251,6 +263,7 @@ RegistrationResult registerImagesItk(const Image3D& target, const Image3D& model
   checkCancelled();
   std::vector<PyramidLevel> pyramid;
   try {
+    const AllItkThreads all(threads);
     pyramid = pyramidOf(fixed, moving, o.levels, threads);
   } catch (const itk::ExceptionObject& e) {
     throw InputError(std::string("registration, smoothing the images: ") + e.GetDescription());
@@ -270,7 +283,14 @@ RegistrationResult registerImagesItk(const Image3D& target, const Image3D& model
   // The metric before any optimisation: the stages must end better than this, or they diverged.
   double before = 0.0;
   {
-    auto probe = MetricType::New();
+    // Its value alone, on every thread: the threads' joint histograms are summed in their order
+    // (only the derivatives' are not: the stages' metrics stay on one), and it only decides the
+    // divergence check below.
+    MetricType::Pointer probe;
+    {
+      const AllItkThreads all(threads);
+      probe = MetricType::New();
+    }
     probe->SetNumberOfHistogramBins(o.histogramBins);
     try {
       before = metricValue(probe, rigid, pyramid.back());

@@ -108,6 +108,9 @@ private slots:
     // 206's report held 8.99 s of stages in a 6.43 s run).
     QVERIFY(report["stage_seconds"].toObject().contains("registration"));
     QVERIFY(report["stage_seconds"].toObject().contains("read_model"));
+    // The model's placement is scored while the registration runs (reusesTheTransform checks the
+    // scores against those of a run that takes them after it).
+    QVERIFY(report["stage_seconds"].toObject().contains("evaluate_model"));
     double stageSum = 0.0;
     for (const QJsonValue v : report["stage_seconds"].toObject()) stageSum += v.toDouble();
     const double total = report["total_seconds"].toDouble();
@@ -160,6 +163,18 @@ private slots:
     const double before = stageMean(readJson(run_ + "/report.json"), "initialisation");
     QVERIFY2(std::abs(again - before) < 1e-3, qPrintable(QString("%1 vs %2").arg(again).arg(before)));
     QVERIFY(!readJson(path("reuse/report.json"))["stage_seconds"].toObject().contains("registration"));
+    // Without a registration the model's placement is scored with the start's, after the
+    // initialisation: the same positions, so the same scores as those the registering run took
+    // beside its registration, to the bit.
+    QVERIFY(!readJson(path("reuse/report.json"))["stage_seconds"].toObject().contains("evaluate_model"));
+    const QJsonArray reused = readJson(path("reuse/report.json"))["structures"].toArray();
+    const QJsonArray registered = readJson(run_ + "/report.json")["structures"].toArray();
+    QCOMPARE(reused.size(), registered.size());
+    for (qsizetype i = 0; i < reused.size(); ++i) {
+      const QJsonObject a = reused[i].toObject(), b = registered[i].toObject();
+      QCOMPARE(a["assd_mm"].toObject()["model"].toDouble(), b["assd_mm"].toObject()["model"].toDouble());
+      QCOMPARE(a["dice_model"].toDouble(), b["dice_model"].toDouble());
+    }
   }
 
   // Landmarks instead of the registration: eight pairs where the generator's drawn affine puts

@@ -172,6 +172,32 @@ private slots:
       QCOMPARE(asked, at);
     }
   }
+
+  // The optimiser's metrics run on one thread (their threads' derivative sums would not repeat),
+  // while the pyramid's filters and the probe are made with every thread (itk_registration.cpp's
+  // AllItkThreads): the global default is 1 again at every question after the first (asked before
+  // SerialItk lowers it), and what it was before once the registration returns.
+  void stagesRunOnOneThread() {
+    if (!std::filesystem::exists(kTemplates / "ch2.nii.gz")) QSKIP("mricron-data is not installed");
+    const ImageIODescriptor& io = builtinRegistry().imageIOFor("ch2.nii.gz");
+    const Image3D target = io.readImage(kTemplates / "ch2.nii.gz");
+    const Image3D model = io.readImage(kTemplates / "ch2better.nii.gz");
+    const auto before = itk::MultiThreaderBase::GetGlobalDefaultNumberOfThreads();
+    itk::MultiThreaderBase::SetGlobalDefaultNumberOfThreads(4);
+    std::vector<itk::ThreadIdType> seen;
+    RegistrationOptions options;
+    options.cancelled = [&seen] {
+      seen.push_back(itk::MultiThreaderBase::GetGlobalDefaultNumberOfThreads());
+      return false;
+    };
+    io.registerImages(target, model, options);
+    const auto after = itk::MultiThreaderBase::GetGlobalDefaultNumberOfThreads();
+    itk::MultiThreaderBase::SetGlobalDefaultNumberOfThreads(before);
+    QCOMPARE(after, itk::ThreadIdType(4));
+    QVERIFY(seen.size() > 30);
+    QCOMPARE(seen.front(), itk::ThreadIdType(4));
+    for (std::size_t k = 1; k < seen.size(); ++k) QVERIFY2(seen[k] == 1, qPrintable(QString("question %1: %2 threads").arg(k).arg(seen[k])));
+  }
 };
 
 QTEST_APPLESS_MAIN(TestRegistration)
