@@ -1,6 +1,7 @@
 // sinew-run: the headless engine. One scene (one subject) per run; machine-readable report;
 // documented exit codes (see --help and docs/sinew-run.md).
 #include "backend_choice.h"
+#include "thread_limits.h"
 #include "builtin_plugins.h"
 #include "output_lock.h"
 #include "report_writer.h"
@@ -206,6 +207,7 @@ int main(int argc, char** argv) {
     return code == 0 ? kOk : kUsage;
   }
 
+  limitLibraryThreads(threads);  // before anything reads an image
   const auto qt = startOffscreenQt(argv[0]);  // the plot needs fonts
 
   Registry registry;

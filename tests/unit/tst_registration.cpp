@@ -196,7 +196,8 @@ private slots:
     QCOMPARE(after, itk::ThreadIdType(4));
     QVERIFY(seen.size() > 30);
     QCOMPARE(seen.front(), itk::ThreadIdType(4));
-    for (std::size_t k = 1; k < seen.size(); ++k) QVERIFY2(seen[k] == 1, qPrintable(QString("question %1: %2 threads").arg(k).arg(seen[k])));
+    for (std::size_t k = 1; k < seen.size(); ++k)
+      QVERIFY2(seen[k] == 1, qPrintable(QString("question %1: %2 threads").arg(k).arg(seen[k])));
   }
 };
 
