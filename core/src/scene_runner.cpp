@@ -412,16 +412,15 @@ RunReport SceneRunner::run() {
   if (options_.backend) L.clock.lap("start_backend");
   // The start and the model, evaluated exactly. With a device running the steps, the host's threads
   // are free meanwhile, so the scoring runs beside the simulation (the surfaces are taken now).
-  std::vector<StructureResult> initial, model;
   const bool initialised = scene_.initialise.method != InitialiseDesc::Method::None;
+  const bool ownModel = initialised && sim.level() == 0;
+  const bool modelScored = ownModel && !L.modelScores.empty();  // by initialise(), beside the registration
+  std::vector<StructureResult> initial, model = modelScored ? L.modelScores : std::vector<StructureResult>{};
   for (Index i = 0; i < sim.structureCount(); ++i) {
     const auto x = sim.store().mesh(sim.store().positions(), i);
     initial.push_back(surfaceOf(i, std::vector<Vec3>(x.begin(), x.end())));
-    model.push_back(initialised && sim.level() == 0 && L.modelScores.empty() ? surfaceOf(i, L.modelPositions[i]) : StructureResult{});
+    if (!modelScored) model.push_back(ownModel ? surfaceOf(i, L.modelPositions[i]) : StructureResult{});
   }
-  const bool ownModel = initialised && sim.level() == 0;
-  const bool modelScored = ownModel && !L.modelScores.empty();  // by initialise(), beside the registration
-  if (modelScored) model = L.modelScores;
   const bool scoredBeside = backend && L.reading == std::launch::async;
   const auto scoreStart = [this, &initial, &model, ownModel, modelScored, scoredBeside] {
     const auto t1 = Clock::now();

@@ -70,7 +70,7 @@ void SceneRunner::initialise(std::vector<StructureSpec>& specs, const std::funct
       L.clock.lap("initialisation");  // its own stage, not counted twice
       // The model's placement does not depend on the registration, which runs on one thread: its
       // exact evaluation fills the others here instead of waiting, not after it (run()).
-      if (L.registration.beside && std::any_of(L.truth.begin(), L.truth.end(), [](const auto& t) { return t != nullptr; })) {
+      if (L.registration.beside && L.sampled) {  // the sampled error exists when some structure has a truth
         for (size_t i = 0; i < specs.size(); ++i) {
           StructureResult m;
           m.surface = tessellate(specs[i].levels.levels[0], L.modelPositions[i]);

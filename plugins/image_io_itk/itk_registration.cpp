@@ -210,22 +210,36 @@ RegistrationStage runStage(const char* name, TransformType* transform, const std
 }  // namespace
 
 namespace {
-// ITK on one thread while the registration's metric is made and run (the pyramid's filters are
-// given the threads explicitly: they compute each voxel on its own). With more threads in the
+// ITK's global default number of threads for a scope, restored to what it was after. Objects take
+// the global default when they are made (and so do the filters a filter makes for itself, whatever
+// its own work units: GradientRecursiveGaussianImageFilter's smoothing and derivative filters).
+class ItkDefaultThreads {
+public:
+  explicit ItkDefaultThreads(itk::ThreadIdType threads) : before_(itk::MultiThreaderBase::GetGlobalDefaultNumberOfThreads()) {
+    itk::MultiThreaderBase::SetGlobalDefaultNumberOfThreads(threads);
+  }
+  ~ItkDefaultThreads() { itk::MultiThreaderBase::SetGlobalDefaultNumberOfThreads(before_); }
+  itk::ThreadIdType before() const { return before_; }
+  ItkDefaultThreads(const ItkDefaultThreads&) = delete;
+  ItkDefaultThreads& operator=(const ItkDefaultThreads&) = delete;
+
+private:
+  itk::ThreadIdType before_;
+};
+
+// ITK on one thread while the registration's metric is made and run. With more threads in the
 // metric, the transform differs in its last digits from run to run (ITK 5.2's Mattes metric adds
 // the threads' joint-PDF derivatives into a shared buffer in whatever order its mutex is taken, and
 // capping the metric's work units alone did not make it repeat), and the segmentation after it by
-// up to 0.1 mm ASSD per structure. Objects take the global default when they are made, so the
-// others are not affected.
+// up to 0.1 mm ASSD per structure. What computes each voxel on its own (the pyramid's filters) or
+// sums its threads in order (the probe's value) is made inside an ItkDefaultThreads of
+// threadsBefore(): with one thread, each moving gradient took about 75 ms on the 2-core machine.
 // Registrations in one process run one at a time, so that each restores what it found. Other ITK
 // objects made meanwhile (a label map still being read) also get one thread: slower, not wrong.
 class SerialItk {
 public:
-  SerialItk() : lock_(mutex()), before_(itk::MultiThreaderBase::GetGlobalDefaultNumberOfThreads()) {
-    itk::MultiThreaderBase::SetGlobalDefaultNumberOfThreads(1);
-  }
-  ~SerialItk() { itk::MultiThreaderBase::SetGlobalDefaultNumberOfThreads(before_); }
-  itk::ThreadIdType threadsBefore() const { return before_; }  // for the filters that may use them
+  SerialItk() : lock_(mutex()) {}
+  itk::ThreadIdType threadsBefore() const { return one_.before(); }  // for what may use them
   SerialItk(const SerialItk&) = delete;
   SerialItk& operator=(const SerialItk&) = delete;
 
@@ -234,20 +248,8 @@ private:
     static std::mutex m;
     return m;
   }
-  std::lock_guard<std::mutex> lock_;
-  itk::ThreadIdType before_;
-};
-
-// Inside SerialItk, the global default raised again while objects that may use every thread are
-// made: filters that make filters of their own take it for those when they are made, not the outer
-// filter's work units (GradientRecursiveGaussianImageFilter's smoothing and derivative filters: with
-// one thread, each moving gradient took about 75 ms on the 2-core machine, whatever its work units).
-class AllItkThreads {
-public:
-  explicit AllItkThreads(itk::ThreadIdType threads) { itk::MultiThreaderBase::SetGlobalDefaultNumberOfThreads(threads); }
-  ~AllItkThreads() { itk::MultiThreaderBase::SetGlobalDefaultNumberOfThreads(1); }
-  AllItkThreads(const AllItkThreads&) = delete;
-  AllItkThreads& operator=(const AllItkThreads&) = delete;
+  std::lock_guard<std::mutex> lock_;  // before one_: set and restored under the lock
+  ItkDefaultThreads one_{1};
 };
 }  // namespace
 
@@ -263,7 +265,7 @@ RegistrationResult registerImagesItk(const Image3D& target, const Image3D& model
   checkCancelled();
   std::vector<PyramidLevel> pyramid;
   try {
-    const AllItkThreads all(threads);
+    const ItkDefaultThreads all(threads);
     pyramid = pyramidOf(fixed, moving, o.levels, threads);
   } catch (const itk::ExceptionObject& e) {
     throw InputError(std::string("registration, smoothing the images: ") + e.GetDescription());
@@ -288,7 +290,7 @@ RegistrationResult registerImagesItk(const Image3D& target, const Image3D& model
     // divergence check below.
     MetricType::Pointer probe;
     {
-      const AllItkThreads all(threads);
+      const ItkDefaultThreads all(threads);
       probe = MetricType::New();
     }
     probe->SetNumberOfHistogramBins(o.histogramBins);

@@ -175,7 +175,7 @@ private slots:
 
   // The optimiser's metrics run on one thread (their threads' derivative sums would not repeat),
   // while the pyramid's filters and the probe are made with every thread (itk_registration.cpp's
-  // AllItkThreads): the global default is 1 again at every question after the first (asked before
+  // ItkDefaultThreads): the global default is 1 again at every question after the first (asked before
   // SerialItk lowers it), and what it was before once the registration returns.
   void stagesRunOnOneThread() {
     if (!std::filesystem::exists(kTemplates / "ch2.nii.gz")) QSKIP("mricron-data is not installed");
