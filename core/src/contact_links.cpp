@@ -1,5 +1,7 @@
 #include "sinew/core/contact_links.h"
 
+#include <Eigen/Geometry>
+
 #include <cmath>
 #include <limits>
 #include <unordered_map>
@@ -59,11 +61,22 @@ ContactLinks findContactLinks(const MeshStore& store, std::span<const std::array
       it = grids.emplace(m, VertexGrid(ref, store.range(m).vertexBegin, store.range(m).vertexEnd, distanceMm)).first;
     return it->second;
   };
+  // Each structure's reference box grown by the distance: a vertex outside its partner's has no
+  // partner there, so pairs far apart (every pair of a scene declared, most of them across the
+  // brain) cost a box test instead of a grid and a query per vertex.
+  std::vector<Eigen::AlignedBox3f> reach(store.meshCount());
+  for (Index m = 0; m < store.meshCount(); ++m) {
+    for (Index v = store.range(m).vertexBegin; v < store.range(m).vertexEnd; ++v) reach[m].extend(ref[v]);
+    const float grow = distanceMm * 1.001f + 1e-3f;  // a little more, against rounding at the edge
+    if (!reach[m].isEmpty()) reach[m].min().array() -= grow, reach[m].max().array() += grow;
+  }
   for (const auto& pair : pairs)
     for (int side = 0; side < 2; ++side) {
       const Index own = pair[side], other = pair[1 - side];
+      if (!reach[own].intersects(reach[other])) continue;
       const VertexGrid& grid = gridOf(other);
       for (Index v = store.range(own).vertexBegin; v < store.range(own).vertexEnd; ++v) {
+        if (!reach[other].contains(ref[v])) continue;
         const auto [j, d2] = grid.nearest(ref[v], distanceMm);
         if (j < 0 || d2 >= bestD2[v]) continue;
         bestD2[v] = d2;

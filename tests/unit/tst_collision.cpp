@@ -384,6 +384,46 @@ private slots:
     QCOMPARE(findContactLinks(store, without->scene().contactPairs(), 2.0f).linked, Index(0));
   }
 
+  // Every pair of a scene may be declared (sinew-make-scene declares them all): the links are still
+  // exactly those of a search of every vertex of every partner, the nearest within the distance.
+  // Two spheres 1.5 mm apart (their facing vertices lie outside each other's box, within its reach)
+  // and a third far away, declared with both.
+  void contactLinksOfEveryPairMatchASearchOfEveryVertex() {
+    Simulation sim(forceRegistry(), 2);
+    const Vec3 centres[3] = {Vec3::Zero(), Vec3(21.5f, 0, 0), Vec3(0, 60, 0)};
+    for (int k = 0; k < 3; ++k) {
+      StructureSpec s = sphereStructure(std::string(1, char('a' + k)), 3, 10.0f, centres[k]);
+      s.referencePositions = s.initialPositions;
+      sim.addStructure(std::move(s));
+    }
+    sim.addForce("shape_prior");
+    sim.scene().contactPairs() = {{0, 1}, {0, 2}, {1, 2}};
+    sim.setIntegrator("damped_verlet");
+    sim.initialize();
+    const MeshStore& store = sim.store();
+    const float distance = 2.0f;
+    const ContactLinks links = findContactLinks(store, sim.scene().contactPairs(), distance);
+    const auto ref = store.referencePositions();
+    const auto meshOf = store.meshOfVertex();
+    Index expected = 0;
+    for (Index v = 0; v < store.vertexCount(); ++v) {
+      float best = distance * distance;
+      bool any = false;
+      for (const auto& pair : sim.scene().contactPairs()) {
+        if (pair[0] != meshOf[v] && pair[1] != meshOf[v]) continue;
+        const Index other = pair[0] == meshOf[v] ? pair[1] : pair[0];
+        for (Index j = store.range(other).vertexBegin; j < store.range(other).vertexEnd; ++j)
+          if ((ref[v] - ref[j]).squaredNorm() < best) best = (ref[v] - ref[j]).squaredNorm(), any = true;
+      }
+      expected += any;
+      QCOMPARE(links.partner[v] >= 0, any);
+      if (any) QCOMPARE((ref[v] - ref[links.partner[v]]).squaredNorm(), best);
+    }
+    qInfo("%d of %d vertices linked", int(links.linked), int(store.vertexCount()));
+    QVERIFY(expected > 0);
+    QCOMPARE(links.linked, expected);
+  }
+
   // The contact regions a view shows: the vertices inside the other sphere (or within the margin)
   // and no others; none once the spheres are apart.
   void contactMaskMarksTheOverlap() {

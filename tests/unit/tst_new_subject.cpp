@@ -87,6 +87,18 @@ private slots:
     const QJsonObject scene = readJson(scene_);
     QVERIFY(scene["initialise"].toObject()["registration"].toString() == "affine");
     QVERIFY(!scene["structures"].toArray()[0].toObject().contains("initial"));  // no random perturbation
+    // Deforming contacts between every pair of structures, released at the finest level
+    // (docs/collisions.md: they hold the registered model's relative placement at the coarser ones).
+    QCOMPARE(scene["contact_pairs"].toArray().size(), 6);
+    QCOMPARE(scene["forces"].toObject()["contacts"].toObject()["weight"].toDouble(), 0.3);
+    const QJsonArray levels = scene["schedule"].toArray();
+    QCOMPARE(levels.last().toObject()["forces"].toObject()["contacts"].toObject()["weight"].toDouble(), 0.0);
+    QVERIFY(!levels.first().toObject()["forces"].toObject().contains("contacts"));
+    r = runTool(SINEW_MAKE_SCENE, {"--model", model_, "--target", subject_ + "/image.nii.gz", "--structures",
+                                   "Hippocampus_L,Amygdala_L", "--contact-weight", "0", "-o", path("nocontacts.json")});
+    QVERIFY2(r.code == 0, qPrintable(r.err));
+    QVERIFY(!readJson(path("nocontacts.json")).contains("contact_pairs"));
+    QVERIFY(!readJson(path("nocontacts.json"))["forces"].toObject().contains("contacts"));
     run_ = path("run");
     r = runTool(SINEW_RUN, {scene_, "-o", run_, "-q", "--backend", "cpu"});
     QVERIFY2(r.code == 0, qPrintable(r.err));
@@ -215,6 +227,7 @@ private slots:
     Result r = runTool(SINEW_MAKE_SCENE, {"--model", model_, "--target", subject_ + "/image.nii.gz", "--structures",
                                           "Amygdala_L", "--iterations", "20,10,5", "-o", path("nogt.json")});
     QVERIFY2(r.code == 0, qPrintable(r.err));
+    QVERIFY(!readJson(path("nogt.json")).contains("contact_pairs"));  // one structure: no pairs
     r = runTool(SINEW_RUN, {path("nogt.json"), "-o", path("nogt"), "-q", "--backend", "cpu"});
     QVERIFY2(r.code == 0, qPrintable(r.err));
     QVERIFY2(r.out.contains("displacement mm"), qPrintable(r.out));
