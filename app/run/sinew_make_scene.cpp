@@ -88,7 +88,7 @@ int main(int argc, char** argv) {
                  "structures within 2 mm of each other) at every level but the finest, for scenes of two or more "
                  "structures (default: " + [] { std::ostringstream o; o << kSubjectContactWeight; return o.str(); }() +
                      " in subject mode, 0 in demo mode; 0: off)")
-      ->check(CLI::Range(0.0, 10.0));
+      ->check(CLI::Range(0.0, 1.0));  // the force's weight, as every force's, is in [0, 1]
   cli.add_option("-o,--output", output, "scene file to write")->capture_default_str();
   cli.set_version_flag("--version", std::string("sinew-make-scene ") + SINEW_VERSION);
   try {
