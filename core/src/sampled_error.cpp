@@ -47,50 +47,70 @@ void SampledError::groupIntoPatches(const std::vector<SurfaceSample>& samples, i
   }
 }
 
-bool SampledError::prepare(MeshStore& store) {
+bool SampledError::buildTrees(MeshStore& store, bool wide) {
   if (store.meshCount() != Index(truthRoots_.size())) throw std::logic_error("sampled error: structure count changed");
   const Index nv = store.vertexCount();
-  if (builtFor_ == nv) return false;
-  meshes_ = {};
-  meshRoots_.clear();
-  triangleStructure_.clear();
-  meshTriangleOffsets_.assign(1, 0);
+  if (builtFor_ == nv) {
+    if (wide) store.executor().forEach(Index(meshTrees_.size()), [&](Index m) { meshTrees_[m].requireWide(); }, 1);
+    return false;
+  }
   const auto x = store.positions();
-  // The structures' trees side by side (appended in order afterwards, so the result does not depend
-  // on threads): built at each level's first sample, on the run's path, the device's run's too.
-  std::vector<TriangleBvh> trees(store.meshCount());
+  // The structures' trees side by side: built at each level's first sample, on the run's path, the
+  // device's run's too.
+  meshTrees_.assign(store.meshCount(), {});
   store.executor().forEach(
       store.meshCount(),
       [&](Index m) {
         const MeshRange& r = store.range(m);
         const auto local = store.mesh(x, m);
-        trees[m] = TriangleBvh::build(tessellate(store.topologyOf(m), std::vector<Vec3>(local.begin(), local.end())));
-        for (auto& tri : trees[m].triangles)  // local indices to the points' layout
+        TriangleBvh& tree = meshTrees_[m];
+        tree = TriangleBvh::build(tessellate(store.topologyOf(m), std::vector<Vec3>(local.begin(), local.end())));
+        if (wide) tree.requireWide();
+        for (auto& tri : tree.triangles)  // local indices to the points' layout
           for (Index& k : tri) k = k < r.vertexCount() ? r.vertexBegin + k : nv + r.cellBegin + (k - r.vertexCount());
       },
       1);
+  triangleStructure_.clear();
+  meshTriangleOffsets_.assign(1, 0);
+  double longest = 0.0;  // the tessellation's mean longest edge, at the level's first positions
   for (Index m = 0; m < store.meshCount(); ++m) {
-    meshRoots_.push_back(meshes_.append(trees[m]));
-    meshTriangleOffsets_.push_back(Index(meshes_.triangles.size()));
-    triangleStructure_.resize(meshes_.triangles.size(), int(m));
+    const std::vector<collision::P3>& corners = meshTrees_[m].corners;
+    meshTriangleOffsets_.push_back(meshTriangleOffsets_.back() + Index(meshTrees_[m].triangles.size()));
+    triangleStructure_.resize(meshTriangleOffsets_.back(), int(m));
+    for (const collision::P3* c = corners.data(); c != corners.data() + corners.size(); c += 3) {
+      const collision::P3 e[3] = {collision::sub(c[1], c[0]), collision::sub(c[2], c[1]), collision::sub(c[0], c[2])};
+      longest += std::sqrt(std::max({collision::dot3(e[0], e[0]), collision::dot3(e[1], e[1]), collision::dot3(e[2], e[2])}));
+    }
   }
   builtFor_ = nv;
-  double longest = 0.0;  // the tessellation's mean longest edge, at the level's first positions
-  for (const collision::P3* c = meshes_.corners.data(); c != meshes_.corners.data() + meshes_.corners.size(); c += 3) {
-    const collision::P3 e[3] = {collision::sub(c[1], c[0]), collision::sub(c[2], c[1]), collision::sub(c[0], c[2])};
-    longest += std::sqrt(std::max({collision::dot3(e[0], e[0]), collision::dot3(e[1], e[1]), collision::dot3(e[2], e[2])}));
-  }
+  combinedFor_ = -1;
+  const Index triangles = meshTriangleOffsets_.back();
   // One sample per triangle up to 1.25 times the truth's spacing: on the Colin27 test scene
   // (tst_sampled_error) the worst difference to the exact evaluation went from 0.0044 to 0.0059 mm
   // (ASSD) with it, and to 0.0124 mm with one sample at every level.
-  perTriangle_ = longest <= 1.25 * spacing_ * double(meshes_.triangles.size()) ? 1 : kSubTriangles;
-  truthHint_.assign(perTriangle_ * meshes_.triangles.size(), -1);
+  perTriangle_ = longest <= 1.25 * spacing_ * double(triangles) ? 1 : kSubTriangles;
+  truthHint_.assign(perTriangle_ * triangles, -1);
   planeHint_.assign(patchCentres_.size(), -1);
   return true;
 }
 
+bool SampledError::prepare(MeshStore& store) {
+  const bool rebuilt = buildTrees(store, false);
+  if (combinedFor_ == builtFor_) return rebuilt;
+  // The device's copy: every structure's tree in one, in order.
+  meshes_ = {};
+  meshRoots_.clear();
+  meshes_.reserveFor(meshTrees_);
+  for (const TriangleBvh& tree : meshTrees_) meshRoots_.push_back(meshes_.append(tree));
+  combinedFor_ = builtFor_;
+  return true;
+}
+
 std::vector<std::optional<SurfaceDistanceStats>> SampledError::measure(MeshStore& store) {
-  prepare(store);
+  // The host searches each structure's tree through its wide tree (TriangleBvh::requireWide), made
+  // only here: a device measures on prepare's combined binary tree.
+  buildTrees(store, true);
+  truth_.requireWide();  // the truths' came with their queries' trees
   const auto x = store.positions();
   const auto offsets = store.cellOffsets();
   const auto cellVertices = store.cellVertices();
@@ -103,33 +123,34 @@ std::vector<std::optional<SurfaceDistanceStats>> SampledError::measure(MeshStore
     for (Index i = offsets[c]; i < offsets[c + 1]; ++i) sum += x[cellVertices[i]];
     points_[nv + c] = sum / float(offsets[c + 1] - offsets[c]);
   });
-  meshes_.refit(points_, ex);
-  const trianglebvh::View mesh = meshes_.view();
-  const trianglebvh::View truth = truth_.view();
+  ex.forEach(Index(meshTrees_.size()), [&](Index m) { meshTrees_[m].refit(points_, ex); }, 1);
+  const trianglebvh::WideView truth = truth_.wideView();
   const int per = perTriangle_;
-  toTruth_.assign(per * meshes_.triangles.size(), {0.0f, 0.0f});
+  const Index triangles = meshTriangleOffsets_.back();
+  toTruth_.assign(per * triangles, {0.0f, 0.0f});
   fromTruth_.resize(samples_.size());
   // One parallel pass over every structure's searches in both directions: a pass per structure and
   // direction left most threads idle at each one's end on a many-core host.
-  const Index triangles = Index(meshes_.triangles.size());
   ex.forEach(
       triangles + Index(patchCentres_.size()),
       [&](Index i) {
         if (i < triangles) {
-          const int root = truthRoots_[triangleStructure_[i]];
+          const int m = triangleStructure_[i];
+          const int root = truthRoots_[m];
           if (root < 0) return;
-          const collision::P3* c = mesh.corners + 3 * i;
+          const collision::P3* c = meshTrees_[m].corners.data() + 3 * (i - meshTriangleOffsets_[m]);
           const collision::P3 n = collision::cross3(collision::sub(c[1], c[0]), collision::sub(c[2], c[0]));
           const float area = 0.5f * std::sqrt(collision::dot3(n, n)) / float(per);
           for (int q = 0; q < per; ++q) {
             const collision::P3 p = subTriangleCentroid(c[0], c[1], c[2], q, per);
-            const float d2 = trianglebvh::closestSquaredDistanceFrom(truth, root, p, truthHint_[per * i + q]);
+            const float d2 = trianglebvh::closestSquaredDistanceFrom(truth, truth_.wideRoot(root), p, truthHint_[per * i + q]);
             toTruth_[per * i + q] = {std::sqrt(d2), area};
           }
           return;
         }
         const Index k = i - triangles;
-        planes_[k] = trianglebvh::closestTangentPlane(mesh, meshRoots_[patchStructure_[k]], patchCentres_[k], &planeHint_[k]);
+        const TriangleBvh& mesh = meshTrees_[patchStructure_[k]];
+        planes_[k] = trianglebvh::closestTangentPlane(mesh.wideView(), mesh.wideRoot(0), patchCentres_[k], &planeHint_[k]);
       },
       64);
   ex.forEach(Index(samples_.size()), [&](Index k) {

@@ -1,6 +1,7 @@
 #include "sinew/core/surface_distance.h"
 
 #include "sinew/core/executor.h"
+#include "sinew/core/triangle_bvh_wide.h"
 
 #include <Eigen/Geometry>
 
@@ -10,6 +11,10 @@
 #include <numeric>
 
 namespace sinew {
+
+float trianglebvh::closestSquaredDistance(const WideView& v, int wideRoot, P3 p, float maxD2, P3* closest, int* triangle) {
+  return walk(v, wideRoot, p, maxD2, closest, triangle);
+}
 
 namespace {
 // Splits by the surface area heuristic along the longest axis of the triangles' centroids: the
@@ -108,6 +113,83 @@ struct Builder {
     return id;
   }
 };
+
+float surfaceArea(const collision::Box& b) { return b.lo.x > b.hi.x ? 0.0f : halfArea(b); }
+
+// The wide node over binary node `root`'s subtree (triangle_bvh_wide.h): its children, then the
+// largest (by box area) inner one replaced by its two until there are four or only leaves; each
+// inner child collapsed in turn. Returns its index in bvh.wide.
+int collapse(TriangleBvh& bvh, int root) {
+  using trianglebvh::kWideChildren;
+  const std::vector<trianglebvh::Node>& nodes = bvh.nodes;
+  int slot[kWideChildren];
+  int count = 0;
+  if (nodes[root].left < 0) {
+    slot[count++] = root;  // a root that is a leaf: one child
+  } else {
+    slot[count++] = nodes[root].left, slot[count++] = nodes[root].right;
+  }
+  while (count < kWideChildren) {
+    int widest = -1;
+    for (int k = 0; k < count; ++k)
+      if (nodes[slot[k]].left >= 0 && (widest < 0 || surfaceArea(nodes[slot[k]].box) > surfaceArea(nodes[slot[widest]].box)))
+        widest = k;
+    if (widest < 0) break;
+    const trianglebvh::Node& n = nodes[slot[widest]];
+    slot[widest] = n.left, slot[count++] = n.right;
+  }
+  const int id = int(bvh.wide.size());
+  bvh.wide.emplace_back();
+  std::array<int, kWideChildren> source;
+  source.fill(-1);
+  for (int k = 0; k < count; ++k) source[k] = slot[k];
+  bvh.wideSource.push_back(source);
+  bvh.wideOf[std::size_t(root)] = id;
+  int child[kWideChildren] = {-1, -1, -1, -1};  // unused slots: never opened (empty boxes)
+  for (int k = 0; k < count; ++k) {
+    const trianglebvh::Node& n = bvh.nodes[slot[k]];
+    if (n.left >= 0) {
+      child[k] = collapse(bvh, slot[k]);
+      continue;
+    }
+    child[k] = -1 - int(bvh.wideLeaves.size());
+    trianglebvh::WideLeaf leaf{};
+    leaf.first = n.first, leaf.count = n.count;
+    bvh.wideLeaves.push_back(leaf);  // its corners: copyWideLeaves
+  }
+  for (int k = 0; k < kWideChildren; ++k) bvh.wide[std::size_t(id)].child[k] = child[k];
+  return id;
+}
+
+// Every wide leaf's corners from the corners (lanes past a leaf's count repeat its first triangle).
+void copyWideLeaves(TriangleBvh& bvh, const Executor* executor) {
+  auto fill = [&](Index i) {
+    trianglebvh::WideLeaf& l = bvh.wideLeaves[std::size_t(i)];
+    for (int k = 0; k < trianglebvh::kWideChildren; ++k) {
+      const collision::P3* c = bvh.corners.data() + 3 * (l.first + (k < l.count ? k : 0));
+      l.ax[k] = c[0].x, l.ay[k] = c[0].y, l.az[k] = c[0].z;
+      l.bx[k] = c[1].x, l.by[k] = c[1].y, l.bz[k] = c[1].z;
+      l.cx[k] = c[2].x, l.cy[k] = c[2].y, l.cz[k] = c[2].z;
+    }
+  };
+  if (executor)
+    executor->forEach(Index(bvh.wideLeaves.size()), fill);
+  else
+    for (Index i = 0; i < Index(bvh.wideLeaves.size()); ++i) fill(i);
+}
+
+// Every wide node's children's boxes from the binary nodes they stand for.
+void copyWideBoxes(TriangleBvh& bvh) {
+  for (std::size_t w = 0; w < bvh.wide.size(); ++w) {
+    trianglebvh::WideNode& n = bvh.wide[w];
+    for (int k = 0; k < trianglebvh::kWideChildren; ++k) {
+      const int s = bvh.wideSource[w][std::size_t(k)];
+      const collision::Box b = s >= 0 ? bvh.nodes[std::size_t(s)].box : collision::emptyBox();
+      n.loX[k] = b.lo.x, n.loY[k] = b.lo.y, n.loZ[k] = b.lo.z;
+      n.hiX[k] = b.hi.x, n.hiY[k] = b.hi.y, n.hiZ[k] = b.hi.z;
+    }
+  }
+}
 }  // namespace
 
 TriangleBvh TriangleBvh::build(const TriangleMesh& mesh) {
@@ -123,6 +205,14 @@ TriangleBvh TriangleBvh::build(const TriangleMesh& mesh) {
   return bvh;
 }
 
+void TriangleBvh::reserveFor(std::span<const TriangleBvh> trees) {
+  std::size_t n = nodes.size(), t = triangles.size(), w = wide.size(), l = wideLeaves.size();
+  for (const TriangleBvh& tree : trees)
+    n += tree.nodes.size(), t += tree.triangles.size(), w += tree.wide.size(), l += tree.wideLeaves.size();
+  nodes.reserve(n), triangles.reserve(t), corners.reserve(3 * t);
+  wide.reserve(w), wideSource.reserve(w), wideOf.reserve(n), wideLeaves.reserve(l);
+}
+
 int TriangleBvh::append(const TriangleBvh& other, Index pointShift) {
   const int root = int(nodes.size()), shift = int(corners.size() / 3);
   for (trianglebvh::Node n : other.nodes) {
@@ -132,6 +222,26 @@ int TriangleBvh::append(const TriangleBvh& other, Index pointShift) {
   }
   corners.insert(corners.end(), other.corners.begin(), other.corners.end());
   for (auto t : other.triangles) triangles.push_back({t[0] + pointShift, t[1] + pointShift, t[2] + pointShift});
+  if (!other.hasWide() || (root > 0 && !hasWide())) {  // no longer the whole tree's
+    wide.clear(), wideLeaves.clear(), wideSource.clear(), wideOf.clear();
+    return root;
+  }
+  const int wideShift = int(wide.size()), leafShift = int(wideLeaves.size());
+  for (std::size_t w = 0; w < other.wide.size(); ++w) {
+    trianglebvh::WideNode n = other.wide[w];
+    for (int k = 0; k < trianglebvh::kWideChildren; ++k)
+      if (other.wideSource[w][std::size_t(k)] >= 0) n.child[k] += n.child[k] >= 0 ? wideShift : -leafShift;
+    wide.push_back(n);
+  }
+  for (trianglebvh::WideLeaf l : other.wideLeaves) {
+    l.first += shift;
+    wideLeaves.push_back(l);
+  }
+  for (auto source : other.wideSource) {
+    for (int& s : source) s = s >= 0 ? s + root : s;
+    wideSource.push_back(source);
+  }
+  for (int w : other.wideOf) wideOf.push_back(w >= 0 ? w + wideShift : w);
   return root;
 }
 
@@ -149,20 +259,36 @@ void TriangleBvh::refit(std::span<const Vec3> points, const Executor& executor) 
     n.box = collision::emptyBox();
     for (int i = 3 * n.first; i < 3 * (n.first + n.count); ++i) collision::extend(n.box, corners[i]);
   }
+  if (!wideOf.empty()) {
+    copyWideBoxes(*this);
+    copyWideLeaves(*this, &executor);
+  }
+}
+
+void TriangleBvh::requireWide(const Executor* executor) {
+  if (!wideOf.empty() || nodes.empty()) return;
+  wideOf.assign(nodes.size(), -1);
+  std::vector<char> isChild(nodes.size(), 0);
+  for (const trianglebvh::Node& n : nodes)
+    if (n.left >= 0) isChild[std::size_t(n.left)] = isChild[std::size_t(n.right)] = 1;
+  for (std::size_t root = 0; root < nodes.size(); ++root)
+    if (!isChild[root]) collapse(*this, int(root));
+  copyWideBoxes(*this);
+  copyWideLeaves(*this, executor);
 }
 
 float SurfaceDistanceQuery::distance(const Vec3& p) const {
-  return std::sqrt(trianglebvh::closestSquaredDistance(bvh_.view(), 0, asP3(p), 3.0e38f));
+  return std::sqrt(trianglebvh::closestSquaredDistance(bvh_.wideView(), bvh_.wideRoot(0), asP3(p), 3.0e38f));
 }
 SurfaceDistanceQuery::Closest SurfaceDistanceQuery::closest(const Vec3& p) const {
   collision::P3 q = asP3(p);
   int t = 0;
-  const float d2 = trianglebvh::closestSquaredDistance(bvh_.view(), 0, asP3(p), 3.0e38f, &q, &t);
+  const float d2 = trianglebvh::closestSquaredDistance(bvh_.wideView(), bvh_.wideRoot(0), asP3(p), 3.0e38f, &q, &t);
   return {asVec3(q), std::sqrt(d2), bvh_.triangles[std::size_t(t)]};
 }
 Vec3 SurfaceDistanceQuery::closestPoint(const Vec3& p) const {
   collision::P3 q = asP3(p);
-  trianglebvh::closestSquaredDistance(bvh_.view(), 0, asP3(p), 3.0e38f, &q);
+  trianglebvh::closestSquaredDistance(bvh_.wideView(), bvh_.wideRoot(0), asP3(p), 3.0e38f, &q);
   return asVec3(q);
 }
 

@@ -90,6 +90,72 @@ private slots:
     }
   }
 
+  // The host's wide walk (triangle_bvh_wide.h) against the binary one the device runs, over several
+  // trees appended into one, then moved (refit): the same distances up to the rounding of triangles
+  // equally near, from every root, and the closest point at that distance. Twice: the wide tree
+  // made over every root after appending, and appended with each tree's. Also the wide tree's depth
+  // against its walk's stack.
+  void wideWalkEqualsTheBinaryOneAfterAppendAndRefit_data() {
+    QTest::addColumn<bool>("appendWide");
+    QTest::newRow("made after appending") << false;
+    QTest::newRow("appended") << true;
+  }
+  void wideWalkEqualsTheBinaryOneAfterAppendAndRefit() {
+    QFETCH(bool, appendWide);
+    TriangleMesh copies;
+    copies.points = {{0, 0, 0}, {4, 0, 0}, {0, 4, 1}};
+    for (int i = 0; i < 300; ++i) copies.triangles.push_back({0, 1, 2});
+    TriangleMesh small;  // a root that is a leaf: three triangles
+    small.points = {{5, 5, 5}, {7, 5, 5}, {5, 7, 5}, {5, 5, 7}};
+    small.triangles = {{0, 1, 2}, {0, 1, 3}, {0, 2, 3}};
+    const std::vector<TriangleMesh> meshes = {ellipsoidSurface(Vec3(1, 2, 3), Vec3(10, 6, 4), 4), copies, small,
+                                              icosphere(4, 5.0f, Vec3(-8, 0, 2))};
+    std::vector<TriangleBvh> trees;
+    for (const TriangleMesh& m : meshes) {
+      trees.push_back(TriangleBvh::build(m));
+      if (appendWide) trees.back().requireWide();
+    }
+    TriangleBvh all;
+    all.reserveFor(trees);
+    std::vector<int> roots;
+    std::vector<Vec3> points;
+    for (size_t i = 0; i < meshes.size(); ++i) {
+      roots.push_back(all.append(trees[i], Index(points.size())));
+      points.insert(points.end(), meshes[i].points.begin(), meshes[i].points.end());
+    }
+    QCOMPARE(all.hasWide(), appendWide);
+    all.requireWide();
+    std::mt19937 random(11);
+    std::uniform_real_distribution<float> jitter(-0.3f, 0.3f), coordinate(-14.0f, 14.0f);
+    for (Vec3& p : points) p = 1.1f * p + Vec3(jitter(random), jitter(random), jitter(random));
+    all.refit(points, Executor(1));
+    std::vector<int> depth(all.wide.size(), 1);  // children come after their parents: one pass
+    int deepest = 1;
+    for (size_t w = 0; w < all.wide.size(); ++w)
+      for (int c : all.wide[w].child)
+        if (c > 0) deepest = std::max(deepest, depth[size_t(c)] = depth[w] + 1);
+    QVERIFY2(3 * deepest + 4 < trianglebvh::kWideStackDepth, qPrintable(QString("wide tree %1 deep").arg(deepest)));
+    std::vector<size_t> firstTriangle = {0};
+    for (const TriangleBvh& t : trees) firstTriangle.push_back(firstTriangle.back() + t.triangles.size());
+    int differentPicks = 0;
+    for (size_t m = 0; m < roots.size(); ++m)
+      for (int k = 0; k < 1000; ++k) {
+        const int root = roots[m];
+        const collision::P3 p = asP3(Vec3(coordinate(random), coordinate(random), coordinate(random)));
+        collision::P3 qb{}, qw{};
+        int tb = -1, tw = -1;
+        const float binary = trianglebvh::closestSquaredDistance(all.view(), root, p, 3.0e38f, &qb, &tb);
+        const float wide = trianglebvh::closestSquaredDistance(all.wideView(), all.wideRoot(root), p, 3.0e38f, &qw, &tw);
+        QVERIFY2(std::abs(wide - binary) <= 1e-6f * std::max(binary, 1.0f),
+                 qPrintable(QString("root %1: %2 against %3").arg(root).arg(wide).arg(binary)));
+        const collision::P3 d = collision::sub(p, qw);
+        QVERIFY(std::abs(collision::dot3(d, d) - wide) <= 1e-5f * std::max(wide, 1.0f));
+        QVERIFY(size_t(tw) >= firstTriangle[m] && size_t(tw) < firstTriangle[m + 1]);  // this root's mesh
+        differentPicks += tb != tw;
+      }
+    qInfo("triangles picked differently (equally near): %d of %d searches", differentPicks, int(roots.size()) * 1000);
+  }
+
   void concentricSpheres() {
     // ASSD between spheres of radius 10 and 11 is 1 (both directions), up to tessellation error.
     const TriangleMesh a = icosphere(5, 10.0f), b = icosphere(5, 11.0f);

@@ -13,15 +13,17 @@
 //   (the meshes move little between samples), which prunes most of the walk and changes no distance;
 // - truth to mesh: the truth sampled at a coarser spacing than the exact evaluation's (sampleSurface),
 //   the samples grouped into patches (cubes of kPatchMm, per structure); one search per patch, from
-//   its centre into a hierarchy of the tessellation (built once per level, refitted at each sample),
-//   gives the tessellation's tangent plane there (starting, like the other direction, bounded by the
-//   distance to last time's nearest triangle), and each of the patch's samples is its distance to
-//   that plane (trianglebvh::planeDistance). The tessellation is smooth at this scale, unlike the
-//   truth (a label surface), so this direction is the one that can be approximated: on the demo the
-//   searches drop from 77,452 to 14,869 while the largest difference to the exact ASSD rises from
-//   0.0073 to 0.0087 mm (HD95 unchanged, 0.041 mm); the other direction stays exact;
+//   its centre into a hierarchy of the tessellation (built once per level, a tree per structure,
+//   refitted at each sample), gives the tessellation's tangent plane there (starting, like the
+//   other direction, bounded by the distance to last time's nearest triangle), and each of the
+//   patch's samples is its distance to that plane (trianglebvh::planeDistance). The tessellation is
+//   smooth at this scale, unlike the truth (a label surface), so this direction is the one that can
+//   be approximated: on the demo the searches drop from 77,452 to 14,869 while the largest
+//   difference to the exact ASSD rises from 0.0073 to 0.0087 mm (HD95 unchanged, 0.041 mm); the
+//   other direction stays exact;
 // - HD95 from a histogram of 0.005 mm bins instead of a sort.
-// The CUDA backend runs the same inline queries in its kernels (ExecutionBackend::measureError).
+// On the host the searches walk the trees' wide form (triangle_bvh_wide.h: the same distances). The
+// CUDA backend runs the binary trees' inline queries in its kernels (ExecutionBackend::measureError).
 #pragma once
 
 #include "sinew/core/mesh_store.h"
@@ -44,8 +46,9 @@ public:
   // ASSD and HD95 of every structure with a truth, for the store's current positions.
   std::vector<std::optional<SurfaceDistanceStats>> measure(MeshStore& store);
 
-  // For a backend measuring on its device: prepare() builds the tessellations' hierarchy when the
-  // store's topology changed (true then); the backend refits it, fills the samples in the layout
+  // For a backend measuring on its device: prepare() builds the tessellations' hierarchy, all
+  // structures' in one (meshes()), when the store's topology changed (true then, and when measure()
+  // had built the level's trees without it); the backend refits it, fills the samples in the layout
   // below and hands them to summarise().
   bool prepare(MeshStore& store);
   // Mesh to truth: samplesPerTriangle() per tessellation triangle (meshes().triangles order);
@@ -63,7 +66,7 @@ public:
   const std::vector<collision::P3>& patchCentres() const { return patchCentres_; }
   const std::vector<int>& patchStructure() const { return patchStructure_; }
   const std::vector<int>& samplePatch() const { return samplePatch_; }
-  // The tessellations; their points are the store's vertices, then its cell centres.
+  // The tessellations (after prepare()); their points are the store's vertices, then its cell centres.
   const TriangleBvh& meshes() const { return meshes_; }
   const std::vector<int>& meshRoots() const { return meshRoots_; }
   const std::vector<Index>& meshTriangleOffsets() const { return meshTriangleOffsets_; }  // per structure, and the end
@@ -71,16 +74,21 @@ public:
   int samplesPerTriangle() const { return perTriangle_; }  // 1 or kSubTriangles, for the current level
 
 private:
+  // Every structure's tessellation tree, when the store's topology changed (true then); wide: with
+  // the host's search trees (TriangleBvh::requireWide), made now if the trees were there without.
+  bool buildTrees(MeshStore& store, bool wide);
   void groupIntoPatches(const std::vector<SurfaceSample>& samples, int structure);
 
   TriangleBvh truth_;
   std::vector<int> truthRoots_;
   std::vector<SurfaceSample> samples_;
   std::vector<Index> sampleOffsets_;
-  TriangleBvh meshes_;
+  std::vector<TriangleBvh> meshTrees_;  // per structure (the host's searches)
+  TriangleBvh meshes_;                  // all of them in one (the device's), made by prepare()
   std::vector<int> meshRoots_;
   std::vector<Index> meshTriangleOffsets_;
-  Index builtFor_ = -1;  // the vertex count (the level) the tessellations were built for
+  Index builtFor_ = -1;     // the vertex count (the level) the tessellations were built for
+  Index combinedFor_ = -1;  // and meshes_
   float spacing_;
   int perTriangle_ = kSubTriangles;
   std::vector<Vec3> points_;

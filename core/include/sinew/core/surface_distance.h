@@ -3,7 +3,7 @@
 #pragma once
 
 #include "sinew/core/executor.h"
-#include "sinew/core/triangle_bvh.h"
+#include "sinew/core/triangle_bvh_wide.h"
 #include "sinew/core/triangle_mesh.h"
 
 #include <span>
@@ -22,20 +22,36 @@ struct TriangleBvh {
   std::vector<trianglebvh::Node> nodes;          // pre-order, root first
   std::vector<trianglebvh::P3> corners;          // three per triangle, in leaf order
   std::vector<std::array<Index, 3>> triangles;   // the mesh's point indices, in leaf order (for refit)
+  // The host's searches' tree (triangle_bvh_wide.h), made on request (requireWide): the same tree
+  // in nodes of four children and its leaves' triangles side by side; each child's node in `nodes`
+  // (-1: an unused slot), and each root's wide node (-1 for other nodes). Kept by refit and by
+  // append when both trees have it (else dropped); the device's searches use the binary tree alone.
+  std::vector<trianglebvh::WideNode> wide;
+  std::vector<trianglebvh::WideLeaf> wideLeaves;
+  std::vector<std::array<int, trianglebvh::kWideChildren>> wideSource;
+  std::vector<int> wideOf;
 
   // Throws InputError for a mesh without triangles.
   static TriangleBvh build(const TriangleMesh& mesh);
-  trianglebvh::View view() const { return {nodes.data(), corners.data()}; }
-  // Appends `other` (its indices shifted; its point indices by pointShift); returns its root.
+  // Room for appending `trees` (one allocation per array instead of a growth per append).
+  void reserveFor(std::span<const TriangleBvh> trees);
+  // Appends `other` (its indices shifted; its point indices by pointShift); returns its root. The
+  // wide tree is appended too where both have one (or this one is empty), else dropped.
   int append(const TriangleBvh& other, Index pointShift = 0);
-  // The same mesh moved to `points`: corners and boxes again, the tree kept.
+  // The wide tree over every root, unless it is there already.
+  void requireWide(const Executor* executor = nullptr);
+  bool hasWide() const { return !wideOf.empty(); }
+  // The same mesh moved to `points`: corners and boxes again (the wide tree's too), the tree kept.
   void refit(std::span<const Vec3> points, const Executor& executor);
+  trianglebvh::View view() const { return {nodes.data(), corners.data()}; }
+  trianglebvh::WideView wideView() const { return {wide.data(), wideLeaves.data(), corners.data()}; }
+  int wideRoot(int root) const { return wideOf[std::size_t(root)]; }  // requireWide first
 };
 
 // Exact point-to-triangle-mesh distance.
 class SurfaceDistanceQuery {
 public:
-  explicit SurfaceDistanceQuery(const TriangleMesh& mesh) : bvh_(TriangleBvh::build(mesh)) {}
+  explicit SurfaceDistanceQuery(const TriangleMesh& mesh) : bvh_(TriangleBvh::build(mesh)) { bvh_.requireWide(); }
   float distance(const Vec3& p) const;
   Vec3 closestPoint(const Vec3& p) const;
   // The closest point, its distance and the mesh's triangle (point indices) it lies on.

@@ -73,24 +73,12 @@ SINEW_HD float closestSquaredDistance(const View& v, int root, P3 p, float maxD2
   return best;
 }
 
-// The squared distance from p to triangle t, its closest point in q: a search's starting bound.
-SINEW_HD float squaredDistanceToTriangle(const View& v, int t, P3 p, P3& q) {
-  q = collision::closestOnTriangle(p, v.corners[3 * t], v.corners[3 * t + 1], v.corners[3 * t + 2]);
+// The squared distance from p to triangle t (of `corners`, three per triangle), its closest point
+// in q: a search's starting bound.
+SINEW_HD float squaredDistanceToTriangle(const P3* corners, int t, P3 p, P3& q) {
+  q = collision::closestOnTriangle(p, corners[3 * t], corners[3 * t + 1], corners[3 * t + 2]);
   const P3 d = collision::sub(p, q);
   return collision::dot3(d, d);
-}
-
-// closestSquaredDistance, the search bounded from the start by the distance to triangle `hint`
-// (when >= 0: one under `root`), so that it only looks for nearer ones; `hint` becomes the nearest
-// triangle. The distance is the same as without the hint; the walk is shorter when the hint is near
-// (the sampled error's searches from points that moved little: 8 % of its time on the demo).
-SINEW_HD float closestSquaredDistanceFrom(const View& v, int root, P3 p, int& hint) {
-  P3 q;
-  const float bound = hint >= 0 ? squaredDistanceToTriangle(v, hint, p, q) : 3.0e38f;
-  int nearest = -1;
-  const float d2 = closestSquaredDistance(v, root, p, bound, nullptr, &nearest);
-  if (nearest >= 0) hint = nearest;
-  return d2;
 }
 
 // The surface under `root` near c, to first order: the plane through c's closest point, normal to
@@ -101,13 +89,16 @@ struct TangentPlane {
   P3 n;
   float d;
 };
-// `hint` (when not null): as closestSquaredDistanceFrom's, the triangle nearest to c last time
-// (-1: none), replaced by this time's.
-SINEW_HD TangentPlane closestTangentPlane(const View& v, int root, P3 c, int* hint = nullptr) {
+// `hint` (when not null): the triangle nearest to c last time (-1: none), replaced by this time's;
+// the search starts bounded by the distance to it (the sampled error's patches, whose meshes move
+// little between samples). `Tree`: View (the device's) or WideView (the host's, triangle_bvh_wide.h),
+// each with its closestSquaredDistance.
+template <class Tree>
+SINEW_HD TangentPlane closestTangentPlane(const Tree& v, int root, P3 c, int* hint = nullptr) {
   P3 q = c;
   int t = 0;
   float bound = 3.0e38f;
-  if (hint && *hint >= 0) bound = squaredDistanceToTriangle(v, t = *hint, c, q);
+  if (hint && *hint >= 0) bound = squaredDistanceToTriangle(v.corners, t = *hint, c, q);
   const float d = sqrtf(closestSquaredDistance(v, root, c, bound, &q, &t));
   if (hint) *hint = t;
   if (d > 1.0e-4f) return {collision::scale(collision::sub(c, q), 1.0f / d), d};
