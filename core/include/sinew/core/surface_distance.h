@@ -24,8 +24,9 @@ struct TriangleBvh {
   std::vector<std::array<Index, 3>> triangles;   // the mesh's point indices, in leaf order (for refit)
   // The host's searches' tree (triangle_bvh_wide.h), made on request (requireWide): the same tree
   // in nodes of four children and its leaves' triangles side by side; each child's node in `nodes`
-  // (-1: an unused slot), and each root's wide node (-1 for other nodes). Kept by refit and by
-  // append when both trees have it (else dropped); the device's searches use the binary tree alone.
+  // (-1: an unused slot), and each node's wide node where one stands for it (every root's; -1 for
+  // the others). Kept by refit and by append when both trees have it (else dropped); the device's
+  // searches use the binary tree alone.
   std::vector<trianglebvh::WideNode> wide;
   std::vector<trianglebvh::WideLeaf> wideLeaves;
   std::vector<std::array<int, trianglebvh::kWideChildren>> wideSource;

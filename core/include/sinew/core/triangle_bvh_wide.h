@@ -107,8 +107,7 @@ struct WideView {
 
 // closestSquaredDistance over the wide nodes from `wideRoot` (nearer children first): the squared
 // distance from p to the closest point of the mesh, or maxD2 when it is farther; `closest` and
-// `triangle` as there. The walk itself; closestSquaredDistance (below) is it built for the host's
-// instruction sets.
+// `triangle` as there. The walk itself, inlined into closestSquaredDistance (below).
 [[gnu::always_inline]] inline float walk(const WideView& v, int wideRoot, P3 p, float maxD2, P3* closest, int* triangle) {
   float best = maxD2;
   int stack[kWideStackDepth];
