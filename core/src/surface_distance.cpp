@@ -114,8 +114,6 @@ struct Builder {
   }
 };
 
-float surfaceArea(const collision::Box& b) { return b.lo.x > b.hi.x ? 0.0f : halfArea(b); }
-
 // The wide node over binary node `root`'s subtree (triangle_bvh_wide.h): its children, then the
 // largest (by box area) inner one replaced by its two until there are four or only leaves; each
 // inner child collapsed in turn. Returns its index in bvh.wide.
@@ -132,7 +130,7 @@ int collapse(TriangleBvh& bvh, int root) {
   while (count < kWideChildren) {
     int widest = -1;
     for (int k = 0; k < count; ++k)
-      if (nodes[slot[k]].left >= 0 && (widest < 0 || surfaceArea(nodes[slot[k]].box) > surfaceArea(nodes[slot[widest]].box)))
+      if (nodes[slot[k]].left >= 0 && (widest < 0 || halfArea(nodes[slot[k]].box) > halfArea(nodes[slot[widest]].box)))
         widest = k;
     if (widest < 0) break;
     const trianglebvh::Node& n = nodes[slot[widest]];
@@ -265,7 +263,7 @@ void TriangleBvh::refit(std::span<const Vec3> points, const Executor& executor) 
   }
 }
 
-void TriangleBvh::requireWide(const Executor* executor) {
+void TriangleBvh::requireWide() {
   if (!wideOf.empty() || nodes.empty()) return;
   wideOf.assign(nodes.size(), -1);
   std::vector<char> isChild(nodes.size(), 0);
@@ -274,7 +272,7 @@ void TriangleBvh::requireWide(const Executor* executor) {
   for (std::size_t root = 0; root < nodes.size(); ++root)
     if (!isChild[root]) collapse(*this, int(root));
   copyWideBoxes(*this);
-  copyWideLeaves(*this, executor);
+  copyWideLeaves(*this, nullptr);  // callers make several side by side
 }
 
 float SurfaceDistanceQuery::distance(const Vec3& p) const {

@@ -40,7 +40,7 @@ struct TriangleBvh {
   // wide tree is appended too where both have one (or this one is empty), else dropped.
   int append(const TriangleBvh& other, Index pointShift = 0);
   // The wide tree over every root, unless it is there already.
-  void requireWide(const Executor* executor = nullptr);
+  void requireWide();
   bool hasWide() const { return !wideOf.empty(); }
   // The same mesh moved to `points`: corners and boxes again (the wide tree's too), the tree kept.
   void refit(std::span<const Vec3> points, const Executor& executor);
