@@ -158,8 +158,26 @@ std::vector<unsigned char> contactMask(MeshStore& store, const SceneData& scene,
 }
 
 collision::BvhView CollisionTree::view() {
-  return {nodes.data(), boxes.data(), tris.data(), order.data(), roots.data(),
-          exempt.empty() ? nullptr : exempt.data(), int(roots.size()), int(nodes.size())};
+  return {nodes.data(),      boxes.data(), tris.data(), order.data(), roots.data(),
+          exempt.empty() ? nullptr : exempt.data(), int(roots.size()), int(nodes.size()),
+          share.empty() ? nullptr : share.data()};
+}
+
+void CollisionTree::setShares(MeshStore& store, float exponent) {
+  share.clear();
+  if (!(exponent > 0.0f)) return;
+  const Index n = store.meshCount();
+  const auto area = store.areas();
+  std::vector<double> size(n, 0.0);
+  for (Index m = 0; m < n; ++m) {
+    double a = 0.0;
+    for (Index v = store.range(m).vertexBegin; v < store.range(m).vertexEnd; ++v) a += area[v];
+    size[m] = std::pow(a, double(exponent));
+  }
+  share.assign(size_t(n) * n, 1.0f);
+  for (Index i = 0; i < n; ++i)
+    for (Index j = 0; j < n; ++j)
+      if (size[i] + size[j] > 0.0) share[size_t(i) * n + j] = float(std::min(1.0, 2.0 * size[i] / (size[i] + size[j])));
 }
 
 }  // namespace sinew

@@ -359,7 +359,8 @@ __global__ void __launch_bounds__(kThreads, kWarpLeaves ? kRespondBlocks : 0)
                     __shfl_sync(mask, h.normal.z, src)};
         c.side = __shfl_sync(mask, h.side, src);
         c.leaf = __shfl_sync(mask, h.leaf, src);
-        if (pending && g == 0) addContact(c, point, previous, ownNormal, alpha, settings, sum, holdPlane);
+        if (pending && g == 0)
+          addContact(c, point, previous, ownNormal, alpha, settings, sum, holdPlane, shareOf(v, own, base + src - leader));
         pending &= pending - 1;
       }
     }
@@ -391,7 +392,9 @@ __global__ void __launch_bounds__(kThreads, kWarpLeaves ? kRespondBlocks : 0)
   } else if (!clear) {  // between full searches: the patch test (the clearance already paid for the step)
     if constexpr (kWarpLeaves) {  // contactResponse's patch branch, with the warp's tests above
       float deepest = 0.0f;
-      if (patchFound) sum.stiffness = respondTo(patchHit, point, previous, ownNormal, alpha, settings, deepest, sum.force);
+      if (patchFound)
+        sum.stiffness = respondTo(patchHit, point, previous, ownNormal, alpha, settings, deepest, sum.force, nullptr,
+                                  shareOf(v, own, meshOfNode(v, lastHint)));
       lastDepth = deepest;
     } else {
       sum.stiffness = contactResponse(v, own, point, previous, ownNormal, alpha, settings, false, every, 0.0f, 0.0f,
@@ -447,7 +450,7 @@ void launchContactSprings(const MeshView& m, ParamView p, const int* partner, co
 
 void launchCollision(const MeshView& m, ParamView p, const CollisionDevice& c, const ContactSettings& settings, int every,
                      cudaStream_t s) {
-  BvhView v{c.nodes, c.boxes, c.tris, c.order, c.roots, c.exempt, c.meshes, c.nodeCount};
+  BvhView v{c.nodes, c.boxes, c.tris, c.order, c.roots, c.exempt, c.meshes, c.nodeCount, c.share};
   const P3* x = reinterpret_cast<const P3*>(m.x);
   const P3* centres = reinterpret_cast<const P3*>(m.cellCentre);
   if (c.climb) {

@@ -121,7 +121,8 @@ struct CudaEngine::Impl {
           sim.forceParams(f.name).anyPositive(0)) {
         const ParamTable& t = sim.forceParams(f.name);
         collision.build(sim.store(), sim.scene(), t.getf(0, t.indexOf("margin_mm")),
-                        t.getf(0, t.indexOf("ignore_enclosed")) > 0.5f, implicit(), stream);
+                        t.getf(0, t.indexOf("ignore_enclosed")) > 0.5f, t.getf(0, t.indexOf("size_share")), implicit(),
+                        stream);
         invalidateGraph();
       }
   }

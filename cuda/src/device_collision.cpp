@@ -5,10 +5,12 @@
 namespace sinew::cuda {
 
 void DeviceCollision::build(MeshStore& store, const SceneData& scene, float margin, bool ignoreEnclosed,
-                            bool withStiffness, cudaStream_t stream) {
+                            float sizeShare, bool withStiffness, cudaStream_t stream) {
   CollisionTree tree = CollisionTree::build(store);
   tree.handleEnclosures(store, scene, margin, ignoreEnclosed);
+  tree.setShares(store, sizeShare);
   exempt_.upload(tree.exempt, stream);
+  share_.upload(tree.share, stream);
   nodes_.upload(tree.nodes, stream);
   boxes_.upload(tree.boxes, stream);
   tris_.upload(tree.tris, stream);
@@ -71,6 +73,7 @@ CollisionDevice DeviceCollision::view() const {
   c.depth = depth_.get();
   c.counter = counter_.get();
   c.exempt = exempt_.get();
+  c.share = share_.get();
   c.hint = hint_.get();
   c.slack = slack_.get();
   c.moved = moved_.get();
@@ -85,7 +88,7 @@ CollisionDevice DeviceCollision::view() const {
 std::size_t DeviceCollision::bytes() const {
   return nodes_.bytes() + boxes_.bytes() + tris_.bytes() + order_.bytes() + roots_.bytes() + leaves_.bytes() +
          visits_.bytes() + threadNodes_.bytes() + warpNodes_.bytes() + blockNodes_.bytes() + vertexBoxes_.bytes() +
-         stiffness_.bytes() + depth_.bytes() + counter_.bytes() + hint_.bytes() + exempt_.bytes() + slack_.bytes() +
+         stiffness_.bytes() + depth_.bytes() + counter_.bytes() + hint_.bytes() + exempt_.bytes() + share_.bytes() + slack_.bytes() +
          moved_.bytes() + last_.bytes() + motion_.bytes() + hold_.bytes();
 }
 

@@ -13,8 +13,9 @@ class DeviceCollision {
 public:
   // withStiffness: keep each vertex's contact pull (implicit Euler's Jacobian).
   // A structure lying inside another stops the run or leaves the pair out (CollisionTree::handleEnclosures).
-  void build(MeshStore& store, const SceneData& scene, float margin, bool ignoreEnclosed, bool withStiffness,
-             cudaStream_t stream);
+  // sizeShare: the collision force's size_share (CollisionTree::setShares).
+  void build(MeshStore& store, const SceneData& scene, float margin, bool ignoreEnclosed, float sizeShare,
+             bool withStiffness, cudaStream_t stream);
   void clear() { *this = DeviceCollision{}; }
   bool built() const { return meshes_ > 0; }
   CollisionDevice view() const;
@@ -35,6 +36,7 @@ private:
   DeviceArray<unsigned> motion_;
   DeviceArray<int> counter_;  // the level's steps so far (full searches every full_search_every)
   DeviceArray<unsigned char> exempt_;
+  DeviceArray<float> share_;
   int meshes_ = 0;
   bool climb_ = false;
 };

@@ -254,6 +254,7 @@ struct CollisionDevice {
   float3* last = nullptr;  // the positions the last step saw
   unsigned* motion = nullptr;  // the step's largest move (a float's bits: atomicMax orders them)
   const unsigned char* exempt = nullptr;  // pairs left out (meshes x meshes), or null
+  const float* share = nullptr;           // collision::shareOf's table (meshes x meshes), or null
   collision::HoldPlane* hold = nullptr;  // per vertex, the plane the hold moves it out of after the step
   int meshes = 0, nodeCount = 0, leafCount = 0;
 };

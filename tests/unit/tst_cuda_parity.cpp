@@ -540,28 +540,31 @@ private slots:
     QTest::addColumn<int>("steps");
     QTest::addColumn<int>("every");
     QTest::addColumn<float>("gap");   // between the spheres' centres (radius 10 mm)
-    QTest::addColumn<float>("hold");  // hold_mm: 0 (the default) holds touching vertices out after each step
+    QTest::addColumn<float>("hold");  // hold_mm: 0 holds touching vertices on their contact planes after each step
     QTest::addColumn<int>("subdivisions");  // of each sphere: 3 gives 1,280 vertices, 6 gives 81,920
     QTest::addColumn<int>("structures");    // spheres in rows of 6, each `gap` from the next
-    QTest::newRow("damped_verlet") << "damped_verlet" << 100 << 1 << 15.0f << 0.0f << 3 << 2;
-    QTest::newRow("damped_verlet, no hold") << "damped_verlet" << 100 << 1 << 15.0f << -1.0f << 3 << 2;
-    QTest::newRow("implicit_euler") << "implicit_euler" << 20 << 1 << 15.0f << 0.0f << 3 << 2;
-    QTest::newRow("damped_verlet, full search every 4") << "damped_verlet" << 100 << 4 << 15.0f << 0.0f << 3 << 2;
+    QTest::addColumn<float>("radius");      // of every second sphere: unequal sizes share contacts unequally
+    QTest::newRow("damped_verlet") << "damped_verlet" << 100 << 1 << 15.0f << 0.0f << 3 << 2 << 10.0f;
+    QTest::newRow("damped_verlet, no hold") << "damped_verlet" << 100 << 1 << 15.0f << -1.0f << 3 << 2 << 10.0f;
+    QTest::newRow("implicit_euler") << "implicit_euler" << 20 << 1 << 15.0f << 0.0f << 3 << 2 << 10.0f;
+    QTest::newRow("damped_verlet, full search every 4") << "damped_verlet" << 100 << 4 << 15.0f << 0.0f << 3 << 2 << 10.0f;
+    QTest::newRow("damped_verlet, radii 10 and 6 (size_share)") << "damped_verlet" << 100 << 1 << 13.0f << 0.0f << 3 << 2 << 6.0f;
+    QTest::newRow("damped_verlet, radii 10 and 6, every 4") << "damped_verlet" << 100 << 4 << 13.0f << 0.0f << 3 << 2 << 6.0f;
     // Without a hold the step ends in its own kernel (advance): the counter must move there too.
-    QTest::newRow("damped_verlet, no hold, full search every 4") << "damped_verlet" << 100 << 4 << 15.0f << -1.0f << 3 << 2;
+    QTest::newRow("damped_verlet, no hold, full search every 4") << "damped_verlet" << 100 << 4 << 15.0f << -1.0f << 3 << 2 << 10.0f;
     // 163,840 vertices: the refit's climb from the leaves and 4 lanes a vertex from 131,072.
-    QTest::newRow("damped_verlet, 163,840 vertices") << "damped_verlet" << 100 << 1 << 15.0f << 0.0f << 6 << 2;
+    QTest::newRow("damped_verlet, 163,840 vertices") << "damped_verlet" << 100 << 1 << 15.0f << 0.0f << 6 << 2 << 10.0f;
     // Centres 8 mm apart: the vertices inside the other sphere have its far side as their contact
     // and retreat (collision::respondTo), by the full search and by the patch tests between. Not
     // with implicit Euler: there the solver's float differences (1e-5 mm) meet the jumps of a deep
     // vertex's nearest point across the other sphere's middle, and the backends were 0.15-0.25 mm
     // apart after 20 steps (H200, 2026-11-26; docs/collisions.md).
-    QTest::newRow("damped_verlet, past the middle") << "damped_verlet" << 100 << 1 << 8.0f << 0.0f << 3 << 2;
-    QTest::newRow("damped_verlet, past the middle, every 4") << "damped_verlet" << 100 << 4 << 8.0f << 0.0f << 3 << 2;
+    QTest::newRow("damped_verlet, past the middle") << "damped_verlet" << 100 << 1 << 8.0f << 0.0f << 3 << 2 << 10.0f;
+    QTest::newRow("damped_verlet, past the middle, every 4") << "damped_verlet" << 100 << 4 << 8.0f << 0.0f << 3 << 2 << 10.0f;
     // More structures than one round of a vertex's lanes: 16 lanes a vertex in two rounds (30,720
     // vertices), and from 131,072 vertices one lane a vertex taking them in turn (133,120).
-    QTest::newRow("damped_verlet, 24 structures") << "damped_verlet" << 100 << 1 << 15.0f << 0.0f << 3 << 24;
-    QTest::newRow("damped_verlet, 26 structures, 133,120 vertices") << "damped_verlet" << 100 << 1 << 15.0f << 0.0f << 4 << 26;
+    QTest::newRow("damped_verlet, 24 structures") << "damped_verlet" << 100 << 1 << 15.0f << 0.0f << 3 << 24 << 10.0f;
+    QTest::newRow("damped_verlet, 26 structures, 133,120 vertices") << "damped_verlet" << 100 << 1 << 15.0f << 0.0f << 4 << 26 << 10.0f;
   }
   void collisionMatchesTheCpu() {
     QFETCH(QString, integrator);
@@ -571,12 +574,13 @@ private slots:
     QFETCH(float, hold);
     QFETCH(int, subdivisions);
     QFETCH(int, structures);
+    QFETCH(float, radius);
     auto make = [&](int count, float weight) {
       auto sim = std::make_unique<Simulation>(forceRegistry(), 0);
       for (int i = 0; i < count; ++i) {
         std::string name(1, char('a' + i % 26));
         if (i >= 26) name += std::to_string(i / 26);
-        StructureSpec s = sphereStructure(name, subdivisions, 10.0f, Vec3(gap * float(i % 6), gap * float(i / 6), 0));
+        StructureSpec s = sphereStructure(name, subdivisions, i % 2 ? radius : 10.0f, Vec3(gap * float(i % 6), gap * float(i / 6), 0));
         s.referencePositions = s.initialPositions;
         sim->addStructure(std::move(s));
       }

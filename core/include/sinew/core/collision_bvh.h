@@ -51,7 +51,23 @@ struct BvhView {
   const unsigned char* exempt = nullptr;  // meshes x meshes: 1 where a pair is left out; may be null
   int meshes = 0;
   int nodeCount = 0;
+  const float* share = nullptr;  // meshes x meshes: the share of a contact's correction (shareOf); null: all
 };
+
+// The share of a contact's correction that a vertex of `own` takes against `other`
+// (CollisionTree::setShares: the larger structure gives way more); 1 without a table.
+SINEW_HD float shareOf(const BvhView& v, int own, int other) { return v.share ? v.share[own * v.meshes + other] : 1.0f; }
+
+// The structure a node belongs to: the last whose root is not after it (roots ascend).
+SINEW_HD int meshOfNode(const BvhView& v, int node) {
+  int lo = 0, hi = v.meshes - 1;
+  while (lo < hi) {
+    const int mid = (lo + hi + 1) / 2;
+    if (v.roots[mid] <= node) lo = mid;
+    else hi = mid - 1;
+  }
+  return lo;
+}
 
 SINEW_HD P3 sub(P3 a, P3 b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
 SINEW_HD P3 add(P3 a, P3 b) { return {a.x + b.x, a.y + b.y, a.z + b.z}; }
@@ -241,6 +257,8 @@ constexpr float kFacingBlend = 0.25f;
 // contacts that pull it, the one it is deepest in, moved `hold` outside along its normal. `weight`
 // is the pull's share (1 - passed, below): a contact turning past 90 degrees gives way to the
 // retreat gradually in the hold too, so that no last bit of a normal switches a jump on or off.
+// `share` (shareOf) scales the pull, the retreat and the hold's weight: the vertex takes that part of
+// the correction, the other structure the rest.
 struct HoldPlane {
   P3 normal{0, 0, 0};
   float offset = 0.0f;   // x is held to dot(normal, x) >= offset
@@ -248,12 +266,13 @@ struct HoldPlane {
   float weight = 0.0f;   // the share of the way back to the plane that the hold moves x
 };
 SINEW_HD float respondTo(const Hit& h, P3 p, P3 previous, P3 ownNormal, float alpha, const ContactSettings& s,
-                         float& deepest, P3& force, HoldPlane* hold = nullptr) {
+                         float& deepest, P3& force, HoldPlane* hold = nullptr, float share = 1.0f) {
   if (h.side >= s.margin) return 0.0f;
   deepest = fmax3(deepest, s.margin - h.side);
   const float passed = fmin3(fmax3(dot3(h.normal, ownNormal) / kFacingBlend, 0.0f), 1.0f);
+  alpha *= share;  // the pull, the retreat and (below) the hold alike
   const float pull = alpha * (1.0f - passed);
-  if (hold && pull > 0.0f && h.side < hold->side) *hold = {h.normal, dot3(h.normal, h.point) + s.hold, h.side, 1.0f - passed};
+  if (hold && pull > 0.0f && h.side < hold->side) *hold = {h.normal, dot3(h.normal, h.point) + s.hold, h.side, share * (1.0f - passed)};
   if (pull > 0.0f) {
     const P3 target = add(h.point, scale(h.normal, s.margin));
     force = add(force, sub(scale(sub(target, p), pull), scale(sub(p, previous), pull * s.damping)));
@@ -311,9 +330,9 @@ struct ContactSum {
   P3 force{0, 0, 0};
 };
 SINEW_HD void addContact(const Hit& h, P3 p, P3 previous, P3 ownNormal, float alpha, const ContactSettings& s,
-                         ContactSum& sum, HoldPlane* hold = nullptr) {
+                         ContactSum& sum, HoldPlane* hold = nullptr, float share = 1.0f) {
   if (h.d2 < sum.nearest) sum.nearest = h.d2, sum.nearestLeaf = h.leaf;
-  sum.stiffness += respondTo(h, p, previous, ownNormal, alpha, s, sum.deepest, sum.force, hold);
+  sum.stiffness += respondTo(h, p, previous, ownNormal, alpha, s, sum.deepest, sum.force, hold, share);
 }
 
 // Clearance. A vertex that touched nothing at its last search knows how far every other surface
@@ -370,7 +389,8 @@ SINEW_HD float contactResponse(const BvhView& v, int own, P3 p, P3 previous, P3 
       Hit h{3.0e38f, p, {0, 0, 0}, 0.0f, -1};
       bool found = false;
       testLeaf(v, patch, p, x, centres, h, found);
-      if (found) stiffness = respondTo(h, p, previous, ownNormal, alpha, s, deepest, force);  // no hold: see below
+      if (found)  // no hold: see below
+        stiffness = respondTo(h, p, previous, ownNormal, alpha, s, deepest, force, nullptr, shareOf(v, own, meshOfNode(v, hint)));
     }
     depth = deepest;
     return stiffness;
@@ -381,7 +401,7 @@ SINEW_HD float contactResponse(const BvhView& v, int own, P3 p, P3 previous, P3 
   for (int other = 0; other < v.meshes; ++other) {
     Hit h{};
     if (contactWith(v, own, other, p, s.margin, maxD2, hint, x, centres, h, sum.clearance2))
-      addContact(h, p, previous, ownNormal, alpha, s, sum, hold);
+      addContact(h, p, previous, ownNormal, alpha, s, sum, hold, shareOf(v, own, other));
   }
   depth = sum.deepest;
   hint = sum.nearestLeaf;

@@ -22,6 +22,7 @@ struct CollisionTree {
   std::vector<int> roots;              // per structure
   std::vector<int> leaves;             // node index of every leaf
   std::vector<unsigned char> exempt;   // meshes x meshes, 1 where a pair is left out; empty: none
+  std::vector<float> share;            // meshes x meshes, collision::shareOf; empty: every vertex takes all
 
   // Each structure's vertices split at the median along the widest axis down to leaves of at most
   // four; boxes from the store's current positions.
@@ -29,6 +30,11 @@ struct CollisionTree {
   // Boxes from positions and cell centres: leaves in parallel, then the inner nodes from below.
   void refit(std::span<const Vec3> positions, std::span<const Vec3> centres, const Executor& executor);
   collision::BvhView view();
+  // How two structures in contact share its correction (the collision force's size_share): a vertex
+  // of structure i against j takes min(1, 2 a_i^p / (a_i^p + a_j^p)), a the structures' surface
+  // areas now. The larger gives way more, so each loses about the same fraction of its surface;
+  // alike pairs still both take all. p = 0: no table (everyone takes all).
+  void setShares(MeshStore& store, float exponent);
 
   // A structure that lies inside another (or on it: two copies of one mesh), which no contact
   // response can separate: at least `fraction` of its vertices inside the other or within the
