@@ -163,21 +163,23 @@ collision::BvhView CollisionTree::view() {
           share.empty() ? nullptr : share.data()};
 }
 
-void CollisionTree::setShares(MeshStore& store, float exponent) {
+void CollisionTree::setShares(MeshStore& store, const ParamTable& collisionParams) {
   share.clear();
-  if (!(exponent > 0.0f)) return;
+  const double exponent = collisionParams.get(0, collisionParams.indexOf("size_share"));
+  if (!(exponent > 0.0)) return;
   const Index n = store.meshCount();
   const auto area = store.areas();
   std::vector<double> size(n, 0.0);
   for (Index m = 0; m < n; ++m) {
     double a = 0.0;
     for (Index v = store.range(m).vertexBegin; v < store.range(m).vertexEnd; ++v) a += area[v];
-    size[m] = std::pow(a, double(exponent));
+    size[m] = std::pow(a, exponent);
   }
   share.assign(size_t(n) * n, 1.0f);
   for (Index i = 0; i < n; ++i)
     for (Index j = 0; j < n; ++j)
-      if (size[i] + size[j] > 0.0) share[size_t(i) * n + j] = float(std::min(1.0, 2.0 * size[i] / (size[i] + size[j])));
+      if (size[i] + size[j] > 0.0 && collisionParams.get(j, 0) > 0.0)
+        share[size_t(i) * n + j] = float(std::min(1.0, 2.0 * size[i] / (size[i] + size[j])));
 }
 
 }  // namespace sinew

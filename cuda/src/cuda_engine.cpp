@@ -119,10 +119,7 @@ struct CudaEngine::Impl {
     for (const ForceSlot& f : forces)
       if (f.kind == Kind::Collision && !collision.built() && sim.store().meshCount() >= 2 &&
           sim.forceParams(f.name).anyPositive(0)) {
-        const ParamTable& t = sim.forceParams(f.name);
-        collision.build(sim.store(), sim.scene(), t.getf(0, t.indexOf("margin_mm")),
-                        t.getf(0, t.indexOf("ignore_enclosed")) > 0.5f, t.getf(0, t.indexOf("size_share")), implicit(),
-                        stream);
+        collision.build(sim.store(), sim.scene(), sim.forceParams(f.name), implicit(), stream);
         invalidateGraph();
       }
   }

@@ -4,11 +4,12 @@
 
 namespace sinew::cuda {
 
-void DeviceCollision::build(MeshStore& store, const SceneData& scene, float margin, bool ignoreEnclosed,
-                            float sizeShare, bool withStiffness, cudaStream_t stream) {
+void DeviceCollision::build(MeshStore& store, const SceneData& scene, const ParamTable& params, bool withStiffness,
+                            cudaStream_t stream) {
   CollisionTree tree = CollisionTree::build(store);
-  tree.handleEnclosures(store, scene, margin, ignoreEnclosed);
-  tree.setShares(store, sizeShare);
+  tree.handleEnclosures(store, scene, params.getf(0, params.indexOf("margin_mm")),
+                        params.getf(0, params.indexOf("ignore_enclosed")) > 0.5f);
+  tree.setShares(store, params);
   exempt_.upload(tree.exempt, stream);
   share_.upload(tree.share, stream);
   nodes_.upload(tree.nodes, stream);

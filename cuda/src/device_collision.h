@@ -13,9 +13,9 @@ class DeviceCollision {
 public:
   // withStiffness: keep each vertex's contact pull (implicit Euler's Jacobian).
   // A structure lying inside another stops the run or leaves the pair out (CollisionTree::handleEnclosures).
-  // sizeShare: the collision force's size_share (CollisionTree::setShares).
-  void build(MeshStore& store, const SceneData& scene, float margin, bool ignoreEnclosed, float sizeShare,
-             bool withStiffness, cudaStream_t stream);
+  // params: the collision force's (margin_mm, ignore_enclosed, size_share and the weights).
+  void build(MeshStore& store, const SceneData& scene, const ParamTable& params, bool withStiffness,
+             cudaStream_t stream);
   void clear() { *this = DeviceCollision{}; }
   bool built() const { return meshes_ > 0; }
   CollisionDevice view() const;

@@ -376,6 +376,32 @@ private slots:
     QVERIFY(equalSmall > 1.5 * equalLarge);
   }
 
+  // A small sphere's cap pressed into a large one that does not respond (weight 0), as in
+  // holdKeepsPressedVerticesOut: the small one then takes all of each correction, not its share by
+  // size (2/17), and the hold keeps its vertices out.
+  void structureThatDoesNotRespondLeavesAllToTheOther() {
+    auto sim = std::make_unique<Simulation>(pressRegistry(), 2);
+    for (const auto& [name, radius, centre] : {std::tuple{"a", 5.0f, Vec3(3.5f, 0, 0)}, std::tuple{"b", 10.0f, Vec3(18.4f, 0, 0)}}) {
+      StructureSpec s = sphereStructure(name, 3, radius, centre);
+      s.referencePositions = s.initialPositions;
+      sim->addStructure(std::move(s));
+    }
+    sim->addForce("shape_prior");
+    ParamTable& press = sim->addForce("press");
+    press.set(0, "weight", 0.1);
+    press.set(1, "weight", 0.0);
+    ParamTable& collision = sim->addForce("collision");
+    collision.set(0, "weight", 0.5);
+    collision.set(1, "weight", 0.0);
+    sim->setIntegrator("damped_verlet").set(0, "time_step", 0.5);
+    sim->initialize();
+    sim->run(400);
+    for (const Vec3& p : sim->store().positions()) [&] { QVERIFY(p.allFinite()); }();
+    const double depth = deepestInside(*sim, 0, 1);
+    qInfo("small sphere pressed into a large one weighted 0: deepest vertex %.3f mm inside", depth);
+    QVERIFY(depth < 0.01);
+  }
+
   // Deforming contacts (paper 001 section 2.2): two spheres 1 mm apart in their reference; the
   // second starts 3 mm further away. Springs between the vertices within distance_mm of the other
   // structure in the reference bring the gap back to about 1 mm on both integrators, where without

@@ -34,7 +34,7 @@ public:
     checked_ = false;
     if (ctx.store.meshCount() >= 2 && ctx.params.anyPositive(0)) {
       tree_ = CollisionTree::build(ctx.store);
-      tree_.setShares(ctx.store, ctx.params.getf(0, ctx.params.indexOf("size_share")));
+      tree_.setShares(ctx.store, ctx.params);
     }
   }
 
@@ -138,7 +138,7 @@ void registerCollisionForce(Registry& registry) {
                       {"reach_mm", 0.25, 0.05, 5.0, "mm", "how far beyond its last penetration a vertex looks for contacts each step (on top of twice its last step)", false},
                       {"retreat_mm", 0.25, 0.0, 5.0, "mm", "a vertex that has gone past the middle of another structure (its nearest surface there faces the way its own does) is pushed back into its own structure, as if pulled toward a point this far behind it along its normal, instead of on through", false},
                       {"hold_mm", 0.05, -1.0, 5.0, "mm", "after each step, a vertex pulled by a contact is moved out to at least this far outside the plane of that contact; negative: no hold", false},
-                      {"size_share", 2.0, 0.0, 8.0, "", "how two structures in contact share the correction: a vertex takes min(1, 2 a^p / (a^p + b^p)) of it, a its structure's surface area, b the other's, p this; the larger gives way more; 0: both take all of it", false},
+                      {"size_share", 2.0, 0.0, 8.0, "", "how two structures in contact share the correction: a vertex takes min(1, 2 a^p / (a^p + b^p)) of it, a its structure's surface area, b the other's, p this; the larger gives way more; against a structure weighted 0 a vertex takes all; 0: both take all of it", false},
                       {"full_search_every", 1, 1, 16, "steps", "a full contact search every this many steps; in between, each vertex tests only the patch of its last nearest contact", false},
                       {"ignore_enclosed", 0.0, 0.0, 1.0, "", "1: a structure lying inside another by design (nested labels) is left out of collisions with it; 0: such a pair stops the run with the reason", false}},
                      [] { return std::make_unique<CollisionForce>(); }});

@@ -5,6 +5,7 @@
 
 #include "sinew/core/collision_bvh.h"
 #include "sinew/core/mesh_store.h"
+#include "sinew/core/parameters.h"
 #include "sinew/core/scene_data.h"
 #include "sinew/core/surface_distance.h"  // asP3
 
@@ -30,11 +31,12 @@ struct CollisionTree {
   // Boxes from positions and cell centres: leaves in parallel, then the inner nodes from below.
   void refit(std::span<const Vec3> positions, std::span<const Vec3> centres, const Executor& executor);
   collision::BvhView view();
-  // How two structures in contact share its correction (the collision force's size_share): a vertex
-  // of structure i against j takes min(1, 2 a_i^p / (a_i^p + a_j^p)), a the structures' surface
-  // areas now. The larger gives way more, so each loses about the same fraction of its surface;
-  // alike pairs still both take all. p = 0: no table (everyone takes all).
-  void setShares(MeshStore& store, float exponent);
+  // How two structures in contact share its correction, from the collision force's parameters
+  // (`size_share` p, the weights in column 0): a vertex of structure i against j takes
+  // min(1, 2 a_i^p / (a_i^p + a_j^p)), a the structures' surface areas now. The larger gives way
+  // more, so each loses about the same fraction of its surface; alike pairs still both take all.
+  // Against a structure that does not respond (weight 0) a vertex takes all. p = 0: no table.
+  void setShares(MeshStore& store, const ParamTable& collisionParams);
 
   // A structure that lies inside another (or on it: two copies of one mesh), which no contact
   // response can separate: at least `fraction` of its vertices inside the other or within the
