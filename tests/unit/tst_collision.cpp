@@ -16,10 +16,11 @@ using namespace sinew::testing;
 
 namespace {
 
-// Two spheres of radius 10 mm (each its own reference, held by the shape prior), `gap` between
-// centres; with the collision force weighted `weight`.
+// Two spheres of radius 10 mm and `innerRadius` (each its own reference, held by the shape prior),
+// `gap` between centres; with the collision force weighted `weight`.
 std::unique_ptr<Simulation> twoSpheres(float gap, float weight, float innerRadius = 10.0f,
-                                       const std::string& integrator = "damped_verlet", double timeStep = 0.5) {
+                                       const std::string& integrator = "damped_verlet", double timeStep = 0.5,
+                                       double sizeShare = 2.0) {
   auto sim = std::make_unique<Simulation>(forceRegistry(), 2);
   for (const auto& [name, radius, centre] :
        {std::tuple{"a", 10.0f, Vec3(0, 0, 0)}, std::tuple{"b", innerRadius, Vec3(gap, 0, 0)}}) {
@@ -28,7 +29,11 @@ std::unique_ptr<Simulation> twoSpheres(float gap, float weight, float innerRadiu
     sim->addStructure(std::move(s));
   }
   sim->addForce("shape_prior");
-  if (weight > 0.0f) sim->addForce("collision").setAll("weight", weight);
+  if (weight > 0.0f) {
+    ParamTable& collision = sim->addForce("collision");
+    collision.setAll("weight", weight);
+    collision.setAll("size_share", sizeShare);
+  }
   sim->setIntegrator(integrator).set(0, "time_step", timeStep);
   sim->initialize();
   return sim;
@@ -80,6 +85,29 @@ const Registry& pressRegistry() {
     return r;
   }();
   return registry;
+}
+
+// Structure a's cap (x beyond 8 mm) pressed by a constant force into structure b, which does not
+// respond (collision weight 0), for 400 steps; spheres of the given radii and centres.
+std::unique_ptr<Simulation> pressedCap(float radiusA, Vec3 centreA, float radiusB, Vec3 centreB, double hold) {
+  auto sim = std::make_unique<Simulation>(pressRegistry(), 2);
+  for (const auto& [name, radius, centre] : {std::tuple{"a", radiusA, centreA}, std::tuple{"b", radiusB, centreB}}) {
+    StructureSpec s = sphereStructure(name, 3, radius, centre);
+    s.referencePositions = s.initialPositions;
+    sim->addStructure(std::move(s));
+  }
+  sim->addForce("shape_prior");
+  ParamTable& press = sim->addForce("press");
+  press.set(0, "weight", 0.1);
+  press.set(1, "weight", 0.0);
+  ParamTable& collision = sim->addForce("collision");
+  collision.set(0, "weight", 0.5);
+  collision.set(1, "weight", 0.0);
+  collision.setAll("hold_mm", hold);
+  sim->setIntegrator("damped_verlet").set(0, "time_step", 0.5);
+  sim->initialize();
+  sim->run(400);
+  return sim;
 }
 
 // The deepest any vertex of structure `own` lies inside structure `other` (mm; 0 when none does).
@@ -303,23 +331,7 @@ private slots:
   // step, and the overlap is gone.
   void holdKeepsPressedVerticesOut() {
     const auto run = [](double hold) {
-      auto sim = std::make_unique<Simulation>(pressRegistry(), 2);
-      for (const auto& [name, centre] : {std::pair{"a", Vec3(0, 0, 0)}, std::pair{"b", Vec3(20.5f, 0, 0)}}) {
-        StructureSpec s = sphereStructure(name, 3, 10.0f, centre);
-        s.referencePositions = s.initialPositions;
-        sim->addStructure(std::move(s));
-      }
-      sim->addForce("shape_prior");
-      ParamTable& press = sim->addForce("press");
-      press.set(0, "weight", 0.1);
-      press.set(1, "weight", 0.0);
-      ParamTable& collision = sim->addForce("collision");
-      collision.set(0, "weight", 0.5);
-      collision.set(1, "weight", 0.0);
-      collision.setAll("hold_mm", hold);
-      sim->setIntegrator("damped_verlet").set(0, "time_step", 0.5);
-      sim->initialize();
-      sim->run(400);
+      auto sim = pressedCap(10.0f, Vec3(0, 0, 0), 10.0f, Vec3(20.5f, 0, 0), hold);
       for (const Vec3& p : sim->store().positions()) [&] { QVERIFY(p.allFinite()); }();
       return std::pair{overlap(*sim), deepestInside(*sim, 0, 1)};
     };
@@ -340,18 +352,7 @@ private slots:
   // each gives way: how far its nearest vertex to the other retreats along x. Either way they part.
   void largerStructureGivesWayMore() {
     const auto run = [](double share) {
-      auto sim = std::make_unique<Simulation>(forceRegistry(), 2);
-      for (const auto& [name, radius, centre] : {std::tuple{"a", 10.0f, Vec3(0, 0, 0)}, std::tuple{"b", 5.0f, Vec3(14, 0, 0)}}) {
-        StructureSpec s = sphereStructure(name, 3, radius, centre);
-        s.referencePositions = s.initialPositions;
-        sim->addStructure(std::move(s));
-      }
-      sim->addForce("shape_prior");
-      ParamTable& collision = sim->addForce("collision");
-      collision.setAll("weight", 0.5);
-      collision.setAll("size_share", share);
-      sim->setIntegrator("damped_verlet").set(0, "time_step", 0.5);
-      sim->initialize();
+      auto sim = twoSpheres(14.0f, 0.5f, 5.0f, "damped_verlet", 0.5, share);
       const auto facing = [&](Index m, float sign) {  // the largest sign * x of structure m
         float best = -1e30f;
         const MeshRange& r = sim->store().range(m);
@@ -380,22 +381,7 @@ private slots:
   // holdKeepsPressedVerticesOut: the small one then takes all of each correction, not its share by
   // size (2/17), and the hold keeps its vertices out.
   void structureThatDoesNotRespondLeavesAllToTheOther() {
-    auto sim = std::make_unique<Simulation>(pressRegistry(), 2);
-    for (const auto& [name, radius, centre] : {std::tuple{"a", 5.0f, Vec3(3.5f, 0, 0)}, std::tuple{"b", 10.0f, Vec3(18.4f, 0, 0)}}) {
-      StructureSpec s = sphereStructure(name, 3, radius, centre);
-      s.referencePositions = s.initialPositions;
-      sim->addStructure(std::move(s));
-    }
-    sim->addForce("shape_prior");
-    ParamTable& press = sim->addForce("press");
-    press.set(0, "weight", 0.1);
-    press.set(1, "weight", 0.0);
-    ParamTable& collision = sim->addForce("collision");
-    collision.set(0, "weight", 0.5);
-    collision.set(1, "weight", 0.0);
-    sim->setIntegrator("damped_verlet").set(0, "time_step", 0.5);
-    sim->initialize();
-    sim->run(400);
+    auto sim = pressedCap(5.0f, Vec3(3.5f, 0, 0), 10.0f, Vec3(18.4f, 0, 0), 0.05);
     for (const Vec3& p : sim->store().positions()) [&] { QVERIFY(p.allFinite()); }();
     const double depth = deepestInside(*sim, 0, 1);
     qInfo("small sphere pressed into a large one weighted 0: deepest vertex %.3f mm inside", depth);
