@@ -158,8 +158,14 @@ std::vector<unsigned char> contactMask(MeshStore& store, const SceneData& scene,
 }
 
 collision::BvhView CollisionTree::view() {
-  return {nodes.data(),      boxes.data(), tris.data(), order.data(), roots.data(),
-          exempt.empty() ? nullptr : exempt.data(), int(roots.size()), int(nodes.size()),
+  return {nodes.data(),
+          boxes.data(),
+          tris.data(),
+          order.data(),
+          roots.data(),
+          exempt.empty() ? nullptr : exempt.data(),
+          int(roots.size()),
+          int(nodes.size()),
           share.empty() ? nullptr : share.data()};
 }
 

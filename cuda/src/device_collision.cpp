@@ -89,8 +89,8 @@ CollisionDevice DeviceCollision::view() const {
 std::size_t DeviceCollision::bytes() const {
   return nodes_.bytes() + boxes_.bytes() + tris_.bytes() + order_.bytes() + roots_.bytes() + leaves_.bytes() +
          visits_.bytes() + threadNodes_.bytes() + warpNodes_.bytes() + blockNodes_.bytes() + vertexBoxes_.bytes() +
-         stiffness_.bytes() + depth_.bytes() + counter_.bytes() + hint_.bytes() + exempt_.bytes() + share_.bytes() + slack_.bytes() +
-         moved_.bytes() + last_.bytes() + motion_.bytes() + hold_.bytes();
+         stiffness_.bytes() + depth_.bytes() + counter_.bytes() + hint_.bytes() + exempt_.bytes() + share_.bytes() +
+         slack_.bytes() + moved_.bytes() + last_.bytes() + motion_.bytes() + hold_.bytes();
 }
 
 }  // namespace sinew::cuda
