@@ -327,8 +327,8 @@ private slots:
   // The cap of sphere a pressed into sphere b (which does not respond: weight 0) by a constant force,
   // as an image force can hold a boundary inside another structure. The contact's pull is a spring,
   // so without the hold the cap settles where the spring balances the press, inside b; with it
-  // (hold_mm 0; the default holds 0.1 mm out) every touching vertex is moved back to its contact's plane after each
-  // step, and the overlap is gone.
+  // (hold_mm 0; the default holds 0.1 mm out) every touching vertex is moved back to its contact's
+  // plane after each step, and the overlap is gone.
   void holdKeepsPressedVerticesOut() {
     const auto run = [](double hold) {
       auto sim = pressedCap(10.0f, Vec3(0, 0, 0), 10.0f, Vec3(20.5f, 0, 0), hold);
