@@ -7,7 +7,9 @@
 # MAKE_SCENE_ARGS: more sinew-make-scene options (e.g. another --structures list); SCHEDULE:
 # iterations per level instead (the finest level must run more than STEPS); MASS_FLOOR: every
 # structure's mass_floor; RUN: another sinew-run to time (an older build's, side by side); HOLD:
-# the collision force's hold_mm (-1: the pull alone).
+# the collision force's hold_mm (-1: the pull alone); NCU_ARGS: more ncu options (e.g.
+# "--cache-control none --clock-control none": warm caches and the GPU's own clocks, nearer what a
+# run sees; by default ncu flushes the caches before each kernel and locks the base clock).
 # Usage: bash scripts/collision-kernel-time.sh BUILD_DIR OUT_DIR [LEVELS=3]
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -34,7 +36,7 @@ for s in j["structures"]:
 json.dump(j, open(p, "w"), indent=1)
 PY
   # Every kernel of the run, then the last `steps` steps' worth (a step starts with vertexGeometry).
-  ncu --csv --metrics gpu__time_duration.sum "${RUN:-$build/app/sinew-run}" "$d/scene.json" -o "$d/run" -q --backend cuda \
+  ncu --csv ${NCU_ARGS:-} --metrics gpu__time_duration.sum "${RUN:-$build/app/sinew-run}" "$d/scene.json" -o "$d/run" -q --backend cuda \
     > "$d/ncu.csv" 2>/dev/null || true
   python3 - "$d/ncu.csv" "$d/run/report.json" "$levels" "$c" "$steps" "${base:-0}" > "$d/row.txt" <<'PY'
 import csv, json, sys

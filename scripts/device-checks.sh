@@ -31,6 +31,11 @@ for c in ${CHECKS:-parity demo accuracy}; do
       for l in ${KERNEL_LEVELS:-3 4 5}; do
         bash scripts/collision-kernel-time.sh "$build" /tmp/ktime-$l "$l" 2>&1 | tee -a "$out/collision-kernels.md"
       done ;;
+    steps)
+      # GPU wall time of a step with and without collisions, the branch overlapping (bench_steps);
+      # STEPS_BENCH: older bench_steps binaries to time on the same scenes.
+      BENCH="${STEPS_BENCH:-}" bash scripts/collision-step-time.sh "$build" /tmp/stime "${STEP_LEVELS:-3 4}" 2>&1 |
+        tee "$out/collision-steps.md" ;;
     scaling)
       # 100 AAL regions placed as the atlas has them (no perturbation): the broad phase's scaling.
       list=$(awk 'NR<=100{printf "%s%s", (NR>1?",":""), $2}' /usr/share/mricron/templates/aal.nii.txt)

@@ -311,7 +311,7 @@ template <int kGroup, bool kWarpLeaves>
 __global__ void __launch_bounds__(kThreads, kWarpLeaves ? kRespondBlocks : 0)
     respondGroup(MeshView m, ParamView p, BvhView v, ContactSettings settings, const int* counter, int every,
                  const float* moved, const unsigned* motion, float* depth, int* hint, float* slack, float* stiffness,
-                 HoldPlane* hold) {
+                 HoldPlane* hold, float3* out) {
   const int t = blockIdx.x * blockDim.x + threadIdx.x;
   const int i = t / kGroup, g = t % kGroup;
   const bool valid = i < m.vertices;  // every lane stays for the shuffles
@@ -381,6 +381,7 @@ __global__ void __launch_bounds__(kThreads, kWarpLeaves ? kRespondBlocks : 0)
     }
   }
   if (!active || g != 0) {
+    if (valid && g == 0) out[i] = make_float3(0.0f, 0.0f, 0.0f);
     if (valid && g == 0 && stiffness) stiffness[i] = 0.0f;
     if (valid && g == 0 && holdPlane) hold[i] = plane;  // none: nothing searched
     return;
@@ -405,8 +406,13 @@ __global__ void __launch_bounds__(kThreads, kWarpLeaves ? kRespondBlocks : 0)
   depth[i] = lastDepth;
   hint[i] = lastHint;
   slack[i] = lastSlack;
-  m.force[i] = m.force[i] + make_float3(sum.force.x, sum.force.y, sum.force.z);
+  out[i] = make_float3(sum.force.x, sum.force.y, sum.force.z);
   if (stiffness) stiffness[i] = sum.stiffness;
+}
+
+__global__ void addCollisionForce(MeshView m, const float3* collisionForce) {
+  const int i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i < m.vertices) m.force[i] = m.force[i] + collisionForce[i];
 }
 
 __global__ void contactSprings(MeshView m, ParamView p, const int* partner, const float3* offset, float* stiffness) {
@@ -472,15 +478,19 @@ void launchCollision(const MeshView& m, ParamView p, const CollisionDevice& c, c
   const unsigned grid = static_cast<unsigned>((static_cast<size_t>(m.vertices) * group + kThreads - 1) / kThreads);
   if (group == 1)
     respondGroup<1, false><<<grid, kThreads, 0, s>>>(m, p, v, settings, c.counter, every, c.moved, c.motion, c.depth, c.hint, c.slack,
-                                                c.stiffness, c.hold);
+                                                c.stiffness, c.hold, c.force);
   else if (group == 4)
     respondGroup<4, true><<<grid, kThreads, 0, s>>>(m, p, v, settings, c.counter, every, c.moved, c.motion, c.depth, c.hint, c.slack,
-                                                c.stiffness, c.hold);
+                                                c.stiffness, c.hold, c.force);
   else
     respondGroup<16, true><<<grid, kThreads, 0, s>>>(m, p, v, settings, c.counter, every, c.moved, c.motion, c.depth, c.hint, c.slack,
-                                                c.stiffness, c.hold);
+                                                c.stiffness, c.hold, c.force);
   // With a hold, the hold's kernel ends the step: a launch fewer (2.7 us a step, H100).
   if (settings.hold < 0.0f) advance<<<1, 1, 0, s>>>(c.counter, c.motion);
+}
+
+void launchCollisionAdd(const MeshView& m, const CollisionDevice& c, cudaStream_t s) {
+  addCollisionForce<<<(m.vertices + kThreads - 1) / kThreads, kThreads, 0, s>>>(m, c.force);
 }
 
 void launchCollisionHold(const MeshView& m, const CollisionDevice& c, cudaStream_t s) {

@@ -1,4 +1,4 @@
-// Host-only CUDA helpers: checked calls, RAII device arrays, launch geometry.
+// Host-only CUDA helpers: checked calls, RAII device arrays, launch geometry, a stream branch.
 #pragma once
 
 #include <cuda_runtime.h>
@@ -70,6 +70,44 @@ private:
   }
   T* ptr_ = nullptr;
   std::size_t size_ = 0;
+};
+
+// A branch of work beside a stream: begin() returns a second stream that starts where `main` is
+// now, join() makes `main` wait for everything enqueued on it since. Works under stream capture
+// (the branch becomes a parallel path of the graph); every begin() must be joined before the
+// capture ends. The branch's stream has the device's highest priority: it is the longer path.
+class StreamBranch {
+public:
+  StreamBranch() = default;
+  ~StreamBranch() { release(); }
+  StreamBranch(const StreamBranch&) = delete;
+  StreamBranch& operator=(const StreamBranch&) = delete;
+
+  cudaStream_t begin(cudaStream_t main) {
+    if (!side_) {
+      int least = 0, greatest = 0;
+      SINEW_CUDA(cudaDeviceGetStreamPriorityRange(&least, &greatest));
+      SINEW_CUDA(cudaStreamCreateWithPriority(&side_, cudaStreamNonBlocking, greatest));
+      SINEW_CUDA(cudaEventCreateWithFlags(&fork_, cudaEventDisableTiming));
+      SINEW_CUDA(cudaEventCreateWithFlags(&join_, cudaEventDisableTiming));
+    }
+    SINEW_CUDA(cudaEventRecord(fork_, main));
+    SINEW_CUDA(cudaStreamWaitEvent(side_, fork_, 0));
+    return side_;
+  }
+  void join(cudaStream_t main) {
+    SINEW_CUDA(cudaEventRecord(join_, side_));
+    SINEW_CUDA(cudaStreamWaitEvent(main, join_, 0));
+  }
+
+private:
+  void release() {
+    if (join_) cudaEventDestroy(join_);
+    if (fork_) cudaEventDestroy(fork_);
+    if (side_) cudaStreamDestroy(side_);
+  }
+  cudaStream_t side_ = nullptr;
+  cudaEvent_t fork_ = nullptr, join_ = nullptr;
 };
 
 }  // namespace sinew::cuda

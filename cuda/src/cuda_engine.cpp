@@ -38,6 +38,7 @@ enum class Kind { Smoothing, ShapePrior, Gradient, Profile, Attraction, Collisio
 struct CudaEngine::Impl {
   Simulation& sim;
   cudaStream_t stream = nullptr;
+  StreamBranch branch;  // the collision response beside the other forces (enqueueStep)
   std::string device;
   struct ForceSlot {
     std::string name;
@@ -422,9 +423,15 @@ struct CudaEngine::Impl {
       }
     }
     launchGeometry(view, topology.cellSpans.get(), stream);
+    // The collision response reads the positions and the geometry and writes a force of its own, so
+    // it runs on a branch beside the other forces (the step's longer path: docs/collisions.md, "The
+    // response beside the other forces"), joined before anything reads the forces. Its force is
+    // added after the others' (the CPU adds it in force order: the last bits may differ where a
+    // force follows the collision's, within the parity tolerance).
+    const bool collide = collisionActive();
+    const float hold = collide ? enqueueCollision(branch.begin(stream)) : -1.0f;  // negative: no hold
     launchFusedForces(view, fused, stream);
     bool moved = false;
-    float hold = -1.0f;  // the collision force's hold_mm, when it ran (negative: no hold)
     for (; next < forces.size(); ++next) {
       const ForceSlot& f = forces[next];
       const ParamTable& t = sim.forceParams(f.name);
@@ -438,28 +445,24 @@ struct CudaEngine::Impl {
                          gradientView, gradient.get(), stream);
           break;
         case Kind::Profile:
-          moved = !moveAlone && !activeAfter(next);
+          moved = !moveAlone && !activeAfter(next) && !collide;  // the branch reads the positions
           launchProfile(imageTarget, p, t.indexOf("search_depth"), imageView, imageTexture.get(), profiles.get(), profileInside,
                         profileOutside, profileSpacing, maxProfileReach(t), moved ? &move : nullptr, stream);
           break;
         case Kind::Attraction:
           placedPoints.launch(view, p, t.indexOf("ring"), t.indexOf("margin_mm"), meshBegin.get(), meshEnd.get(), stream);
           break;
-        case Kind::Collision:
-          if (collision.built()) {
-            hold = t.getf(0, t.indexOf("hold_mm"));
-            launchCollision(view, p, collision.view(),
-                            {t.getf(0, t.indexOf("margin_mm")), t.getf(0, t.indexOf("contact_damping")),
-                             t.getf(0, t.indexOf("reach_mm")), t.getf(0, t.indexOf("retreat_mm")), hold},
-                            std::max(1, int(t.get(0, t.indexOf("full_search_every")))), stream);
-          }
-          break;
+        case Kind::Collision: break;  // on the branch, above
         case Kind::Contacts:
           contactLinks.launch(view, p, stream);
           break;
         case Kind::Radial: radial.launch(view, p, int(t.get(0, t.indexOf("medial_iterations"))), stream); break;
         case Kind::Plugin: checkPlugin(f, f.device->enqueue(pluginContext(f)), "enqueue"); break;
       }
+    }
+    if (collide) {
+      branch.join(stream);
+      launchCollisionAdd(view, collision.view(), stream);
     }
     if (regularise)
       launchAffineRegularisation(view, imageForce.get(), meshBegin.get(), meshEnd.get(), sim.structureCount(),
@@ -474,6 +477,13 @@ struct CudaEngine::Impl {
         checkPlugin(f, f.device->constrain(pluginContext(f)), "constrain");
     }
     if (!attachments.empty()) launchAttachmentProject(view, attachments.view(), stream);
+  }
+
+  // The collision force's refit and response on stream s; returns its hold_mm.
+  float enqueueCollision(cudaStream_t s) {
+    for (const ForceSlot& f : forces)
+      if (f.kind == Kind::Collision) return collision.launch(view, {f.params.get(), f.count}, sim.forceParams(f.name), s);
+    return -1.0f;
   }
 
   void enqueueIntegrator() {

@@ -36,6 +36,7 @@ void DeviceCollision::build(MeshStore& store, const SceneData& scene, const Para
   const auto x = store.positions();
   last_.upload(reinterpret_cast<const float3*>(x.data()), x.size(), stream);
   hold_.resize(store.vertexCount());  // written by every response before the hold reads it
+  force_.resize(store.vertexCount());  // likewise, before launchCollisionAdd reads it
   motion_.resize(1);
   SINEW_CUDA(cudaMemsetAsync(motion_.get(), 0, motion_.bytes(), stream));
   counter_.resize(1);
@@ -54,6 +55,14 @@ void DeviceCollision::buildNodeLists(const CollisionTree& tree, cudaStream_t str
   threadNodes_.upload(threadNodes, stream);
   warpNodes_.upload(warpNodes, stream);
   blockNodes_.upload(blockNodes, stream);
+}
+
+float DeviceCollision::launch(const MeshView& m, ParamView p, const ParamTable& params, cudaStream_t stream) const {
+  const auto get = [&](const char* name) { return params.getf(0, params.indexOf(name)); };
+  const float hold = get("hold_mm");
+  launchCollision(m, p, view(), {get("margin_mm"), get("contact_damping"), get("reach_mm"), get("retreat_mm"), hold},
+                  std::max(1, int(get("full_search_every"))), stream);
+  return hold;
 }
 
 CollisionDevice DeviceCollision::view() const {
@@ -81,6 +90,7 @@ CollisionDevice DeviceCollision::view() const {
   c.last = last_.get();
   c.motion = motion_.get();
   c.hold = hold_.get();
+  c.force = force_.get();
   c.meshes = meshes_;
   c.nodeCount = int(nodes_.size());
   return c;
@@ -90,7 +100,7 @@ std::size_t DeviceCollision::bytes() const {
   return nodes_.bytes() + boxes_.bytes() + tris_.bytes() + order_.bytes() + roots_.bytes() + leaves_.bytes() +
          visits_.bytes() + threadNodes_.bytes() + warpNodes_.bytes() + blockNodes_.bytes() + vertexBoxes_.bytes() +
          stiffness_.bytes() + depth_.bytes() + counter_.bytes() + hint_.bytes() + exempt_.bytes() + share_.bytes() +
-         slack_.bytes() + moved_.bytes() + last_.bytes() + motion_.bytes() + hold_.bytes();
+         slack_.bytes() + moved_.bytes() + last_.bytes() + motion_.bytes() + hold_.bytes() + force_.bytes();
 }
 
 }  // namespace sinew::cuda

@@ -20,6 +20,9 @@ public:
   bool built() const { return meshes_ > 0; }
   CollisionDevice view() const;
   const float* stiffness() const { return stiffness_.get(); }
+  // launchCollision with the force's settings from its parameters `params` (p: their device copy);
+  // returns hold_mm (negative: no hold, so no launchCollisionHold).
+  float launch(const MeshView& m, ParamView p, const ParamTable& params, cudaStream_t stream) const;
   std::size_t bytes() const;
 
 private:
@@ -31,7 +34,7 @@ private:
   DeviceArray<collision::Box> vertexBoxes_;
   DeviceArray<int> order_, roots_, leaves_, visits_, threadNodes_, warpNodes_, blockNodes_, hint_;
   DeviceArray<float> stiffness_, depth_, slack_, moved_;
-  DeviceArray<float3> last_;
+  DeviceArray<float3> last_, force_;
   DeviceArray<collision::HoldPlane> hold_;  // CollisionDevice::hold
   DeviceArray<unsigned> motion_;
   DeviceArray<int> counter_;  // the level's steps so far (full searches every full_search_every)

@@ -256,16 +256,20 @@ struct CollisionDevice {
   const unsigned char* exempt = nullptr;  // pairs left out (meshes x meshes), or null
   const float* share = nullptr;           // collision::shareOf's table (meshes x meshes), or null
   collision::HoldPlane* hold = nullptr;  // per vertex, the plane the hold moves it out of after the step
+  float3* force = nullptr;  // per vertex, the response's force, apart from m.force (launchCollision)
   int meshes = 0, nodeCount = 0, leafCount = 0;
 };
 // Deforming contacts (collision_kernels.cu; core/contact_links.h): adds alpha m_i (x_j + o_i - x_i)
 // to m.force for each vertex i with a partner j; stiffness (may be null) gets alpha m_i, or 0.
 void launchContactSprings(const MeshView& m, ParamView p, const int* partner, const float3* offset, float* stiffness,
                           cudaStream_t s);
-// Refits the hierarchies (needs m.cellCentre) and adds the contact response to m.force (needs m.normal).
-// every: a full search every this many steps (collision::contactResponse).
+// Refits the hierarchies (needs m.cellCentre) and writes the contact response to c.force (needs
+// m.normal and m.mass; reads m.x and m.prev, writes nothing of m), so that it may run beside the
+// other forces. every: a full search every this many steps (collision::contactResponse).
 void launchCollision(const MeshView& m, ParamView p, const CollisionDevice& c, const collision::ContactSettings& settings,
                      int every, cudaStream_t s);
+// Adds c.force (launchCollision's) to m.force.
+void launchCollisionAdd(const MeshView& m, const CollisionDevice& c, cudaStream_t s);
 // After the step's move: each vertex below its hold plane (c.hold, written by launchCollision when
 // settings.hold >= 0) moves out along its normal onto it (CollisionForce::constrain). Must follow
 // every launchCollision with settings.hold >= 0: it also ends the collision's step (its counter).
