@@ -6,7 +6,8 @@
 # step as a run does: its kernels back to back in a graph, the collision branch beside the other
 # forces. EVERY: values of the collision force's full_search_every, a scene each (default 1).
 # BENCH: other bench_steps binaries to run after this build's on the same scenes (an older
-# build's, side by side). docs/benchmarks.md.
+# build's, side by side). MAKE_SCENE_ARGS: more sinew-make-scene options (e.g. another
+# --structures list); SCHEDULE: iterations per level instead. docs/benchmarks.md.
 # Usage: bash scripts/collision-step-time.sh BUILD_DIR OUT_DIR ["3 4"]
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -19,8 +20,8 @@ for l in $levels; do
   for c in off $(for k in ${EVERY:-1}; do echo "every$k"; done); do
     weight=1; [ "$c" = off ] && weight=0
     "$build/app/sinew-make-scene" --atlas "$t/aal.nii.gz" --labels "$t/aal.nii.txt" --training "$t/ch2better.nii.gz" \
-      --target "$t/ch2.nii.gz" --seed 1 --iterations "${schedules[$l]},60" --collision-weight "$weight" \
-      -o "$out/levels-$l-$c/scene.json" >/dev/null
+      --target "$t/ch2.nii.gz" --seed 1 --iterations "${SCHEDULE:-${schedules[$l]},60}" --collision-weight "$weight" \
+      ${MAKE_SCENE_ARGS:-} -o "$out/levels-$l-$c/scene.json" >/dev/null
     [ "$c" = off ] || python3 -c 'import json,sys; p=sys.argv[1]; j=json.load(open(p)); j["forces"]["collision"]["full_search_every"]=int(sys.argv[2]); json.dump(j,open(p,"w"),indent=1)' \
       "$out/levels-$l-$c/scene.json" "${c#every}"
     scenes+=("$out/levels-$l-$c/scene.json")

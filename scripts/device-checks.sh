@@ -35,7 +35,12 @@ for c in ${CHECKS:-parity demo accuracy}; do
       # GPU wall time of a step with and without collisions, the branch overlapping (bench_steps);
       # STEPS_BENCH: older bench_steps binaries to time on the same scenes.
       BENCH="${STEPS_BENCH:-}" bash scripts/collision-step-time.sh "$build" /tmp/stime "${STEP_LEVELS:-3 4}" 2>&1 |
-        tee "$out/collision-steps.md" ;;
+        tee "$out/collision-steps.md"
+      # The 100 AAL regions of CHECKS=scaling (below), 1,269,152 vertices at the finest level.
+      list=$(awk 'NR<=100{printf "%s%s", (NR>1?",":""), $2}' /usr/share/mricron/templates/aal.nii.txt)
+      SCHEDULE=${SCALING_SCHEDULE:-20,10,25} \
+        MAKE_SCENE_ARGS="--structures $list --max-rotation-deg 0 --max-translation-mm 0 --scale-min 1 --scale-max 1" \
+        bash scripts/collision-step-time.sh "$build" /tmp/sscale 3 2>&1 | tee "$out/collision-steps-scaling.md" ;;
     scaling)
       # 100 AAL regions placed as the atlas has them (no perturbation): the broad phase's scaling.
       list=$(awk 'NR<=100{printf "%s%s", (NR>1?",":""), $2}' /usr/share/mricron/templates/aal.nii.txt)

@@ -424,12 +424,18 @@ struct CudaEngine::Impl {
     }
     launchGeometry(view, topology.cellSpans.get(), stream);
     // The collision response reads the positions and the geometry and writes a force of its own, so
-    // it runs on a branch beside the other forces (the step's longer path: docs/collisions.md, "The
-    // response beside the other forces"), joined before anything reads the forces. Its force is
-    // added after the others' (the CPU adds it in force order: the last bits may differ where a
-    // force follows the collision's, within the parity tolerance).
+    // it runs on a branch beside the forces before it (the step's longer path: docs/collisions.md,
+    // "The response beside the other forces"), joined at its place in the force order, where its
+    // force is added as the CPU adds it.
     const bool collide = collisionActive();
     const float hold = collide ? enqueueCollision(branch.begin(stream)) : -1.0f;  // negative: no hold
+    bool joined = !collide;
+    const auto joinCollision = [&] {
+      if (joined) return;
+      branch.join(stream);
+      launchCollisionAdd(view, collision.view(), stream);
+      joined = true;
+    };
     launchFusedForces(view, fused, stream);
     bool moved = false;
     for (; next < forces.size(); ++next) {
@@ -452,7 +458,7 @@ struct CudaEngine::Impl {
         case Kind::Attraction:
           placedPoints.launch(view, p, t.indexOf("ring"), t.indexOf("margin_mm"), meshBegin.get(), meshEnd.get(), stream);
           break;
-        case Kind::Collision: break;  // on the branch, above
+        case Kind::Collision: joinCollision(); break;  // launched on the branch above
         case Kind::Contacts:
           contactLinks.launch(view, p, stream);
           break;
@@ -460,10 +466,7 @@ struct CudaEngine::Impl {
         case Kind::Plugin: checkPlugin(f, f.device->enqueue(pluginContext(f)), "enqueue"); break;
       }
     }
-    if (collide) {
-      branch.join(stream);
-      launchCollisionAdd(view, collision.view(), stream);
-    }
+    joinCollision();
     if (regularise)
       launchAffineRegularisation(view, imageForce.get(), meshBegin.get(), meshEnd.get(), sim.structureCount(),
                                  affineParts, affineMoments.get(), affineCoefficients.get(), share, stream);
