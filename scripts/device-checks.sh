@@ -38,7 +38,7 @@ for c in ${CHECKS:-parity demo accuracy}; do
         tee "$out/collision-steps.md"
       # The 100 AAL regions of CHECKS=scaling (below), 1,269,152 vertices at the finest level.
       list=$(awk 'NR<=100{printf "%s%s", (NR>1?",":""), $2}' /usr/share/mricron/templates/aal.nii.txt)
-      SCHEDULE=${SCALING_SCHEDULE:-20,10,25} \
+      SCHEDULE=${SCALING_SCHEDULE:-20,10,25} BENCH="${STEPS_BENCH:-}" \
         MAKE_SCENE_ARGS="--structures $list --max-rotation-deg 0 --max-translation-mm 0 --scale-min 1 --scale-max 1" \
         bash scripts/collision-step-time.sh "$build" /tmp/sscale 3 2>&1 | tee "$out/collision-steps-scaling.md" ;;
     scaling)

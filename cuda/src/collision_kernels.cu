@@ -431,11 +431,8 @@ __device__ void advanceStep(int* counter, unsigned* motion) {
   ++*counter;
   *motion = 0;
 }
-// CollisionForce::constrain's arithmetic; then the step's end (advanceStep: the response read both).
-__global__ void holdOut(MeshView m, const HoldPlane* hold, int* counter, unsigned* motion) {
-  const int i = blockIdx.x * blockDim.x + threadIdx.x;
-  if (i == 0) advanceStep(counter, motion);
-  if (i >= m.vertices) return;
+// CollisionForce::constrain's arithmetic at vertex i.
+__device__ void holdVertex(const MeshView& m, const HoldPlane* hold, int i) {
   const HoldPlane h = hold[i];
   if (!(h.side < 3.0e38f)) return;  // most vertices: no plane, and no loads of x and prev
   P3* x = reinterpret_cast<P3*>(m.x);
@@ -444,6 +441,28 @@ __global__ void holdOut(MeshView m, const HoldPlane* hold, int* counter, unsigne
   collision::holdOut(h, p, q);
   x[i] = p;
   previous[i] = q;
+}
+// The hold; then the step's end (advanceStep: the response read both).
+__global__ void holdOut(MeshView m, const HoldPlane* hold, int* counter, unsigned* motion) {
+  const int i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i == 0) advanceStep(counter, motion);
+  if (i < m.vertices) holdVertex(m, hold, i);
+}
+// The collision's force added, the damped Verlet move, then the hold (as holdOut; hold null: none,
+// and `advance` ended the step on the branch).
+__global__ void addMoveAndHold(MeshView m, const float3* collisionForce, VerletMove move, const HoldPlane* hold,
+                               int* counter, unsigned* motion) {
+  const int i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i == 0 && hold) advanceStep(counter, motion);
+  if (i >= m.vertices) return;
+  const float3 f = m.force[i] + collisionForce[i];
+  m.force[i] = f;
+  const float3 current = m.x[i];  // verletMove's arithmetic, the hold's on the values it writes
+  const float3 next = verletStep(current, m.prev[i], f, move.dt, move.keep, m.mass[i]);
+  P3 p{next.x, next.y, next.z}, q{current.x, current.y, current.z};
+  if (hold) collision::holdOut(hold[i], p, q);
+  m.x[i] = make_float3(p.x, p.y, p.z);
+  m.prev[i] = make_float3(q.x, q.y, q.z);
 }
 // The step's end without a hold.
 __global__ void advance(int* counter, unsigned* motion) { advanceStep(counter, motion); }
@@ -491,6 +510,11 @@ void launchCollision(const MeshView& m, ParamView p, const CollisionDevice& c, c
 
 void launchCollisionAdd(const MeshView& m, const CollisionDevice& c, cudaStream_t s) {
   addCollisionForce<<<(m.vertices + kThreads - 1) / kThreads, kThreads, 0, s>>>(m, c.force);
+}
+
+void launchCollisionMove(const MeshView& m, const CollisionDevice& c, const VerletMove& move, bool hold, cudaStream_t s) {
+  addMoveAndHold<<<(m.vertices + kThreads - 1) / kThreads, kThreads, 0, s>>>(m, c.force, move, hold ? c.hold : nullptr,
+                                                                           c.counter, c.motion);
 }
 
 void launchCollisionHold(const MeshView& m, const CollisionDevice& c, cudaStream_t s) {

@@ -423,21 +423,22 @@ struct CudaEngine::Impl {
       }
     }
     launchGeometry(view, topology.cellSpans.get(), stream);
-    // The collision response reads the positions and the geometry and writes a force of its own, so
-    // it runs on a branch beside the forces before it (the step's longer path: docs/collisions.md,
-    // "The response beside the other forces"), joined at its place in the force order, where its
-    // force is added as the CPU adds it.
+    // The collision response reads the positions and the geometry and writes a force of its own: it
+    // runs on a branch beside the forces before it (docs/collisions.md, "The response beside the
+    // other forces"), joined at its place in the force order, where its force is added as the CPU
+    // adds it; as the last force before damped Verlet, with the move and the hold in one pass.
     const bool collide = collisionActive();
     const float hold = collide ? enqueueCollision(branch.begin(stream)) : -1.0f;  // negative: no hold
-    bool joined = !collide;
-    const auto joinCollision = [&] {
+    bool joined = !collide, held = false, moved = false;
+    const auto joinCollision = [&](size_t slot) {
       if (joined) return;
       branch.join(stream);
-      launchCollisionAdd(view, collision.view(), stream);
       joined = true;
+      if (moveAlone || activeAfter(slot) || anyPluginActive()) return launchCollisionAdd(view, collision.view(), stream);
+      launchCollisionMove(view, collision.view(), move, hold >= 0.0f, stream);
+      moved = held = true;
     };
     launchFusedForces(view, fused, stream);
-    bool moved = false;
     for (; next < forces.size(); ++next) {
       const ForceSlot& f = forces[next];
       const ParamTable& t = sim.forceParams(f.name);
@@ -458,7 +459,7 @@ struct CudaEngine::Impl {
         case Kind::Attraction:
           placedPoints.launch(view, p, t.indexOf("ring"), t.indexOf("margin_mm"), meshBegin.get(), meshEnd.get(), stream);
           break;
-        case Kind::Collision: joinCollision(); break;  // launched on the branch above
+        case Kind::Collision: joinCollision(next); break;  // launched on the branch above
         case Kind::Contacts:
           contactLinks.launch(view, p, stream);
           break;
@@ -466,7 +467,7 @@ struct CudaEngine::Impl {
         case Kind::Plugin: checkPlugin(f, f.device->enqueue(pluginContext(f)), "enqueue"); break;
       }
     }
-    joinCollision();
+    joinCollision(forces.size());
     if (regularise)
       launchAffineRegularisation(view, imageForce.get(), meshBegin.get(), meshEnd.get(), sim.structureCount(),
                                  affineParts, affineMoments.get(), affineCoefficients.get(), share, stream);
@@ -475,13 +476,17 @@ struct CudaEngine::Impl {
     if (!moved) enqueueIntegrator();
     // The forces' constraints after the move (Force::constrain), in force order.
     for (const ForceSlot& f : forces) {
-      if (f.kind == Kind::Collision && hold >= 0.0f) launchCollisionHold(view, collision.view(), stream);
+      if (f.kind == Kind::Collision && hold >= 0.0f && !held) launchCollisionHold(view, collision.view(), stream);
       if (f.kind == Kind::Plugin && sim.forceParams(f.name).anyPositive(0))
         checkPlugin(f, f.device->constrain(pluginContext(f)), "constrain");
     }
     if (!attachments.empty()) launchAttachmentProject(view, attachments.view(), stream);
   }
 
+  bool anyPluginActive() const {
+    return std::any_of(forces.begin(), forces.end(),
+                       [&](const ForceSlot& f) { return f.kind == Kind::Plugin && sim.forceParams(f.name).anyPositive(0); });
+  }
   // The collision force's refit and response on stream s; returns its hold_mm.
   float enqueueCollision(cudaStream_t s) {
     for (const ForceSlot& f : forces)

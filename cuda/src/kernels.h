@@ -270,6 +270,9 @@ void launchCollision(const MeshView& m, ParamView p, const CollisionDevice& c, c
                      int every, cudaStream_t s);
 // Adds c.force (launchCollision's) to m.force.
 void launchCollisionAdd(const MeshView& m, const CollisionDevice& c, cudaStream_t s);
+// launchCollisionAdd, launchVerlet and (hold: launchCollisionHold) in one pass, the same
+// arithmetic: for a step whose last force is the collision's and whose move follows directly.
+void launchCollisionMove(const MeshView& m, const CollisionDevice& c, const VerletMove& move, bool hold, cudaStream_t s);
 // After the step's move: each vertex below its hold plane (c.hold, written by launchCollision when
 // settings.hold >= 0) moves out along its normal onto it (CollisionForce::constrain). Must follow
 // every launchCollision with settings.hold >= 0: it also ends the collision's step (its counter).
