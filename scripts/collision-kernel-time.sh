@@ -50,7 +50,10 @@ window = kernels[starts[-steps - 1]:starts[-1]]  # the last full steps (the fina
 total = sum(t for _, t in window) / steps / 1e6  # ns -> ms
 # The collision refit takes the BvhView (`refit` before 2026-11-25; since, `climbRefit` or
 # `vertexBoxes` and `nodeBoxes`); the sampled error has a refit of its own.
+# Since 2026-11-28 the response's force is added by addCollisionForce, or, where the collision is
+# the last force, with the move and the hold by addMoveAndHold (counted here, the move with it).
 coll = sum(t for n, t in window if "respond" in n or "Boxes" in n or "advance" in n or "holdOut" in n
+           or "addCollisionForce" in n or "addMoveAndHold" in n
            or ("efit" in n and "BvhView" in n)) / steps / 1e6
 r = json.load(open(report))
 verts = sum(s["vertices"] for s in r["structures"])
