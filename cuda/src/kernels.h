@@ -274,8 +274,9 @@ void launchCollisionAdd(const MeshView& m, const CollisionDevice& c, cudaStream_
 // arithmetic: for a step whose last force is the collision's and whose move follows directly.
 void launchCollisionMove(const MeshView& m, const CollisionDevice& c, const VerletMove& move, bool hold, cudaStream_t s);
 // After the step's move: each vertex below its hold plane (c.hold, written by launchCollision when
-// settings.hold >= 0) moves out along its normal onto it (CollisionForce::constrain). Must follow
-// every launchCollision with settings.hold >= 0: it also ends the collision's step (its counter).
+// settings.hold >= 0) moves out along its normal onto it (CollisionForce::constrain). Every
+// launchCollision with settings.hold >= 0 must be followed by it or by launchCollisionMove with hold
+// true: they also end the collision's step (its counter).
 void launchCollisionHold(const MeshView& m, const CollisionDevice& c, cudaStream_t s);
 
 // The radial force (radial_kernels.cu; device_radial.h): the medial surfaces of the structures

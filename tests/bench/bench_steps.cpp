@@ -1,12 +1,13 @@
 // GPU wall time of a step at the finest level of real scenes, side by side in one process. Each
 // scene's schedule is run on the CUDA backend as sinew-run runs it (in chunks of the report's
-// sample interval under the stability and shape guards, without the samples themselves); then
+// sample interval under the stability and shape guards, without the samples themselves). Then
 // rounds of STEPS steps are timed on each scene in turn, each round from the state the schedule
-// left (so every round does the same work, and the unguarded steps cannot drift into a swing), and the
-// median of the rounds is reported per scene with its ratio to the first scene's. With and without a force (collisions) this is what
-// the force adds to a step as the device runs it, with the step's kernels overlapping where they
-// may: Nsight Compute's kernel durations (scripts/collision-kernel-time.sh) are serialised and
-// cannot show that. scripts/collision-step-time.sh makes the scenes; docs/benchmarks.md.
+// left (so every round does the same work, and the unguarded steps cannot drift into a swing), and
+// the median of the rounds is reported per scene with its ratio to the first scene's. With and
+// without a force (collisions) this is what the force adds to a step as the device runs it, the
+// step's kernels overlapping where they may: Nsight Compute's kernel durations
+// (scripts/collision-kernel-time.sh) are serialised and cannot show that.
+// scripts/collision-step-time.sh makes the scenes; docs/benchmarks.md.
 //   bench_steps STEPS ROUNDS SCENE.json...
 #include "synthetic.h"
 #include "sinew/core/scene.h"
