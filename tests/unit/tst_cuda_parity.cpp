@@ -15,12 +15,10 @@
 #include "synthetic.h"
 
 #include <cuda_runtime.h>
-
 #include <QtTest>
 
-#include <functional>
-
 #include <algorithm>
+#include <functional>
 #include <numeric>
 
 using namespace sinew;
@@ -162,9 +160,7 @@ private slots:
       QCOMPARE(maxDifference(gpu->store(), again->store()), 0.0);
       QCOMPARE(maxDifference(gpu->store().previousPositions(), again->store().previousPositions()), 0.0);
     }
-    double moved = 0;
-    auto init = make();
-    moved = maxDifference(cpu->store(), init->store());
+    const double moved = maxDifference(cpu->store(), make()->store());
     qInfo("%s: max CPU-CUDA difference %.3g mm after 100 iterations (vertices moved up to %.3g mm)",
           qPrintable(forces.join('+')), diff, moved);
     QVERIFY(moved > 0.01);  // the comparison means something only if the forces moved the mesh
@@ -491,17 +487,21 @@ private slots:
 
   // Deforming contacts: two spheres 1 mm apart in their reference, the second started 3 mm away,
   // pulled back by the springs. Parity within 1e-3 mm (Verlet) and 1e-2 mm (implicit Euler), the
-  // device repeats itself, and a scene without contact pairs allocates nothing for them.
+  // device repeats itself, and a scene without contact pairs allocates nothing for them. A collision
+  // force before them (as in subject scenes) joins its branch between the forces on the device.
   void contactsMatchTheCpu_data() {
     QTest::addColumn<QString>("integrator");
     QTest::addColumn<int>("steps");
-    QTest::newRow("damped_verlet") << "damped_verlet" << 100;
-    QTest::newRow("implicit_euler") << "implicit_euler" << 20;
+    QTest::addColumn<bool>("collide");
+    QTest::newRow("damped_verlet") << "damped_verlet" << 100 << false;
+    QTest::newRow("implicit_euler") << "implicit_euler" << 20 << false;
+    QTest::newRow("damped_verlet, collision first") << "damped_verlet" << 100 << true;
   }
   void contactsMatchTheCpu() {
     QFETCH(QString, integrator);
     QFETCH(int, steps);
-    auto make = [&](bool pairs) {
+    QFETCH(bool, collide);
+    auto make = [&](bool pairs, bool withCollision) {
       auto sim = std::make_unique<Simulation>(forceRegistry(), 0);
       for (int i = 0; i < 2; ++i) {
         StructureSpec s = sphereStructure(i ? "b" : "a", 3, 10.0f, Vec3(21.0f * i, 0, 0));
@@ -510,19 +510,26 @@ private slots:
         sim->addStructure(std::move(s));
       }
       sim->addForce("shape_prior");
+      if (withCollision) sim->addForce("collision").setAll("margin_mm", 1.5);
       sim->addForce("contacts");
       if (pairs) sim->scene().contactPairs().push_back({0, 1});
       sim->setIntegrator(integrator.toStdString()).set(0, "time_step", integrator == "implicit_euler" ? 2.0 : 0.5);
       sim->initialize();
       return sim;
     };
-    const ParityRun r = runOnBoth([&] { return make(true); }, steps);
-    qInfo("contacts, %s: max CPU-CUDA difference %.3g mm after %d steps (vertices pulled up to %.3g mm)",
-          qPrintable(integrator), r.cpuCuda, steps, r.moved);
+    const ParityRun r = runOnBoth([&] { return make(true, collide); }, steps);
+    qInfo("contacts, %s%s: max CPU-CUDA difference %.3g mm after %d steps (vertices pulled up to %.3g mm)",
+          qPrintable(integrator), collide ? ", collision first" : "", r.cpuCuda, steps, r.moved);
     QVERIFY(r.moved > 0.5);
     QVERIFY2(r.cpuCuda < (integrator == "implicit_euler" ? 1e-2 : 1e-3), qPrintable(QString::number(r.cpuCuda)));
     QCOMPARE(r.deviceRepeat, 0.0);
-    auto none = make(false), with = make(true);
+    if (collide) {  // the same sums in the same order; the collision acted (without it they end elsewhere)
+      QCOMPARE(r.cpuCuda, 0.0);
+      auto a = make(true, true), b = make(true, false);
+      a->run(steps), b->run(steps);
+      QVERIFY(maxDifference(a->store(), b->store()) > 0.05);
+    }
+    auto none = make(false, collide), with = make(true, collide);
     cuda::CudaEngine e0(*none), e1(*with);
     e0.run(2);
     e1.run(2);
