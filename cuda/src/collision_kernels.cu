@@ -3,6 +3,7 @@
 // node's box at once from its vertices'), then 1-16 threads per vertex finding its contacts.
 #include "cuda_check.h"
 #include "device_math.cuh"
+#include "mesh_geometry.cuh"
 
 #include "sinew/core/collision_bvh.h"
 
@@ -68,12 +69,23 @@ __global__ void climbRefit(BvhView v, const int* leaves, int leafCount, int* vis
 
 // The refit of smaller scenes, where the climb's chain of fenced atomics, one per level, set its
 // time: the motion, then each vertex's box in tree order (thread i: vertex i's move, tree position
-// i's box) ...
-__global__ void vertexBoxes(BvhView v, const P3* x, const P3* centres, const int* counter, int every, int vertices,
-                            float3* last, float* moved, unsigned* motion, Box* boxes) {
+// i's box) ... Its cells' centres computed here, as the geometry kernel computes them (centreOf,
+// the same values): so the refit does not wait for that kernel, and runs beside it.
+__global__ void vertexBoxes(BvhView v, MeshView m, const int* counter, int every, float3* last, float* moved,
+                            unsigned* motion, Box* boxes) {
   const int i = blockIdx.x * blockDim.x + threadIdx.x;
-  trackMotion(vertices, x, last, moved, motion);
-  if (i < vertices && *counter % every == 0) boxes[i] = vertexBox(v, i, x, centres);
+  const P3* x = reinterpret_cast<const P3*>(m.x);
+  trackMotion(m.vertices, x, last, moved, motion);
+  if (i >= m.vertices || *counter % every != 0) return;
+  Box b = emptyBox();  // collision::vertexBox with the centres computed
+  for (int k = 0; k < 3; ++k) {
+    const Tri t = v.tris[3 * v.order[i] + k];
+    const float3 c = centreOf(m, t.cell);
+    extend(b, x[t.a]);
+    extend(b, x[t.b]);
+    extend(b, P3{c.x, c.y, c.z});
+  }
+  boxes[i] = b;
 }
 
 // ... then every node's box from its vertices' boxes, all nodes at once, none waiting for another:
@@ -473,22 +485,25 @@ void launchContactSprings(const MeshView& m, ParamView p, const int* partner, co
   contactSprings<<<(m.vertices + kThreads - 1) / kThreads, kThreads, 0, s>>>(m, p, partner, offset, stiffness);
 }
 
-void launchCollision(const MeshView& m, ParamView p, const CollisionDevice& c, const ContactSettings& settings, int every,
-                     cudaStream_t s) {
+void launchCollisionRefit(const MeshView& m, const CollisionDevice& c, int every, cudaStream_t s) {
   BvhView v{c.nodes, c.boxes, c.tris, c.order, c.roots, c.exempt, c.meshes, c.nodeCount, c.share};
-  const P3* x = reinterpret_cast<const P3*>(m.x);
-  const P3* centres = reinterpret_cast<const P3*>(m.cellCentre);
   if (c.climb) {
     climbRefit<<<(c.leafCount + kThreads - 1) / kThreads, kThreads, 0, s>>>(
-        v, c.leaves, c.leafCount, c.visits, x, centres, c.counter, every, m.vertices, c.last, c.moved, c.motion);
-  } else {
-    vertexBoxes<<<(m.vertices + kThreads - 1) / kThreads, kThreads, 0, s>>>(
-        v, x, centres, c.counter, every, m.vertices, c.last, c.moved, c.motion, c.vertexBoxes);
-    const NodeLists& l = c.lists;
-    const int n = int(kNodeThreads);
-    const int blocks = std::max(1, (l.threadCount + n - 1) / n + (l.warpCount * 32 + n - 1) / n + l.blockCount);
-    nodeBoxes<<<blocks, kNodeThreads, 0, s>>>(v, c.vertexBoxes, l, c.counter, every);
+        v, c.leaves, c.leafCount, c.visits, reinterpret_cast<const P3*>(m.x), reinterpret_cast<const P3*>(m.cellCentre),
+        c.counter, every, m.vertices, c.last, c.moved, c.motion);
+    return;
   }
+  vertexBoxes<<<(m.vertices + kThreads - 1) / kThreads, kThreads, 0, s>>>(v, m, c.counter, every, c.last, c.moved, c.motion,
+                                                                          c.vertexBoxes);
+  const NodeLists& l = c.lists;
+  const int n = int(kNodeThreads);
+  const int blocks = std::max(1, (l.threadCount + n - 1) / n + (l.warpCount * 32 + n - 1) / n + l.blockCount);
+  nodeBoxes<<<blocks, kNodeThreads, 0, s>>>(v, c.vertexBoxes, l, c.counter, every);
+}
+
+void launchCollisionRespond(const MeshView& m, ParamView p, const CollisionDevice& c, const ContactSettings& settings,
+                            int every, cudaStream_t s) {
+  BvhView v{c.nodes, c.boxes, c.tris, c.order, c.roots, c.exempt, c.meshes, c.nodeCount, c.share};
   // Lanes a vertex. From 131,072 vertices, 4 where a vertex's structures take at most 4 rounds of
   // them: with two leaves at once that beat a lane a vertex 358.5 against 826.5 us at 325,632
   // vertices (12 structures), but lost 2,433 against 2,114 us with 100 structures (25 rounds;

@@ -73,9 +73,10 @@ private:
 };
 
 // A branch of work beside a stream: begin() returns a second stream that starts where `main` is
-// now, join() makes `main` wait for everything enqueued on it since. Works under stream capture
-// (the branch becomes a parallel path of the graph); every begin() must be joined before the
-// capture ends. The branch's stream has the device's highest priority: it is the longer path.
+// now, follow() makes it wait for what `main` has enqueued since, join() makes `main` wait for
+// everything enqueued on it. Works under stream capture (the branch becomes a parallel path of the
+// graph); every begin() must be joined before the capture ends. The branch's stream has the
+// device's highest priority: it is the longer path.
 class StreamBranch {
 public:
   StreamBranch() = default;
@@ -89,11 +90,16 @@ public:
       SINEW_CUDA(cudaDeviceGetStreamPriorityRange(&least, &greatest));
       SINEW_CUDA(cudaStreamCreateWithPriority(&side_, cudaStreamNonBlocking, greatest));
       SINEW_CUDA(cudaEventCreateWithFlags(&fork_, cudaEventDisableTiming));
+      SINEW_CUDA(cudaEventCreateWithFlags(&follow_, cudaEventDisableTiming));
       SINEW_CUDA(cudaEventCreateWithFlags(&join_, cudaEventDisableTiming));
     }
     SINEW_CUDA(cudaEventRecord(fork_, main));
     SINEW_CUDA(cudaStreamWaitEvent(side_, fork_, 0));
     return side_;
+  }
+  void follow(cudaStream_t main) {
+    SINEW_CUDA(cudaEventRecord(follow_, main));
+    SINEW_CUDA(cudaStreamWaitEvent(side_, follow_, 0));
   }
   void join(cudaStream_t main) {
     SINEW_CUDA(cudaEventRecord(join_, side_));
@@ -103,11 +109,12 @@ public:
 private:
   void release() {
     if (join_) cudaEventDestroy(join_);
+    if (follow_) cudaEventDestroy(follow_);
     if (fork_) cudaEventDestroy(fork_);
     if (side_) cudaStreamDestroy(side_);
   }
   cudaStream_t side_ = nullptr;
-  cudaEvent_t fork_ = nullptr, join_ = nullptr;
+  cudaEvent_t fork_ = nullptr, follow_ = nullptr, join_ = nullptr;
 };
 
 }  // namespace sinew::cuda

@@ -422,19 +422,29 @@ struct CudaEngine::Impl {
         return;
       }
     }
-    launchGeometry(view, topology.cellSpans.get(), stream);
-    // The collision response reads the positions and the geometry and writes a force of its own: it
-    // runs on a branch beside the forces before it (docs/collisions.md, "The response beside the
-    // other forces"), joined at its place in the force order, where its force is added as the CPU
-    // adds it; as the last force before damped Verlet, with the move and the hold in one pass.
+    // The collision force writes a force of its own, on a branch beside the geometry (its refit, where
+    // that computes the cells' centres itself) and the forces before it (its response), joined at its
+    // place in the force order: its force added as the CPU adds it, or, as the last force before damped
+    // Verlet, with the move and the hold in one pass (docs/collisions.md, "The response beside ...").
     const bool collide = collisionActive();
-    const float hold = collide ? enqueueCollision(branch.begin(stream)) : -1.0f;  // negative: no hold
+    const ForceSlot* slot = nullptr;
+    for (const ForceSlot& f : forces) slot = f.kind == Kind::Collision && collide ? &f : slot;
+    const cudaStream_t side = collide ? branch.begin(stream) : nullptr;
+    const bool early = collide && collision.refitsBeforeGeometry();
+    if (early) collision.refit(view, sim.forceParams(slot->name), side);
+    launchGeometry(view, topology.cellSpans.get(), stream);
+    float hold = -1.0f;  // negative: no hold
+    if (collide) {
+      branch.follow(stream);
+      if (!early) collision.refit(view, sim.forceParams(slot->name), side);
+      hold = collision.respond(view, {slot->params.get(), slot->count}, sim.forceParams(slot->name), side);
+    }
     bool joined = !collide, held = false, moved = false;
-    const auto joinCollision = [&](size_t slot) {
+    const auto joinCollision = [&](size_t at) {
       if (joined) return;
       branch.join(stream);
       joined = true;
-      if (moveAlone || activeAfter(slot) || anyPluginActive()) return launchCollisionAdd(view, collision.view(), stream);
+      if (moveAlone || activeAfter(at) || anyPluginActive()) return launchCollisionAdd(view, collision.view(), stream);
       launchCollisionMove(view, collision.view(), move, hold >= 0.0f, stream);
       moved = held = true;
     };
@@ -487,13 +497,6 @@ struct CudaEngine::Impl {
     return std::any_of(forces.begin(), forces.end(),
                        [&](const ForceSlot& f) { return f.kind == Kind::Plugin && sim.forceParams(f.name).anyPositive(0); });
   }
-  // The collision force's refit and response on stream s; returns its hold_mm.
-  float enqueueCollision(cudaStream_t s) {
-    for (const ForceSlot& f : forces)
-      if (f.kind == Kind::Collision) return collision.launch(view, {f.params.get(), f.count}, sim.forceParams(f.name), s);
-    return -1.0f;
-  }
-
   void enqueueIntegrator() {
     const ParamTable& ip = sim.integratorParams();
     if (!implicit()) {

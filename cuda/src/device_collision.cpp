@@ -57,11 +57,19 @@ void DeviceCollision::buildNodeLists(const CollisionTree& tree, cudaStream_t str
   blockNodes_.upload(blockNodes, stream);
 }
 
-float DeviceCollision::launch(const MeshView& m, ParamView p, const ParamTable& params, cudaStream_t stream) const {
+namespace {
+int fullSearchEvery(const ParamTable& params) { return std::max(1, int(params.get(0, params.indexOf("full_search_every")))); }
+}  // namespace
+
+void DeviceCollision::refit(const MeshView& m, const ParamTable& params, cudaStream_t stream) const {
+  launchCollisionRefit(m, view(), fullSearchEvery(params), stream);
+}
+
+float DeviceCollision::respond(const MeshView& m, ParamView p, const ParamTable& params, cudaStream_t stream) const {
   const auto get = [&](const char* name) { return params.getf(0, params.indexOf(name)); };
   const float hold = get("hold_mm");
-  launchCollision(m, p, view(), {get("margin_mm"), get("contact_damping"), get("reach_mm"), get("retreat_mm"), hold},
-                  std::max(1, int(get("full_search_every"))), stream);
+  launchCollisionRespond(m, p, view(), {get("margin_mm"), get("contact_damping"), get("reach_mm"), get("retreat_mm"), hold},
+                         fullSearchEvery(params), stream);
   return hold;
 }
 

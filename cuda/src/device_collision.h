@@ -20,9 +20,12 @@ public:
   bool built() const { return meshes_ > 0; }
   CollisionDevice view() const;
   const float* stiffness() const { return stiffness_.get(); }
-  // launchCollision with the force's settings from its parameters `params` (p: their device copy);
-  // returns hold_mm (negative: no hold, so no launchCollisionHold).
-  float launch(const MeshView& m, ParamView p, const ParamTable& params, cudaStream_t stream) const;
+  // launchCollisionRefit and launchCollisionRespond with the force's settings from its parameters
+  // `params` (p: their device copy); respond returns hold_mm (negative: no hold, so no
+  // launchCollisionHold). refitsBeforeGeometry: the refit computes the cells' centres it needs.
+  bool refitsBeforeGeometry() const { return !climb_; }
+  void refit(const MeshView& m, const ParamTable& params, cudaStream_t stream) const;
+  float respond(const MeshView& m, ParamView p, const ParamTable& params, cudaStream_t stream) const;
   std::size_t bytes() const;
 
 private:

@@ -9,29 +9,6 @@ constexpr unsigned kThreads = 256;
 
 __device__ __forceinline__ int pick(const int3& v, int k) { return k == 0 ? v.x : (k == 1 ? v.y : v.z); }
 
-// The centre of the cell whose vertices are m.cellVertices[b .. e - 1]. Its first kCellUnrolled
-// vertices are loaded at once, then summed in order (the CPU's sum, bit for bit); a loop over the
-// cell's vertices left each load waiting for the last (H200, one step of smoothing + shape prior at
-// 2,656 vertices: 9.47 -> 8.70-8.75 us; docs/benchmarks.md).
-constexpr int kCellUnrolled = 8;
-__device__ __forceinline__ float3 centreAt(const MeshView& m, int b, int e) {
-  int id[kCellUnrolled];
-#pragma unroll
-  for (int k = 0; k < kCellUnrolled; ++k) id[k] = b + k < e ? m.cellVertices[b + k] : 0;
-  float3 corner[kCellUnrolled];
-#pragma unroll
-  for (int k = 0; k < kCellUnrolled; ++k) corner[k] = b + k < e ? m.x[id[k]] : make_float3(0, 0, 0);
-  float3 sum = make_float3(0, 0, 0);
-#pragma unroll
-  for (int k = 0; k < kCellUnrolled; ++k)
-    if (b + k < e) sum = sum + corner[k];
-  for (int i = b + kCellUnrolled; i < e; ++i) sum = sum + m.x[m.cellVertices[i]];
-  return sum / static_cast<float>(e - b);
-}
-__device__ __forceinline__ float3 centreOf(const MeshView& m, int c) {
-  return centreAt(m, m.cellOffsets[c], m.cellOffsets[c + 1]);
-}
-
 __global__ void cellCentres(MeshView m) {
   const int c = blockIdx.x * blockDim.x + threadIdx.x;
   if (c >= m.cells) return;

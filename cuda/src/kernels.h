@@ -256,27 +256,31 @@ struct CollisionDevice {
   const unsigned char* exempt = nullptr;  // pairs left out (meshes x meshes), or null
   const float* share = nullptr;           // collision::shareOf's table (meshes x meshes), or null
   collision::HoldPlane* hold = nullptr;  // per vertex, the plane the hold moves it out of after the step
-  float3* force = nullptr;  // per vertex, the response's force, apart from m.force (launchCollision)
+  float3* force = nullptr;  // per vertex, the response's force, apart from m.force (launchCollisionRespond)
   int meshes = 0, nodeCount = 0, leafCount = 0;
 };
 // Deforming contacts (collision_kernels.cu; core/contact_links.h): adds alpha m_i (x_j + o_i - x_i)
 // to m.force for each vertex i with a partner j; stiffness (may be null) gets alpha m_i, or 0.
 void launchContactSprings(const MeshView& m, ParamView p, const int* partner, const float3* offset, float* stiffness,
                           cudaStream_t s);
-// Refits the hierarchies (needs m.cellCentre) and writes the contact response to c.force (needs
-// m.normal and m.mass; reads m.x and m.prev, writes nothing of m), so that it may run beside the
-// other forces. every: a full search every this many steps (collision::contactResponse).
-void launchCollision(const MeshView& m, ParamView p, const CollisionDevice& c, const collision::ContactSettings& settings,
-                     int every, cudaStream_t s);
-// Adds c.force (launchCollision's) to m.force.
+// The collision force in two launches, which write nothing of m, so that they may run beside the
+// step's other kernels. every: a full search every this many steps (collision::contactResponse).
+// Refits the hierarchies: reads m.x and, where c.climb, m.cellCentre (below kClimbFrom vertices
+// it computes the centres it needs, so it need not follow the geometry kernel).
+void launchCollisionRefit(const MeshView& m, const CollisionDevice& c, int every, cudaStream_t s);
+// After the refit and the geometry: writes the contact response to c.force (reads m.x, m.prev,
+// m.normal, m.mass, m.cellCentre).
+void launchCollisionRespond(const MeshView& m, ParamView p, const CollisionDevice& c,
+                            const collision::ContactSettings& settings, int every, cudaStream_t s);
+// Adds c.force (launchCollisionRespond's) to m.force.
 void launchCollisionAdd(const MeshView& m, const CollisionDevice& c, cudaStream_t s);
 // launchCollisionAdd, launchVerlet and (hold: launchCollisionHold) in one pass, the same
 // arithmetic: for a step whose last force is the collision's and whose move follows directly.
 void launchCollisionMove(const MeshView& m, const CollisionDevice& c, const VerletMove& move, bool hold, cudaStream_t s);
-// After the step's move: each vertex below its hold plane (c.hold, written by launchCollision when
-// settings.hold >= 0) moves out along its normal onto it (CollisionForce::constrain). Every
-// launchCollision with settings.hold >= 0 must be followed by it or by launchCollisionMove with hold
-// true: they also end the collision's step (its counter).
+// After the step's move: each vertex below its hold plane (c.hold, written by
+// launchCollisionRespond when settings.hold >= 0) moves out along its normal onto it
+// (CollisionForce::constrain). Every launchCollisionRespond with settings.hold >= 0 must be followed
+// by it or by launchCollisionMove with hold true: they also end the collision's step (its counter).
 void launchCollisionHold(const MeshView& m, const CollisionDevice& c, cudaStream_t s);
 
 // The radial force (radial_kernels.cu; device_radial.h): the medial surfaces of the structures
