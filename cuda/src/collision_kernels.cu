@@ -15,8 +15,8 @@ namespace {
 constexpr unsigned kThreads = 128;
 using namespace sinew::collision;
 
-// Each vertex's move since the last step, and the step's largest into motion (every step: the
-// clearance pays for it). Grid-stride by vertex index (coalesced); one atomic per block (one per
+// Each vertex's move since the last full search, and the largest into motion (each full search:
+// the clearance pays for it; collision::clearOfContacts). Grid-stride by vertex index (coalesced); one atomic per block (one per
 // warp of a thread per vertex on the one address cost the climb 16 us at 325,632 vertices). Every
 // thread of the block calls it.
 __device__ void trackMotion(int vertices, const P3* x, float3* last, float* moved, unsigned* motion) {
@@ -44,16 +44,17 @@ __device__ Box coherentBox(const Box* boxes, int id) {
   return {{__ldcg(f), __ldcg(f + 1), __ldcg(f + 2)}, {__ldcg(f + 3), __ldcg(f + 4), __ldcg(f + 5)}};
 }
 
-// The refit of large scenes (CollisionDevice::climb): the motion, then, on the steps of a full
-// search (the only ones to read the boxes; counter: the level's steps so far), the leaves' boxes
+// The refit of large scenes (CollisionDevice::climb), on the steps of a full search only (the only
+// ones to read the boxes; counter: the level's steps so far): the motion, then the leaves' boxes
 // and up the tree, the last child to arrive at a node merging both. (One block per structure
 // merging its inner nodes height by height took longer: 19.6 against 32 us for the whole climb at
 // 20,352 vertices, 120 against about 70 us at 325,632.)
 __global__ void climbRefit(BvhView v, const int* leaves, int leafCount, int* visits, const P3* x, const P3* centres,
                            const int* counter, int every, int vertices, float3* last, float* moved, unsigned* motion) {
+  if (*counter % every != 0) return;
   const int l = blockIdx.x * blockDim.x + threadIdx.x;
   trackMotion(vertices, x, last, moved, motion);
-  if (l >= leafCount || *counter % every != 0) return;
+  if (l >= leafCount) return;
   int id = leaves[l];
   v.boxes[id] = leafBox(v, v.nodes[id], x, centres);
   // Up the tree: the first child to arrive stops, the second merges both (its sibling's box is
@@ -74,9 +75,10 @@ __global__ void climbRefit(BvhView v, const int* leaves, int leafCount, int* vis
 __global__ void vertexBoxes(BvhView v, MeshView m, const int* counter, int every, float3* last, float* moved,
                             unsigned* motion, Box* boxes) {
   const int i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (*counter % every != 0) return;
   const P3* x = reinterpret_cast<const P3*>(m.x);
   trackMotion(m.vertices, x, last, moved, motion);
-  if (i >= m.vertices || *counter % every != 0) return;
+  if (i >= m.vertices) return;
   Box b = emptyBox();  // collision::vertexBox with the centres computed
   for (int k = 0; k < 3; ++k) {
     const Tri t = v.tris[3 * v.order[i] + k];
@@ -160,13 +162,15 @@ __device__ P3 shuffle(P3 a, int src) {
 // against q, testLeaf's arithmetic; `valid` false past the node's triangles.
 struct LaneTriangle {
   bool valid = false;
+  int tri = -1;
   float d2 = 0.0f, side = 0.0f;
   P3 at{0, 0, 0}, normal{0, 0, 0};
 };
 __device__ LaneTriangle laneTriangle(const BvhView& v, const Node& n, int k, P3 q, const P3* x, const P3* centres) {
   LaneTriangle r;
   if (k >= 3 * n.count) return r;
-  const Tri t = v.tris[3 * v.order[n.first + k / 3] + k % 3];
+  r.tri = 3 * v.order[n.first + k / 3] + k % 3;
+  const Tri t = v.tris[r.tri];
   const P3 a = x[t.a], b = x[t.b], c = centres[t.cell];
   r.valid = true;
   r.at = closestOnTriangle(q, a, b, c);
@@ -180,7 +184,7 @@ __device__ LaneTriangle laneTriangle(const BvhView& v, const Node& n, int k, P3 
 // node's) and the owner's best so far can be the best once the round is done: one taken before the
 // nearest is replaced by it (more than a tie nearer), one after it is not taken. Ties can raise the
 // best a little (by at most 1e-4 of it) within a round: a looser filter. The owner then takes fewer
-// candidates one by one (a first leaf or patch offered all of its triangles: nothing was found yet).
+// candidates one by one (a first leaf offered all of its triangles: nothing was found yet).
 // Lanes from `split` on belong to (ownerB, idB), the others to (ownerA, idA); each owner takes its
 // own lanes' candidates in lane order, the triangles' order (replacesBest), so its best is
 // testLeaf's to the bit. Every lane of the warp calls it.
@@ -196,27 +200,17 @@ __device__ void offerCandidates(const LaneTriangle& t, float ownerBest, int spli
     const int src = __ffs(c) - 1;
     const float cd2 = __shfl_sync(all, t.d2, src), cside = __shfl_sync(all, t.side, src);
     const P3 cat = shuffle(t.at, src), cnormal = shuffle(t.normal, src);
+    const int ctri = __shfl_sync(all, t.tri, src);
     if (lane == (src >= split ? ownerB : ownerA) && replacesBest(best, found, cd2, cside)) {
-      best = {cd2, cat, cnormal, cside, src >= split ? idB : idA};
+      best = {cd2, cat, cnormal, cside, src >= split ? idB : idA, ctri};
       found = true;
     }
   }
 }
 
-// testLeaf with the warp's lanes on a node's triangles (a leaf's; under an inner node, all its
-// vertices'), for the point q of lane `owner`: triangle k of the node's vertex j on lane
-// (3 j + k) % 32, 32 at a time. Every lane of the warp calls it.
-__device__ void testNodeWarp(const BvhView& v, int id, P3 q, int owner, const P3* x, const P3* centres, Hit& best,
-                             bool& found) {
-  const Node n = v.nodes[id];
-  for (int base = 0; base < 3 * n.count; base += 32) {
-    const LaneTriangle t = laneTriangle(v, n, base + int(threadIdx.x % 32), q, x, centres);
-    offerCandidates<32>(t, __shfl_sync(0xffffffffu, best.d2, owner), 32, owner, id, owner, id, best, found);
-  }
-}
 // Two leaves at once (a leaf has at most kLeafVertices * 3 = 12 triangles): leaf idA of lane
-// ownerA on lanes 0-15, leaf idB of lane ownerB (idB < 0: none) on lanes 16-31, each half as
-// testNodeWarp does for one leaf. The owners differ (a lane reaches one leaf at a time). A warp
+// ownerA on lanes 0-15, leaf idB of lane ownerB (idB < 0: none) on lanes 16-31, each half on
+// its leaf's triangles (triangle k of the leaf's vertex j on lane 3 j + k). The owners differ (a lane reaches one leaf at a time). A warp
 // tested its lanes' leaves one after another with 12 of its 32 lanes busy. Every lane of the warp
 // calls it.
 static_assert(3 * kLeafVertices <= 16, "a leaf's triangles fit in half a warp");
@@ -299,6 +293,35 @@ __device__ bool contactWithWarp(const BvhView& v, int own, int other, P3 p, floa
   return h.d2 < maxD2;
 }
 
+// Between full searches (collision::contactResponse's branch for them), a thread a vertex: the
+// plane of the vertex's deepest contact at the last full search; no clearance (it is paid at the
+// full searches). respondGroup's first m.vertices threads run it on those steps, each for the
+// vertex of its index: done by each vertex's group of lanes (16 below 32,768 vertices), such a step
+// cost about 16 us more than one without collisions at 20,352 vertices (H200, from the steps with a
+// full search every 8 and every 16), and as a kernel of its own the launch still cost 5 us.
+__device__ void respondToPlane(int i, const MeshView& m, ParamView p, const BvhView& v, const ContactSettings& settings,
+                               float* depth, float* stiffness, HoldPlane* hold, const ContactPlane* contact, float3* out) {
+  const float weight = param(p, m.meshOf[i], 0);
+  P3 force{0, 0, 0};
+  float k = 0.0f;
+  HoldPlane plane;
+  if (weight > 0.0f) {
+    const ContactPlane c = contact[i];
+    float deepest = 0.0f;
+    if (c.share >= 0.0f) {
+      const P3* x = reinterpret_cast<const P3*>(m.x);
+      const P3 point = x[i];
+      k = respondTo(contactHit(v, c, point, x, reinterpret_cast<const P3*>(m.cellCentre)), point,
+                    reinterpret_cast<const P3*>(m.prev)[i], reinterpret_cast<const P3*>(m.normal)[i], weight * m.mass[i],
+                    settings, deepest, force, settings.hold >= 0.0f ? &plane : nullptr, c.share);
+    }
+    depth[i] = deepest;
+  }
+  out[i] = make_float3(force.x, force.y, force.z);
+  if (stiffness) stiffness[i] = k;
+  if (hold && settings.hold >= 0.0f) hold[i] = plane;
+}
+
 // The contact response (collision::contactResponse) with kGroup lanes per vertex: in each round
 // the group's lanes search the next kGroup structures, then the group's first lane adds their
 // contacts in structure order (addContact), as contactResponse does: the CPU's arithmetic, in its
@@ -310,8 +333,8 @@ __device__ bool contactWithWarp(const BvhView& v, int own, int other, P3 p, floa
 // of 78 us (H100, one leaf at a time). One leaf at a time it lost where many lanes walk at once
 // (591 against 497 us at 325,632 vertices); two at a time, 4 lanes a vertex won there (358.5
 // against 826.5 us), but not with 100 structures, whose 25 rounds a vertex cost more (launchCollision).
-// With kWarpLeaves the patch tests between full searches are the warp's too (H200: 51-57 -> 24 us
-// a patch step at 20,352 vertices, 80-87 -> 46-49 at 81,408; docs/collisions.md).
+// It searches on the steps of a full search (the level's first step is one: the counter starts at
+// 0); on the others its first threads meet the contact planes (respondToPlane).
 //
 // kWarpLeaves: held to 6 blocks of 128 threads an SM (80 registers instead of the compiler's 91,
 // which allowed 5). The walks are latency-bound (ncu at 20,352 vertices: 9.2 cycles between a
@@ -323,8 +346,12 @@ template <int kGroup, bool kWarpLeaves>
 __global__ void __launch_bounds__(kThreads, kWarpLeaves ? kRespondBlocks : 0)
     respondGroup(MeshView m, ParamView p, BvhView v, ContactSettings settings, const int* counter, int every,
                  const float* moved, const unsigned* motion, float* depth, int* hint, float* slack, float* stiffness,
-                 HoldPlane* hold, float3* out) {
+                 HoldPlane* hold, ContactPlane* contact, float3* out) {
   const int t = blockIdx.x * blockDim.x + threadIdx.x;
+  if (*counter % every != 0) {  // between full searches
+    if (t < m.vertices) respondToPlane(t, m, p, v, settings, depth, stiffness, hold, contact, out);
+    return;
+  }
   const int i = t / kGroup, g = t % kGroup;
   const bool valid = i < m.vertices;  // every lane stays for the shuffles
   const int own = valid ? m.meshOf[i] : 0;
@@ -339,8 +366,8 @@ __global__ void __launch_bounds__(kThreads, kWarpLeaves ? kRespondBlocks : 0)
   int lastHint = active ? hint[i] : -1;
   float lastSlack = active ? slack[i] : 0.0f;
   const bool clear = active && clearOfContacts(lastDepth, moved[i], __uint_as_float(*motion), lastSlack);
-  // Every lane runs every round (the shuffles need the whole warp); only a full search searches.
-  const bool search = active && !clear && (*counter % every == 0 || lastDepth >= kUnknownDepth);
+  // Every lane runs every round (the shuffles need the whole warp).
+  const bool search = active && !clear;
   const float maxD2 = fullSearchBound(lastDepth, settings.margin, settings.reach, every, point, previous);
   ContactSum sum;
   HoldPlane plane;
@@ -371,27 +398,13 @@ __global__ void __launch_bounds__(kThreads, kWarpLeaves ? kRespondBlocks : 0)
                     __shfl_sync(mask, h.normal.z, src)};
         c.side = __shfl_sync(mask, h.side, src);
         c.leaf = __shfl_sync(mask, h.leaf, src);
+        c.tri = __shfl_sync(mask, h.tri, src);
         if (pending && g == 0)
           addContact(c, point, previous, ownNormal, alpha, settings, sum, holdPlane, shareOf(v, own, base + src - leader));
         pending &= pending - 1;
       }
     }
   for (int o = kGroup / 2; o > 0; o /= 2) clearance2 = fminf(clearance2, __shfl_xor_sync(mask, clearance2, o));
-  // Between full searches, the patch test (contactResponse's, the subtree two levels above the last
-  // contact's leaf) with the warp's lanes on each patch's triangles: one lane took 48 tests in a row.
-  // The patch and the response below repeat contactResponse's patch branch (core/collision_bvh.h);
-  // tst_cuda_parity's full-search-every-4 row holds the two to the CPU's result.
-  Hit patchHit{3.0e38f, point, {0, 0, 0}, 0.0f, -1};
-  bool patchFound = false;
-  if constexpr (kWarpLeaves) {
-    const bool patch = active && g == 0 && !clear && !search && lastHint >= 0;
-    int patchNode = lastHint;
-    for (int up = 0; patch && up < 2 && v.nodes[patchNode].parent >= 0; ++up) patchNode = v.nodes[patchNode].parent;
-    for (unsigned pending = __ballot_sync(mask, patch); pending; pending &= pending - 1) {
-      const int owner = __ffs(pending) - 1;
-      testNodeWarp(v, __shfl_sync(mask, patchNode, owner), shuffle(point, owner), owner, x, centres, patchHit, patchFound);
-    }
-  }
   if (!active || g != 0) {
     if (valid && g == 0) out[i] = make_float3(0.0f, 0.0f, 0.0f);
     if (valid && g == 0 && stiffness) stiffness[i] = 0.0f;
@@ -402,17 +415,9 @@ __global__ void __launch_bounds__(kThreads, kWarpLeaves ? kRespondBlocks : 0)
     lastDepth = sum.deepest;
     lastHint = sum.nearestLeaf;
     lastSlack = slackAfterSearch(lastDepth, clearance2, settings.margin);
-  } else if (!clear) {  // between full searches: the patch test (the clearance already paid for the step)
-    if constexpr (kWarpLeaves) {  // contactResponse's patch branch, with the warp's tests above
-      float deepest = 0.0f;
-      if (patchFound)
-        sum.stiffness = respondTo(patchHit, point, previous, ownNormal, alpha, settings, deepest, sum.force, nullptr,
-                                  shareOf(v, own, meshOfNode(v, lastHint)));
-      lastDepth = deepest;
-    } else {
-      sum.stiffness = contactResponse(v, own, point, previous, ownNormal, alpha, settings, false, every, 0.0f, 0.0f,
-                                      lastDepth, lastHint, lastSlack, x, centres, sum.force);
-    }
+    contact[i] = sum.deepestShare >= 0.0f ? contactOn(v, sum.deepestHit, sum.deepestShare, x, centres) : ContactPlane{};
+  } else {  // clear: a full search's skip leaves no plane (contactResponse)
+    contact[i].share = -1.0f;
   }
   if (holdPlane) hold[i] = plane;
   depth[i] = lastDepth;
@@ -443,8 +448,12 @@ __device__ void advanceStep(int* counter, unsigned* motion) {
   ++*counter;
   *motion = 0;
 }
-// CollisionForce::constrain's arithmetic at vertex i.
-__device__ void holdVertex(const MeshView& m, const HoldPlane* hold, int i) {
+// The hold (CollisionForce::constrain's arithmetic); then the step's end (advanceStep: the response
+// read both).
+__global__ void holdOut(MeshView m, const HoldPlane* hold, int* counter, unsigned* motion) {
+  const int i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i == 0) advanceStep(counter, motion);
+  if (i >= m.vertices) return;
   const HoldPlane h = hold[i];
   if (!(h.side < 3.0e38f)) return;  // most vertices: no plane, and no loads of x and prev
   P3* x = reinterpret_cast<P3*>(m.x);
@@ -453,12 +462,6 @@ __device__ void holdVertex(const MeshView& m, const HoldPlane* hold, int i) {
   collision::holdOut(h, p, q);
   x[i] = p;
   previous[i] = q;
-}
-// The hold; then the step's end (advanceStep: the response read both).
-__global__ void holdOut(MeshView m, const HoldPlane* hold, int* counter, unsigned* motion) {
-  const int i = blockIdx.x * blockDim.x + threadIdx.x;
-  if (i == 0) advanceStep(counter, motion);
-  if (i < m.vertices) holdVertex(m, hold, i);
 }
 // The collision's force added, the damped Verlet move, then the hold (as holdOut; hold null: none,
 // and `advance` ended the step on the branch).
@@ -512,13 +515,13 @@ void launchCollisionRespond(const MeshView& m, ParamView p, const CollisionDevic
   const unsigned grid = static_cast<unsigned>((static_cast<size_t>(m.vertices) * group + kThreads - 1) / kThreads);
   if (group == 1)
     respondGroup<1, false><<<grid, kThreads, 0, s>>>(m, p, v, settings, c.counter, every, c.moved, c.motion, c.depth, c.hint, c.slack,
-                                                c.stiffness, c.hold, c.force);
+                                                c.stiffness, c.hold, c.contact, c.force);
   else if (group == 4)
     respondGroup<4, true><<<grid, kThreads, 0, s>>>(m, p, v, settings, c.counter, every, c.moved, c.motion, c.depth, c.hint, c.slack,
-                                                c.stiffness, c.hold, c.force);
+                                                c.stiffness, c.hold, c.contact, c.force);
   else
     respondGroup<16, true><<<grid, kThreads, 0, s>>>(m, p, v, settings, c.counter, every, c.moved, c.motion, c.depth, c.hint, c.slack,
-                                                c.stiffness, c.hold, c.force);
+                                                c.stiffness, c.hold, c.contact, c.force);
   // With a hold, the hold's kernel ends the step: a launch fewer (2.7 us a step, H100).
   if (settings.hold < 0.0f) advance<<<1, 1, 0, s>>>(c.counter, c.motion);
 }

@@ -109,10 +109,11 @@ struct CudaEngine::Impl {
 
   bool implicit() const { return sim.integratorName() == "implicit_euler"; }
 
-  bool collisionActive() const {
+  // The collision force's slot while it is active and built, else null.
+  const ForceSlot* activeCollision() const {
     for (const ForceSlot& f : forces)
-      if (f.kind == Kind::Collision) return collision.built() && sim.forceParams(f.name).anyPositive(0);
-    return false;
+      if (f.kind == Kind::Collision) return collision.built() && sim.forceParams(f.name).anyPositive(0) ? &f : nullptr;
+    return nullptr;
   }
   // The collision hierarchies, built on first use at each level (before any capture) and only for
   // two or more structures.
@@ -426,9 +427,8 @@ struct CudaEngine::Impl {
     // that computes the cells' centres itself) and the forces before it (its response), joined at its
     // place in the force order: its force added as the CPU adds it, or, as the last force before damped
     // Verlet, with the move and the hold in one pass (docs/collisions.md, "The response beside ...").
-    const bool collide = collisionActive();
-    const ForceSlot* slot = nullptr;
-    for (const ForceSlot& f : forces) slot = f.kind == Kind::Collision && collide ? &f : slot;
+    const ForceSlot* slot = activeCollision();
+    const bool collide = slot != nullptr;
     const cudaStream_t side = collide ? branch.begin(stream) : nullptr;
     const bool early = collide && collision.refitsBeforeGeometry();
     if (early) collision.refit(view, sim.forceParams(slot->name), side);
@@ -503,7 +503,7 @@ struct CudaEngine::Impl {
       launchVerlet(view, ip.getf(0, ip.indexOf("time_step")), 1.0f - ip.getf(0, ip.indexOf("damping")), stream);
       return;
     }
-    ImplicitTerms terms{meshPull.get(), meshNormalPull.get(), collisionActive() ? collision.stiffness() : nullptr,
+    ImplicitTerms terms{meshPull.get(), meshNormalPull.get(), activeCollision() ? collision.stiffness() : nullptr,
                         contactsActive() ? contactLinks.stiffness() : nullptr};
     if (radialActive()) radial.addTerms(terms);
     const ImplicitWork work{implicitA.get(), implicitB.get(), implicitOff.get(), implicitC.get(), implicitVel.get(),
@@ -694,12 +694,12 @@ std::string CudaEngine::device() const { return impl_->device; }
 std::size_t CudaEngine::deviceBytes() const {
   const Impl& I = *impl_;
   return I.topology.bytes() + I.stepBlocks.bytes() + I.density.bytes() + I.massFloor.bytes() + I.elevation.bytes() +
-         I.area.bytes() + I.mass.bytes() + I.x.bytes() +
-         I.prev.bytes() + I.force.bytes() + I.normal.bytes() + I.centre.bytes() + I.reference.bytes() +
-         I.imageTexture.bytes() + I.profiles.bytes() + I.gradient.bytes() + I.contour.bytes() + I.implicitA.bytes() +
-         I.implicitB.bytes() + I.implicitOff.bytes() + I.implicitC.bytes() + I.implicitVel.bytes() + I.implicitRhs.bytes() +
-         I.implicitR.bytes() + I.implicitZ.bytes() + I.implicitP.bytes() + I.implicitAp.bytes() + I.collision.bytes() + I.sampledError.bytes() +
-         I.contactLinks.bytes() + I.radial.bytes() + I.attachments.bytes();
+         I.area.bytes() + I.mass.bytes() + I.x.bytes() + I.prev.bytes() + I.force.bytes() + I.normal.bytes() +
+         I.centre.bytes() + I.reference.bytes() + I.imageTexture.bytes() + I.profiles.bytes() + I.gradient.bytes() +
+         I.contour.bytes() + I.implicitA.bytes() + I.implicitB.bytes() + I.implicitOff.bytes() + I.implicitC.bytes() +
+         I.implicitVel.bytes() + I.implicitRhs.bytes() + I.implicitR.bytes() + I.implicitZ.bytes() + I.implicitP.bytes() +
+         I.implicitAp.bytes() + I.collision.bytes() + I.sampledError.bytes() + I.contactLinks.bytes() + I.radial.bytes() +
+         I.attachments.bytes();
 }
 
 }  // namespace sinew::cuda

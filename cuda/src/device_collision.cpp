@@ -36,6 +36,7 @@ void DeviceCollision::build(MeshStore& store, const SceneData& scene, const Para
   const auto x = store.positions();
   last_.upload(reinterpret_cast<const float3*>(x.data()), x.size(), stream);
   hold_.resize(store.vertexCount());  // written by every response before the hold reads it
+  contact_.resize(store.vertexCount());  // written by the level's first step (a full search) before any read
   force_.resize(store.vertexCount());  // likewise, before launchCollisionAdd reads it
   motion_.resize(1);
   SINEW_CUDA(cudaMemsetAsync(motion_.get(), 0, motion_.bytes(), stream));
@@ -98,6 +99,7 @@ CollisionDevice DeviceCollision::view() const {
   c.last = last_.get();
   c.motion = motion_.get();
   c.hold = hold_.get();
+  c.contact = contact_.get();
   c.force = force_.get();
   c.meshes = meshes_;
   c.nodeCount = int(nodes_.size());
@@ -108,7 +110,8 @@ std::size_t DeviceCollision::bytes() const {
   return nodes_.bytes() + boxes_.bytes() + tris_.bytes() + order_.bytes() + roots_.bytes() + leaves_.bytes() +
          visits_.bytes() + threadNodes_.bytes() + warpNodes_.bytes() + blockNodes_.bytes() + vertexBoxes_.bytes() +
          stiffness_.bytes() + depth_.bytes() + counter_.bytes() + hint_.bytes() + exempt_.bytes() + share_.bytes() +
-         slack_.bytes() + moved_.bytes() + last_.bytes() + motion_.bytes() + hold_.bytes() + force_.bytes();
+         slack_.bytes() + moved_.bytes() + last_.bytes() + motion_.bytes() + hold_.bytes() +
+         contact_.bytes() + force_.bytes();
 }
 
 }  // namespace sinew::cuda

@@ -39,6 +39,7 @@ private:
   DeviceArray<float> stiffness_, depth_, slack_, moved_;
   DeviceArray<float3> last_, force_;
   DeviceArray<collision::HoldPlane> hold_;  // CollisionDevice::hold
+  DeviceArray<collision::ContactPlane> contact_;  // CollisionDevice::contact
   DeviceArray<unsigned> motion_;
   DeviceArray<int> counter_;  // the level's steps so far (full searches every full_search_every)
   DeviceArray<unsigned char> exempt_;

@@ -15,6 +15,7 @@ struct Tri;
 struct P3;
 struct ContactSettings;
 struct HoldPlane;
+struct ContactPlane;
 }  // namespace sinew::collision
 namespace sinew::trianglebvh {
 struct Node;
@@ -256,6 +257,7 @@ struct CollisionDevice {
   const unsigned char* exempt = nullptr;  // pairs left out (meshes x meshes), or null
   const float* share = nullptr;           // collision::shareOf's table (meshes x meshes), or null
   collision::HoldPlane* hold = nullptr;  // per vertex, the plane the hold moves it out of after the step
+  collision::ContactPlane* contact = nullptr;  // per vertex, its deepest contact at the last full search
   float3* force = nullptr;  // per vertex, the response's force, apart from m.force (launchCollisionRespond)
   int meshes = 0, nodeCount = 0, leafCount = 0;
 };

@@ -26,6 +26,7 @@ public:
     depth_.assign(ctx.store.vertexCount(), collision::kUnknownDepth);
     hint_.assign(ctx.store.vertexCount(), -1);
     slack_.assign(ctx.store.vertexCount(), 0.0f);
+    plane_.assign(ctx.store.vertexCount(), collision::ContactPlane{});
     moved_.assign(ctx.store.vertexCount(), 0.0f);
     const auto x = ctx.store.positions();
     last_.assign(x.begin(), x.end());
@@ -62,7 +63,7 @@ public:
     const auto meshOf = s.meshOfVertex();
     const auto mass = s.masses();
     const auto normals = s.normals();
-    const float motion = trackMotion(s.positions(), ctx.executor);
+    const float motion = full ? trackMotion(s.positions(), ctx.executor) : 0.0f;  // paid at full searches
     stiffness_.assign(s.vertexCount(), 0.0f);
     const bool holding = settings.hold >= 0.0f;
     hold_.assign(holding ? s.vertexCount() : 0, collision::HoldPlane{});
@@ -70,7 +71,7 @@ public:
       collision::P3 f{0, 0, 0};
       stiffness_[v] = collision::contactResponse(view, int(meshOf[v]), x[v], asP3(previous[v]), asP3(normals[v]),
                                                  alpha * mass[v], settings, full, every, moved_[v], motion, depth_[v],
-                                                 hint_[v], slack_[v], x, centres, f, holding ? &hold_[v] : nullptr);
+                                                 hint_[v], slack_[v], plane_[v], x, centres, f, holding ? &hold_[v] : nullptr);
       forces[v] += asVec3(f);
     });
   }
@@ -98,8 +99,8 @@ public:
   }
 
 private:
-  // Each vertex's distance from where the last step saw it (moved_), and the largest: the motion
-  // that the clearance of every vertex pays for (collision::clearOfContacts).
+  // Each vertex's distance from where the last full search saw it (moved_), and the largest: the
+  // motion that the clearance of every vertex pays for (collision::clearOfContacts).
   float trackMotion(std::span<const Vec3> x, const Executor& executor) {
     return executor.reduce(
         Index(0), Index(x.size()), 0.0f,
@@ -122,8 +123,9 @@ private:
   std::vector<float> depth_;  // each vertex's last penetration (collision::contactResponse)
   std::vector<int> hint_;     // each vertex's last nearest contact leaf
   std::vector<float> slack_;  // each vertex's clearance of the other structures beyond the margin
+  std::vector<collision::ContactPlane> plane_;  // each vertex's deepest contact at the last full search
   std::vector<float> moved_;
-  std::vector<Vec3> last_;    // the positions the last step saw
+  std::vector<Vec3> last_;    // the positions the last full search saw
   long step_ = 0;  // steps at this level: every full_search_every-th one searches in full
 };
 }  // namespace
@@ -139,7 +141,7 @@ void registerCollisionForce(Registry& registry) {
                       {"retreat_mm", 0.25, 0.0, 5.0, "mm", "a vertex that has gone past the middle of another structure (its nearest surface there faces the way its own does) is pushed back into its own structure, as if pulled toward a point this far behind it along its normal, instead of on through", false},
                       {"hold_mm", 0.1, -1.0, 5.0, "mm", "after each step, a vertex pulled by a contact is moved out to at least this far outside the plane of that contact; negative: no hold", false},
                       {"size_share", 2.0, 0.0, 8.0, "", "how two structures in contact share the correction: a vertex takes min(1, 2 a^p / (a^p + b^p)) of it, a its structure's surface area, b the other's, p this; the larger gives way more; against a structure weighted 0 a vertex takes all; 0: both take all of it", false},
-                      {"full_search_every", 1, 1, 16, "steps", "a full contact search every this many steps; in between, each vertex tests only the patch of its last nearest contact", false},
+                      {"full_search_every", 1, 1, 16, "steps", "a full contact search every this many steps; in between, each vertex meets only the plane of the deepest contact the last full search found, moved with that surface (sinew-make-scene writes 8 for schedules of up to 4 levels)", false},
                       {"ignore_enclosed", 0.0, 0.0, 1.0, "", "1: a structure lying inside another by design (nested labels) is left out of collisions with it; 0: such a pair stops the run with the reason", false}},
                      [] { return std::make_unique<CollisionForce>(); }});
 }

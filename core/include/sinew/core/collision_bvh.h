@@ -31,7 +31,7 @@ struct Box {
   P3 lo, hi;
 };
 // Leaves have left == -1 and hold the vertices order[first .. first + count); an inner node's
-// range is all its subtree's vertices (the patch tested between full searches).
+// range is all its subtree's vertices.
 struct Node {
   int left, right, parent, first, count;
 };
@@ -58,16 +58,6 @@ struct BvhView {
 // (CollisionTree::setShares: the larger structure gives way more); 1 without a table.
 SINEW_HD float shareOf(const BvhView& v, int own, int other) { return v.share ? v.share[own * v.meshes + other] : 1.0f; }
 
-// The structure a node belongs to: the last whose root is not after it (roots ascend).
-SINEW_HD int meshOfNode(const BvhView& v, int node) {
-  int lo = 0, hi = v.meshes - 1;
-  while (lo < hi) {
-    const int mid = (lo + hi + 1) / 2;
-    if (v.roots[mid] <= node) lo = mid;
-    else hi = mid - 1;
-  }
-  return lo;
-}
 
 SINEW_HD P3 sub(P3 a, P3 b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
 SINEW_HD P3 add(P3 a, P3 b) { return {a.x + b.x, a.y + b.y, a.z + b.z}; }
@@ -150,6 +140,7 @@ struct Hit {
   P3 normal;      // its triangle's outward unit normal
   float side;     // (p - point) . normal: negative inside
   int leaf;       // the leaf node of its triangle
+  int tri = -1;   // its triangle (BvhView::tris)
 };
 
 SINEW_HD P3 unitNormal(P3 a, P3 b, P3 c) {
@@ -187,7 +178,7 @@ SINEW_HD void testLeaf(const BvhView& v, int id, P3 p, const P3* x, const P3* ce
       const P3 normal = unitNormal(a, b, c);
       const float side = dot3(d, normal);
       if (!replacesBest(best, found, d2, side)) continue;
-      best = {d2, q, normal, side, id};
+      best = {d2, q, normal, side, id, 3 * v.order[i] + k};
       found = true;
     }
 }
@@ -323,26 +314,66 @@ SINEW_HD bool contactWith(const BvhView& v, int own, int other, P3 p, float marg
   return h.d2 < maxD2;
 }
 
+// The contact a full search found deepest (the least side, touching or not, within its radius),
+// kept until the next full search: its normal then, and its point as a point of the other
+// surface's triangle (barycentric weights u, w of its corners a, b; the cell centre takes the
+// rest), so that it moves with that surface. Between full searches the vertex meets the plane
+// through that point now, along the normal found (contactHit), not the surface. share < 0: none.
+struct ContactPlane {
+  P3 normal{0, 0, 0};
+  int tri = -1;
+  float u = 0.0f, w = 0.0f;
+  float share = -1.0f;  // shareOf the two structures
+};
+SINEW_HD ContactPlane contactOn(const BvhView& v, const Hit& h, float share, const P3* x, const P3* centres) {
+  const Tri t = v.tris[h.tri];
+  const P3 a = x[t.a], b = x[t.b], c = centres[t.cell];
+  // Barycentric weights of h.point (on the triangle) by Cramer's rule on the edges from c, held
+  // to the triangle: a sliver's weights are ill-conditioned.
+  const P3 e0 = sub(a, c), e1 = sub(b, c), d = sub(h.point, c);
+  const float d00 = dot3(e0, e0), d01 = dot3(e0, e1), d11 = dot3(e1, e1), d20 = dot3(d, e0), d21 = dot3(d, e1);
+  const float det = d00 * d11 - d01 * d01;
+  float u = 1.0f / 3.0f, w = 1.0f / 3.0f;  // a degenerate triangle: its centroid
+  if (det > 1e-12f * d00 * d11) {
+    u = fmin3(fmax3((d11 * d20 - d01 * d21) / det, 0.0f), 1.0f);
+    w = fmin3(fmax3((d00 * d21 - d01 * d20) / det, 0.0f), 1.0f - u);
+  }
+  return {h.normal, h.tri, u, w, share};
+}
+// The contact's hit for a vertex now at p: the foot of p on the plane through the contact's point,
+// where its triangle is now, along the normal found.
+SINEW_HD Hit contactHit(const BvhView& v, const ContactPlane& k, P3 p, const P3* x, const P3* centres) {
+  const Tri t = v.tris[k.tri];
+  const P3 c = centres[t.cell];
+  const P3 q = add(c, add(scale(sub(x[t.a], c), k.u), scale(sub(x[t.b], c), k.w)));
+  const float side = dot3(k.normal, sub(p, q));
+  return {side * side, sub(p, scale(k.normal, side)), k.normal, side, -1, k.tri};
+}
+
 // What the full search gathers over the structures, in structure order.
 struct ContactSum {
   float deepest = 0.0f, stiffness = 0.0f, nearest = 3.0e38f, clearance2 = 3.0e38f;
   int nearestLeaf = -1;
   P3 force{0, 0, 0};
+  Hit deepestHit{3.0e38f, {0, 0, 0}, {0, 0, 0}, 3.0e38f, -1};  // the least side (ContactPlane)
+  float deepestShare = -1.0f;
 };
 SINEW_HD void addContact(const Hit& h, P3 p, P3 previous, P3 ownNormal, float alpha, const ContactSettings& s,
                          ContactSum& sum, HoldPlane* hold = nullptr, float share = 1.0f) {
   if (h.d2 < sum.nearest) sum.nearest = h.d2, sum.nearestLeaf = h.leaf;
+  if (h.side < sum.deepestHit.side) sum.deepestHit = h, sum.deepestShare = share;
   sum.stiffness += respondTo(h, p, previous, ownNormal, alpha, s, sum.deepest, sum.force, hold, share);
 }
 
 // Clearance. A vertex that touched nothing at its last search knows how far every other surface
-// was then (ContactSum::clearance2), less the margin: its slack. Every step takes from it the
-// vertex's own motion since the last step and `motion`, the farthest any vertex moved (a point of
-// the tessellation, a convex combination of vertices and cell centres, moves no farther). While
-// slack is left, no surface can have come within the margin: the search is skipped, and its result
-// would have been the same (no force, no penetration); the bound holds whatever moved the vertices.
-// It pays for the largest move anywhere, so a few fast vertices shorten every vertex's slack: on
-// the demo a quarter of the searches are skipped (docs/collisions.md).
+// was then (ContactSum::clearance2), less the margin: its slack. Every full search takes from it
+// the vertex's own displacement since the last full search and `motion`, the largest displacement
+// of any vertex since then (a point of the tessellation, a convex combination of vertices and cell
+// centres, moves no farther). While slack is left, no surface can have come within the margin: the
+// search is skipped, and its result would have been the same (no force, no penetration); the
+// bound holds whatever moved the vertices. It pays for the largest move anywhere, so a few fast
+// vertices shorten every vertex's slack: on the demo a quarter of the searches are skipped with a
+// full search every step (docs/collisions.md).
 constexpr float kSlackGuard = 1e-3f;  // mm kept back for rounding
 SINEW_HD bool clearOfContacts(float depth, float ownMotion, float motion, float& slack) {
   slack -= ownMotion + motion;
@@ -365,35 +396,30 @@ SINEW_HD float slackAfterSearch(float depth, float clearance2, float margin) {
 // until the next full search, beyond its last penetration `depth` (in/out: the deepest penetration
 // below the margin found now, 0 without contact): a bounded search is what keeps the narrow phase
 // cheap. `hint` (in/out): the leaf of the vertex's nearest contact, where the search starts.
-// Between full searches (`full` false) the vertex tests only the patch around that leaf (the
-// subtree two levels above it: up to 16 vertices' triangles), the contact it had: no traversal,
-// and the boxes need no refit. The leaf alone (measured on the demo at 326 k vertices, every 4 / 8
-// steps) left 36.5 / 98 mm^3 of overlap against the patch's 5.8 / 5.5, at a mean ASSD of 0.526 /
-// 0.529 against 0.538 / 0.573 mm. The first step of a level (depth kUnknownDepth) is always a full
-// search, without bound. `ownMotion`, `motion`, `slack` (in/out): the clearance above; a vertex
-// still clear of every other structure returns at once. `hold` (may be null): the plane the full
-// search's contacts hold the vertex out of (HoldPlane). A patch test offers none: its nearest
-// triangle need not be the surface's nearest, and held on its plane the vertex went astray (CPU,
-// subjects 201-205 with a full search every 4 steps: mean ASSD 0.4860 mm, against 0.4700 with the
-// hold from full searches only; docs/collisions.md).
+// Between full searches (`full` false) the vertex meets only the plane of the deepest contact the
+// last full search found (`plane`, in/out: written by each full search), moved with the other
+// surface: no traversal, and the boxes need no refit. Measured against testing the patch of
+// triangles around the last contact's leaf (the code until 2026-11-29) on the CPU, 18 new subjects
+// and demo seeds 1-8, full searches every 8 steps (docs/collisions.md). The first step of a level
+// (depth kUnknownDepth) is always a full search, without bound. `ownMotion`, `motion`, `slack`
+// (in/out): the clearance above, paid at full searches (the displacements since the last one); a
+// vertex still clear of every other structure returns at once and keeps no plane. `hold` (may be
+// null): the plane the contacts hold the vertex out of (HoldPlane).
 SINEW_HD float contactResponse(const BvhView& v, int own, P3 p, P3 previous, P3 ownNormal, float alpha,
                                const ContactSettings& s, bool full, int every, float ownMotion, float motion,
-                               float& depth, int& hint, float& slack, const P3* x, const P3* centres, P3& force,
-                               HoldPlane* hold = nullptr) {
-  if (clearOfContacts(depth, ownMotion, motion, slack)) return 0.0f;
-  float deepest = 0.0f, stiffness = 0.0f;
+                               float& depth, int& hint, float& slack, ContactPlane& plane, const P3* x,
+                               const P3* centres, P3& force, HoldPlane* hold = nullptr) {
   if (!full && depth < kUnknownDepth) {
-    if (hint >= 0) {
-      int patch = hint;
-      for (int up = 0; up < 2 && v.nodes[patch].parent >= 0; ++up) patch = v.nodes[patch].parent;
-      Hit h{3.0e38f, p, {0, 0, 0}, 0.0f, -1};
-      bool found = false;
-      testLeaf(v, patch, p, x, centres, h, found);
-      if (found)  // no hold: see below
-        stiffness = respondTo(h, p, previous, ownNormal, alpha, s, deepest, force, nullptr, shareOf(v, own, meshOfNode(v, hint)));
-    }
+    float deepest = 0.0f, stiffness = 0.0f;
+    if (plane.share >= 0.0f)
+      stiffness = respondTo(contactHit(v, plane, p, x, centres), p, previous, ownNormal, alpha, s, deepest, force, hold,
+                            plane.share);
     depth = deepest;
     return stiffness;
+  }
+  if (clearOfContacts(depth, ownMotion, motion, slack)) {
+    plane.share = -1.0f;
+    return 0.0f;
   }
   ContactSum sum;
   sum.force = force;
@@ -406,6 +432,7 @@ SINEW_HD float contactResponse(const BvhView& v, int own, P3 p, P3 previous, P3 
   depth = sum.deepest;
   hint = sum.nearestLeaf;
   slack = slackAfterSearch(depth, sum.clearance2, s.margin);
+  plane = sum.deepestShare >= 0.0f ? contactOn(v, sum.deepestHit, sum.deepestShare, x, centres) : ContactPlane{};
   force = sum.force;
   return sum.stiffness;
 }
