@@ -44,14 +44,13 @@ __device__ Box coherentBox(const Box* boxes, int id) {
   return {{__ldcg(f), __ldcg(f + 1), __ldcg(f + 2)}, {__ldcg(f + 3), __ldcg(f + 4), __ldcg(f + 5)}};
 }
 
-// The refit of large scenes (CollisionDevice::climb), on the steps of a full search only (the only
-// ones to read the boxes; counter: the level's steps so far): the motion, then the leaves' boxes
+// The refit of large scenes (CollisionDevice::climb), launched on the steps of a full search only
+// (the only ones to read the boxes): the motion, then the leaves' boxes
 // and up the tree, the last child to arrive at a node merging both. (One block per structure
 // merging its inner nodes height by height took longer: 19.6 against 32 us for the whole climb at
 // 20,352 vertices, 120 against about 70 us at 325,632.)
 __global__ void climbRefit(BvhView v, const int* leaves, int leafCount, int* visits, const P3* x, const P3* centres,
-                           const int* counter, int every, int vertices, float3* last, float* moved, unsigned* motion) {
-  if (*counter % every != 0) return;
+                           int vertices, float3* last, float* moved, unsigned* motion) {
   const int l = blockIdx.x * blockDim.x + threadIdx.x;
   trackMotion(vertices, x, last, moved, motion);
   if (l >= leafCount) return;
@@ -72,10 +71,8 @@ __global__ void climbRefit(BvhView v, const int* leaves, int leafCount, int* vis
 // time: the motion, then each vertex's box in tree order (thread i: vertex i's move, tree position
 // i's box) ... Its cells' centres computed here, as the geometry kernel computes them (centreOf,
 // the same values): so the refit does not wait for that kernel, and runs beside it.
-__global__ void vertexBoxes(BvhView v, MeshView m, const int* counter, int every, float3* last, float* moved,
-                            unsigned* motion, Box* boxes) {
+__global__ void vertexBoxes(BvhView v, MeshView m, float3* last, float* moved, unsigned* motion, Box* boxes) {
   const int i = blockIdx.x * blockDim.x + threadIdx.x;
-  if (*counter % every != 0) return;
   const P3* x = reinterpret_cast<const P3*>(m.x);
   trackMotion(m.vertices, x, last, moved, motion);
   if (i >= m.vertices) return;
@@ -118,8 +115,7 @@ __device__ Box unionStrided(const Box* boxes, int first, int end, int stride) {
   for (; j < end; j += stride) b[0] = merge(b[0], boxes[j]);
   return merge(merge(b[0], b[1]), merge(b[2], b[3]));
 }
-__global__ void nodeBoxes(BvhView v, const Box* vertexBox, NodeLists lists, const int* counter, int every) {
-  if (*counter % every != 0) return;
+__global__ void nodeBoxes(BvhView v, const Box* vertexBox, NodeLists lists) {
   const int threadBlocks = int((lists.threadCount + kNodeThreads - 1) / kNodeThreads);
   const int warpBlocks = int((lists.warpCount * 32 + kNodeThreads - 1) / kNodeThreads);
   const int block = int(blockIdx.x), thread = int(threadIdx.x);
@@ -295,10 +291,11 @@ __device__ bool contactWithWarp(const BvhView& v, int own, int other, P3 p, floa
 
 // Between full searches (collision::contactResponse's branch for them), a thread a vertex: the
 // plane of the vertex's deepest contact at the last full search; no clearance (it is paid at the
-// full searches). respondGroup's first m.vertices threads run it on those steps, each for the
-// vertex of its index: done by each vertex's group of lanes (16 below 32,768 vertices), such a step
-// cost about 16 us more than one without collisions at 20,352 vertices (H200, from the steps with a
-// full search every 8 and every 16), and as a kernel of its own the launch still cost 5 us.
+// full searches), in a kernel of its own (respondPlanes) that the engine launches instead of the
+// refit and respondGroup: done by respondGroup's lanes (16 a vertex below 32,768 vertices), such a
+// step cost about 16 us more than one without collisions at 20,352 vertices (H200, from the steps
+// with a full search every 8 and every 16), and with the refit and respondGroup launched to return
+// at once, 8.8 us more.
 __device__ void respondToPlane(int i, const MeshView& m, ParamView p, const BvhView& v, const ContactSettings& settings,
                                float* depth, float* stiffness, HoldPlane* hold, const ContactPlane* contact, float3* out) {
   const float weight = param(p, m.meshOf[i], 0);
@@ -321,6 +318,12 @@ __device__ void respondToPlane(int i, const MeshView& m, ParamView p, const BvhV
   if (stiffness) stiffness[i] = k;
   if (hold && settings.hold >= 0.0f) hold[i] = plane;
 }
+// A step between full searches scheduled by the host (launchCollisionPlanes): no refit, no search.
+__global__ void respondPlanes(MeshView m, ParamView p, BvhView v, ContactSettings settings, float* depth,
+                              float* stiffness, HoldPlane* hold, const ContactPlane* contact, float3* out) {
+  const int i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i < m.vertices) respondToPlane(i, m, p, v, settings, depth, stiffness, hold, contact, out);
+}
 
 // The contact response (collision::contactResponse) with kGroup lanes per vertex: in each round
 // the group's lanes search the next kGroup structures, then the group's first lane adds their
@@ -333,8 +336,8 @@ __device__ void respondToPlane(int i, const MeshView& m, ParamView p, const BvhV
 // of 78 us (H100, one leaf at a time). One leaf at a time it lost where many lanes walk at once
 // (591 against 497 us at 325,632 vertices); two at a time, 4 lanes a vertex won there (358.5
 // against 826.5 us), but not with 100 structures, whose 25 rounds a vertex cost more (launchCollision).
-// It searches on the steps of a full search (the level's first step is one: the counter starts at
-// 0); on the others its first threads meet the contact planes (respondToPlane).
+// The engine launches it on the steps of a full search only (DeviceCollision::searchesAt); on the
+// others respondPlanes runs instead.
 //
 // kWarpLeaves: held to 6 blocks of 128 threads an SM (80 registers instead of the compiler's 91,
 // which allowed 5). The walks are latency-bound (ncu at 20,352 vertices: 9.2 cycles between a
@@ -344,14 +347,10 @@ __device__ void respondToPlane(int i, const MeshView& m, ParamView p, const BvhV
 // 6 blocks 830 -> 810 us at 325,632 vertices but 2,151 -> 2,236 at 1,269,152 (docs/collisions.md).
 template <int kGroup, bool kWarpLeaves>
 __global__ void __launch_bounds__(kThreads, kWarpLeaves ? kRespondBlocks : 0)
-    respondGroup(MeshView m, ParamView p, BvhView v, ContactSettings settings, const int* counter, int every,
+    respondGroup(MeshView m, ParamView p, BvhView v, ContactSettings settings, int every,
                  const float* moved, const unsigned* motion, float* depth, int* hint, float* slack, float* stiffness,
                  HoldPlane* hold, ContactPlane* contact, float3* out) {
   const int t = blockIdx.x * blockDim.x + threadIdx.x;
-  if (*counter % every != 0) {  // between full searches
-    if (t < m.vertices) respondToPlane(t, m, p, v, settings, depth, stiffness, hold, contact, out);
-    return;
-  }
   const int i = t / kGroup, g = t % kGroup;
   const bool valid = i < m.vertices;  // every lane stays for the shuffles
   const int own = valid ? m.meshOf[i] : 0;
@@ -444,15 +443,13 @@ __global__ void contactSprings(MeshView m, ParamView p, const int* partner, cons
   }
   if (stiffness) stiffness[i] = k;
 }
-__device__ void advanceStep(int* counter, unsigned* motion) {
-  ++*counter;
-  *motion = 0;
-}
+// The collision's step ends: the motion's largest (trackMotion, at the next full search) starts again.
+__device__ void advanceStep(unsigned* motion) { *motion = 0; }
 // The hold (CollisionForce::constrain's arithmetic); then the step's end (advanceStep: the response
 // read both).
-__global__ void holdOut(MeshView m, const HoldPlane* hold, int* counter, unsigned* motion) {
+__global__ void holdOut(MeshView m, const HoldPlane* hold, unsigned* motion) {
   const int i = blockIdx.x * blockDim.x + threadIdx.x;
-  if (i == 0) advanceStep(counter, motion);
+  if (i == 0) advanceStep(motion);
   if (i >= m.vertices) return;
   const HoldPlane h = hold[i];
   if (!(h.side < 3.0e38f)) return;  // most vertices: no plane, and no loads of x and prev
@@ -466,9 +463,9 @@ __global__ void holdOut(MeshView m, const HoldPlane* hold, int* counter, unsigne
 // The collision's force added, the damped Verlet move, then the hold (as holdOut; hold null: none,
 // and `advance` ended the step on the branch).
 __global__ void addMoveAndHold(MeshView m, const float3* collisionForce, VerletMove move, const HoldPlane* hold,
-                               int* counter, unsigned* motion) {
+                               unsigned* motion) {
   const int i = blockIdx.x * blockDim.x + threadIdx.x;
-  if (i == 0 && hold) advanceStep(counter, motion);
+  if (i == 0 && hold) advanceStep(motion);
   if (i >= m.vertices) return;
   const float3 f = m.force[i] + collisionForce[i];
   m.force[i] = f;
@@ -480,7 +477,7 @@ __global__ void addMoveAndHold(MeshView m, const float3* collisionForce, VerletM
   m.prev[i] = make_float3(q.x, q.y, q.z);
 }
 // The step's end without a hold.
-__global__ void advance(int* counter, unsigned* motion) { advanceStep(counter, motion); }
+__global__ void advance(unsigned* motion) { advanceStep(motion); }
 }  // namespace
 
 void launchContactSprings(const MeshView& m, ParamView p, const int* partner, const float3* offset, float* stiffness,
@@ -488,20 +485,20 @@ void launchContactSprings(const MeshView& m, ParamView p, const int* partner, co
   contactSprings<<<(m.vertices + kThreads - 1) / kThreads, kThreads, 0, s>>>(m, p, partner, offset, stiffness);
 }
 
-void launchCollisionRefit(const MeshView& m, const CollisionDevice& c, int every, cudaStream_t s) {
+void launchCollisionRefit(const MeshView& m, const CollisionDevice& c, cudaStream_t s) {
   BvhView v{c.nodes, c.boxes, c.tris, c.order, c.roots, c.exempt, c.meshes, c.nodeCount, c.share};
   if (c.climb) {
     climbRefit<<<(c.leafCount + kThreads - 1) / kThreads, kThreads, 0, s>>>(
         v, c.leaves, c.leafCount, c.visits, reinterpret_cast<const P3*>(m.x), reinterpret_cast<const P3*>(m.cellCentre),
-        c.counter, every, m.vertices, c.last, c.moved, c.motion);
+        m.vertices, c.last, c.moved, c.motion);
     return;
   }
-  vertexBoxes<<<(m.vertices + kThreads - 1) / kThreads, kThreads, 0, s>>>(v, m, c.counter, every, c.last, c.moved, c.motion,
+  vertexBoxes<<<(m.vertices + kThreads - 1) / kThreads, kThreads, 0, s>>>(v, m, c.last, c.moved, c.motion,
                                                                           c.vertexBoxes);
   const NodeLists& l = c.lists;
   const int n = int(kNodeThreads);
   const int blocks = std::max(1, (l.threadCount + n - 1) / n + (l.warpCount * 32 + n - 1) / n + l.blockCount);
-  nodeBoxes<<<blocks, kNodeThreads, 0, s>>>(v, c.vertexBoxes, l, c.counter, every);
+  nodeBoxes<<<blocks, kNodeThreads, 0, s>>>(v, c.vertexBoxes, l);
 }
 
 void launchCollisionRespond(const MeshView& m, ParamView p, const CollisionDevice& c, const ContactSettings& settings,
@@ -514,16 +511,16 @@ void launchCollisionRespond(const MeshView& m, ParamView p, const CollisionDevic
   const int group = m.vertices >= 131072 ? (c.meshes <= 16 ? 4 : 1) : m.vertices >= 32768 ? 4 : 16;
   const unsigned grid = static_cast<unsigned>((static_cast<size_t>(m.vertices) * group + kThreads - 1) / kThreads);
   if (group == 1)
-    respondGroup<1, false><<<grid, kThreads, 0, s>>>(m, p, v, settings, c.counter, every, c.moved, c.motion, c.depth, c.hint, c.slack,
+    respondGroup<1, false><<<grid, kThreads, 0, s>>>(m, p, v, settings, every, c.moved, c.motion, c.depth, c.hint, c.slack,
                                                 c.stiffness, c.hold, c.contact, c.force);
   else if (group == 4)
-    respondGroup<4, true><<<grid, kThreads, 0, s>>>(m, p, v, settings, c.counter, every, c.moved, c.motion, c.depth, c.hint, c.slack,
+    respondGroup<4, true><<<grid, kThreads, 0, s>>>(m, p, v, settings, every, c.moved, c.motion, c.depth, c.hint, c.slack,
                                                 c.stiffness, c.hold, c.contact, c.force);
   else
-    respondGroup<16, true><<<grid, kThreads, 0, s>>>(m, p, v, settings, c.counter, every, c.moved, c.motion, c.depth, c.hint, c.slack,
+    respondGroup<16, true><<<grid, kThreads, 0, s>>>(m, p, v, settings, every, c.moved, c.motion, c.depth, c.hint, c.slack,
                                                 c.stiffness, c.hold, c.contact, c.force);
   // With a hold, the hold's kernel ends the step: a launch fewer (2.7 us a step, H100).
-  if (settings.hold < 0.0f) advance<<<1, 1, 0, s>>>(c.counter, c.motion);
+  if (settings.hold < 0.0f) advance<<<1, 1, 0, s>>>(c.motion);
 }
 
 void launchCollisionAdd(const MeshView& m, const CollisionDevice& c, cudaStream_t s) {
@@ -532,11 +529,19 @@ void launchCollisionAdd(const MeshView& m, const CollisionDevice& c, cudaStream_
 
 void launchCollisionMove(const MeshView& m, const CollisionDevice& c, const VerletMove& move, bool hold, cudaStream_t s) {
   addMoveAndHold<<<(m.vertices + kThreads - 1) / kThreads, kThreads, 0, s>>>(m, c.force, move, hold ? c.hold : nullptr,
-                                                                           c.counter, c.motion);
+                                                                           c.motion);
+}
+
+void launchCollisionPlanes(const MeshView& m, ParamView p, const CollisionDevice& c, const ContactSettings& settings,
+                           cudaStream_t s) {
+  BvhView v{c.nodes, c.boxes, c.tris, c.order, c.roots, c.exempt, c.meshes, c.nodeCount, c.share};
+  respondPlanes<<<(m.vertices + kThreads - 1) / kThreads, kThreads, 0, s>>>(m, p, v, settings, c.depth, c.stiffness, c.hold,
+                                                                          c.contact, c.force);
+  if (settings.hold < 0.0f) advance<<<1, 1, 0, s>>>(c.motion);
 }
 
 void launchCollisionHold(const MeshView& m, const CollisionDevice& c, cudaStream_t s) {
-  holdOut<<<(m.vertices + kThreads - 1) / kThreads, kThreads, 0, s>>>(m, c.hold, c.counter, c.motion);
+  holdOut<<<(m.vertices + kThreads - 1) / kThreads, kThreads, 0, s>>>(m, c.hold, c.motion);
 }
 
 }  // namespace sinew::cuda

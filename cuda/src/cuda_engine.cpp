@@ -77,6 +77,7 @@ struct CudaEngine::Impl {
   float profileSpacing = 0.0f;
   DevicePlacedPoints placedPoints;  // attraction, include and exclude points
   DeviceCollision collision;        // built while the collision force is active, per level
+  int collisionAhead = 0;           // steps captured so far in the batch (DeviceCollision::searchesAt)
   DeviceContactLinks contactLinks;  // built while the contacts force is active, per level
   DeviceRadial radial;              // medial surfaces of the structures the radial force acts on
   DeviceAttachments attachments;    // the level's attachments (Simulation builds them per level)
@@ -427,17 +428,23 @@ struct CudaEngine::Impl {
     // that computes the cells' centres itself) and the forces before it (its response), joined at its
     // place in the force order: its force added as the CPU adds it, or, as the last force before damped
     // Verlet, with the move and the hold in one pass (docs/collisions.md, "The response beside ...").
+    // Between full searches the branch holds only the contact planes (DeviceCollision::planes).
     const ForceSlot* slot = activeCollision();
     const bool collide = slot != nullptr;
-    const cudaStream_t side = collide ? branch.begin(stream) : nullptr;
-    const bool early = collide && collision.refitsBeforeGeometry();
-    if (early) collision.refit(view, sim.forceParams(slot->name), side);
+    const bool search = collide && collision.searchesAt(collisionAhead++, sim.forceParams(slot->name));
+    cudaStream_t side = search ? branch.begin(stream) : nullptr;
+    const bool early = search && collision.refitsBeforeGeometry();
+    if (early) collision.refit(view, side);
     launchGeometry(view, topology.cellSpans.get(), stream);
     float hold = -1.0f;  // negative: no hold
-    if (collide) {
+    const ParamView collisionParams = slot ? ParamView{slot->params.get(), slot->count} : ParamView{};
+    if (search) {
       branch.follow(stream);
-      if (!early) collision.refit(view, sim.forceParams(slot->name), side);
-      hold = collision.respond(view, {slot->params.get(), slot->count}, sim.forceParams(slot->name), side);
+      if (!early) collision.refit(view, side);
+      hold = collision.respond(view, collisionParams, sim.forceParams(slot->name), side);
+    } else if (collide) {
+      side = branch.begin(stream);
+      hold = collision.planes(view, collisionParams, sim.forceParams(slot->name), side);
     }
     bool joined = !collide, held = false, moved = false;
     const auto joinCollision = [&](size_t at) {
@@ -602,8 +609,14 @@ void CudaEngine::run(int iterations) {
   // drawing, sampling, the next level), also when a batch failed.
   const auto currentInX = [&] { if (I.view.x != I.x.get()) std::swap(I.x, I.prev); };
   try {
-    for (; iterations > 0; iterations -= std::min(iterations, kBatch))
-      I.graphs.enqueue(std::min(iterations, kBatch), I.view, I.stream, [&](bool last) { I.enqueueStep(last); });
+    for (; iterations > 0; iterations -= std::min(iterations, kBatch)) {
+      const int n = std::min(iterations, kBatch);
+      const Impl::ForceSlot* collisionSlot = I.activeCollision();
+      const int phase = collisionSlot ? I.collision.phase(I.sim.forceParams(collisionSlot->name)) : 0;
+      I.collisionAhead = 0;
+      I.graphs.enqueue(n, phase, I.view, I.stream, [&](bool last) { I.enqueueStep(last); });
+      if (collisionSlot) I.collision.advance(n);
+    }
   } catch (...) {
     currentInX();
     throw;

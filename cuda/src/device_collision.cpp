@@ -40,9 +40,8 @@ void DeviceCollision::build(MeshStore& store, const SceneData& scene, const Para
   force_.resize(store.vertexCount());  // likewise, before launchCollisionAdd reads it
   motion_.resize(1);
   SINEW_CUDA(cudaMemsetAsync(motion_.get(), 0, motion_.bytes(), stream));
-  counter_.resize(1);
-  SINEW_CUDA(cudaMemsetAsync(counter_.get(), 0, counter_.bytes(), stream));
   meshes_ = int(tree.roots.size());
+  steps_ = 0;
   SINEW_CUDA(cudaStreamSynchronize(stream));  // the host vectors go out of scope
 }
 
@@ -60,18 +59,30 @@ void DeviceCollision::buildNodeLists(const CollisionTree& tree, cudaStream_t str
 
 namespace {
 int fullSearchEvery(const ParamTable& params) { return std::max(1, int(params.get(0, params.indexOf("full_search_every")))); }
+collision::ContactSettings contactSettings(const ParamTable& params) {
+  const auto get = [&](const char* name) { return params.getf(0, params.indexOf(name)); };
+  return {get("margin_mm"), get("contact_damping"), get("reach_mm"), get("retreat_mm"), get("hold_mm")};
+}
 }  // namespace
 
-void DeviceCollision::refit(const MeshView& m, const ParamTable& params, cudaStream_t stream) const {
-  launchCollisionRefit(m, view(), fullSearchEvery(params), stream);
-}
+void DeviceCollision::refit(const MeshView& m, cudaStream_t stream) const { launchCollisionRefit(m, view(), stream); }
 
 float DeviceCollision::respond(const MeshView& m, ParamView p, const ParamTable& params, cudaStream_t stream) const {
-  const auto get = [&](const char* name) { return params.getf(0, params.indexOf(name)); };
-  const float hold = get("hold_mm");
-  launchCollisionRespond(m, p, view(), {get("margin_mm"), get("contact_damping"), get("reach_mm"), get("retreat_mm"), hold},
-                         fullSearchEvery(params), stream);
-  return hold;
+  const collision::ContactSettings settings = contactSettings(params);
+  launchCollisionRespond(m, p, view(), settings, fullSearchEvery(params), stream);
+  return settings.hold;
+}
+
+int DeviceCollision::phase(const ParamTable& params) const { return int(steps_ % fullSearchEvery(params)); }
+
+bool DeviceCollision::searchesAt(int ahead, const ParamTable& params) const {
+  return (steps_ + ahead) % fullSearchEvery(params) == 0;
+}
+
+float DeviceCollision::planes(const MeshView& m, ParamView p, const ParamTable& params, cudaStream_t stream) const {
+  const collision::ContactSettings settings = contactSettings(params);
+  launchCollisionPlanes(m, p, view(), settings, stream);
+  return settings.hold;
 }
 
 CollisionDevice DeviceCollision::view() const {
@@ -90,7 +101,6 @@ CollisionDevice DeviceCollision::view() const {
              int(blockNodes_.size())};
   c.stiffness = stiffness_.get();
   c.depth = depth_.get();
-  c.counter = counter_.get();
   c.exempt = exempt_.get();
   c.share = share_.get();
   c.hint = hint_.get();
@@ -109,7 +119,7 @@ CollisionDevice DeviceCollision::view() const {
 std::size_t DeviceCollision::bytes() const {
   return nodes_.bytes() + boxes_.bytes() + tris_.bytes() + order_.bytes() + roots_.bytes() + leaves_.bytes() +
          visits_.bytes() + threadNodes_.bytes() + warpNodes_.bytes() + blockNodes_.bytes() + vertexBoxes_.bytes() +
-         stiffness_.bytes() + depth_.bytes() + counter_.bytes() + hint_.bytes() + exempt_.bytes() + share_.bytes() +
+         stiffness_.bytes() + depth_.bytes() + hint_.bytes() + exempt_.bytes() + share_.bytes() +
          slack_.bytes() + moved_.bytes() + last_.bytes() + motion_.bytes() + hold_.bytes() +
          contact_.bytes() + force_.bytes();
 }

@@ -24,8 +24,15 @@ public:
   // `params` (p: their device copy); respond returns hold_mm (negative: no hold, so no
   // launchCollisionHold). refitsBeforeGeometry: the refit computes the cells' centres it needs.
   bool refitsBeforeGeometry() const { return !climb_; }
-  void refit(const MeshView& m, const ParamTable& params, cudaStream_t stream) const;
+  void refit(const MeshView& m, cudaStream_t stream) const;
   float respond(const MeshView& m, ParamView p, const ParamTable& params, cudaStream_t stream) const;
+  // The full searches' schedule, kept on the host: the steps enqueued at this level (advance), and
+  // whether the step `ahead` steps after them searches in full (the level's first does). Between full searches the engine enqueues planes instead of
+  // refit and respond (launchCollisionPlanes; it returns hold_mm as respond does).
+  void advance(int steps) { steps_ += steps; }
+  int phase(const ParamTable& params) const;
+  bool searchesAt(int ahead, const ParamTable& params) const;
+  float planes(const MeshView& m, ParamView p, const ParamTable& params, cudaStream_t stream) const;
   std::size_t bytes() const;
 
 private:
@@ -41,11 +48,11 @@ private:
   DeviceArray<collision::HoldPlane> hold_;  // CollisionDevice::hold
   DeviceArray<collision::ContactPlane> contact_;  // CollisionDevice::contact
   DeviceArray<unsigned> motion_;
-  DeviceArray<int> counter_;  // the level's steps so far (full searches every full_search_every)
   DeviceArray<unsigned char> exempt_;
   DeviceArray<float> share_;
   int meshes_ = 0;
   bool climb_ = false;
+  long steps_ = 0;  // the level's steps enqueued
 };
 
 }  // namespace sinew::cuda

@@ -248,7 +248,6 @@ struct CollisionDevice {
   NodeLists lists;
   float* stiffness = nullptr;
   float* depth = nullptr;  // per vertex, the last penetration (collision::contactResponse)
-  int* counter = nullptr;  // the level's steps so far
   int* hint = nullptr;     // per vertex, the last nearest contact leaf
   float* slack = nullptr;  // per vertex, its clearance beyond the margin (collision::clearOfContacts)
   float* moved = nullptr;  // per vertex, how far it moved since the last step
@@ -269,7 +268,7 @@ void launchContactSprings(const MeshView& m, ParamView p, const int* partner, co
 // step's other kernels. every: a full search every this many steps (collision::contactResponse).
 // Refits the hierarchies: reads m.x and, where c.climb, m.cellCentre (below kClimbFrom vertices
 // it computes the centres it needs, so it need not follow the geometry kernel).
-void launchCollisionRefit(const MeshView& m, const CollisionDevice& c, int every, cudaStream_t s);
+void launchCollisionRefit(const MeshView& m, const CollisionDevice& c, cudaStream_t s);
 // After the refit and the geometry: writes the contact response to c.force (reads m.x, m.prev,
 // m.normal, m.mass, m.cellCentre).
 void launchCollisionRespond(const MeshView& m, ParamView p, const CollisionDevice& c,
@@ -279,10 +278,17 @@ void launchCollisionAdd(const MeshView& m, const CollisionDevice& c, cudaStream_
 // launchCollisionAdd, launchVerlet and (hold: launchCollisionHold) in one pass, the same
 // arithmetic: for a step whose last force is the collision's and whose move follows directly.
 void launchCollisionMove(const MeshView& m, const CollisionDevice& c, const VerletMove& move, bool hold, cudaStream_t s);
+// A step between full searches (collision::contactResponse), which the engine schedules itself:
+// instead of the refit and the response, each vertex's contact plane (c.contact) writes its
+// response to c.force, c.hold and c.stiffness as launchCollisionRespond would (reads m.x, m.prev,
+// m.normal, m.mass, m.cellCentre); launchCollisionAdd and launchCollisionHold follow as after it.
+// Without a hold it ends the collision's step.
+void launchCollisionPlanes(const MeshView& m, ParamView p, const CollisionDevice& c,
+                           const collision::ContactSettings& settings, cudaStream_t s);
 // After the step's move: each vertex below its hold plane (c.hold, written by
 // launchCollisionRespond when settings.hold >= 0) moves out along its normal onto it
 // (CollisionForce::constrain). Every launchCollisionRespond with settings.hold >= 0 must be followed
-// by it or by launchCollisionMove with hold true: they also end the collision's step (its counter).
+// by it or by launchCollisionMove with hold true: they also end the collision's step (its motion).
 void launchCollisionHold(const MeshView& m, const CollisionDevice& c, cudaStream_t s);
 
 // The radial force (radial_kernels.cu; device_radial.h): the medial surfaces of the structures

@@ -9,8 +9,9 @@ void StepGraphs::clear() {
   batches_.clear();
 }
 
-void StepGraphs::enqueue(int n, MeshView& view, cudaStream_t stream, const std::function<void(bool last)>& enqueueStep) {
-  const auto key = std::make_pair(n, static_cast<const float3*>(view.x));
+void StepGraphs::enqueue(int n, int variant, MeshView& view, cudaStream_t stream,
+                         const std::function<void(bool last)>& enqueueStep) {
+  const auto key = std::make_tuple(n, static_cast<const float3*>(view.x), variant);
   auto it = batches_.find(key);
   if (it == batches_.end()) {
     const MeshView before = view;  // capturing swaps the positions as the replay will

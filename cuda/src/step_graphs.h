@@ -10,7 +10,7 @@
 
 #include <functional>
 #include <map>
-#include <utility>
+#include <tuple>
 
 namespace sinew::cuda {
 
@@ -23,17 +23,19 @@ public:
 
   // Forgets every captured batch (what they baked in changed).
   void clear();
-  // Enqueues n steps on `stream`: the captured batch for (n, view.x), captured first from
+  // Enqueues n steps on `stream`: the captured batch for (n, view.x, variant), captured first from
   // enqueueStep(last) (which enqueues one step and may swap view.x and view.prev; last: whether it
-  // is the batch's last step) when there is none. view leaves as the steps leave it.
-  void enqueue(int n, MeshView& view, cudaStream_t stream, const std::function<void(bool last)>& enqueueStep);
+  // is the batch's last step) when there is none. variant: what else decides the steps' kernels
+  // (the collisions' full searches: the batch's first step's place between them). view leaves as
+  // the steps leave it.
+  void enqueue(int n, int variant, MeshView& view, cudaStream_t stream, const std::function<void(bool last)>& enqueueStep);
 
 private:
   struct Batch {
     cudaGraphExec_t exec;
     bool swapsPositions;
   };
-  std::map<std::pair<int, const float3*>, Batch> batches_;
+  std::map<std::tuple<int, const float3*, int>, Batch> batches_;
 };
 
 }  // namespace sinew::cuda
