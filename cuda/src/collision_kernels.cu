@@ -16,9 +16,9 @@ constexpr unsigned kThreads = 128;
 using namespace sinew::collision;
 
 // Each vertex's move since the last full search, and the largest into motion (each full search:
-// the clearance pays for it; collision::clearOfContacts). Grid-stride by vertex index (coalesced); one atomic per block (one per
-// warp of a thread per vertex on the one address cost the climb 16 us at 325,632 vertices). Every
-// thread of the block calls it.
+// the clearance pays for it; collision::clearOfContacts). Grid-stride by vertex index (coalesced);
+// one atomic per block (one per warp of a thread per vertex on the one address cost the climb 16 us
+// at 325,632 vertices). Every thread of the block calls it.
 __device__ void trackMotion(int vertices, const P3* x, float3* last, float* moved, unsigned* motion) {
   __shared__ float warpLargest[kThreads / 32];
   float largest = 0.0f;
@@ -205,10 +205,10 @@ __device__ void offerCandidates(const LaneTriangle& t, float ownerBest, int spli
 }
 
 // Two leaves at once (a leaf has at most kLeafVertices * 3 = 12 triangles): leaf idA of lane
-// ownerA on lanes 0-15, leaf idB of lane ownerB (idB < 0: none) on lanes 16-31, each half on
-// its leaf's triangles (triangle k of the leaf's vertex j on lane 3 j + k). The owners differ (a lane reaches one leaf at a time). A warp
-// tested its lanes' leaves one after another with 12 of its 32 lanes busy. Every lane of the warp
-// calls it.
+// ownerA on lanes 0-15, leaf idB of lane ownerB (idB < 0: none) on lanes 16-31, each half on its
+// leaf's triangles (triangle k of the leaf's vertex j on lane 3 j + k). The owners differ (a lane
+// reaches one leaf at a time). A warp tested its lanes' leaves one after another with 12 of its 32
+// lanes busy. Every lane of the warp calls it.
 static_assert(3 * kLeafVertices <= 16, "a leaf's triangles fit in half a warp");
 __device__ void testLeafPairWarp(const BvhView& v, int idA, int ownerA, int idB, int ownerB, P3 p, const P3* x,
                                  const P3* centres, Hit& best, bool& found) {
@@ -291,13 +291,14 @@ __device__ bool contactWithWarp(const BvhView& v, int own, int other, P3 p, floa
 
 // Between full searches (collision::contactResponse's branch for them), a thread a vertex: the
 // plane of the vertex's deepest contact at the last full search; no clearance (it is paid at the
-// full searches), in a kernel of its own (respondPlanes) that the engine launches instead of the
-// refit and respondGroup: done by respondGroup's lanes (16 a vertex below 32,768 vertices), such a
-// step cost about 16 us more than one without collisions at 20,352 vertices (H200, from the steps
-// with a full search every 8 and every 16), and with the refit and respondGroup launched to return
-// at once, 8.8 us more.
-__device__ void respondToPlane(int i, const MeshView& m, ParamView p, const BvhView& v, const ContactSettings& settings,
-                               float* depth, float* stiffness, HoldPlane* hold, const ContactPlane* contact, float3* out) {
+// full searches). The engine launches it instead of the refit and respondGroup. Done by
+// respondGroup's lanes (16 a vertex below 32,768 vertices), such a step cost about 16 us more than
+// one without collisions at 20,352 vertices (H200, from the steps with a full search every 8 and
+// every 16); with the refit and respondGroup launched to return at once, about 9 us more.
+__global__ void respondPlanes(MeshView m, ParamView p, BvhView v, ContactSettings settings, float* depth,
+                              float* stiffness, HoldPlane* hold, const ContactPlane* contact, float3* out) {
+  const int i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i >= m.vertices) return;
   const float weight = param(p, m.meshOf[i], 0);
   P3 force{0, 0, 0};
   float k = 0.0f;
@@ -318,12 +319,6 @@ __device__ void respondToPlane(int i, const MeshView& m, ParamView p, const BvhV
   if (stiffness) stiffness[i] = k;
   if (hold && settings.hold >= 0.0f) hold[i] = plane;
 }
-// A step between full searches scheduled by the host (launchCollisionPlanes): no refit, no search.
-__global__ void respondPlanes(MeshView m, ParamView p, BvhView v, ContactSettings settings, float* depth,
-                              float* stiffness, HoldPlane* hold, const ContactPlane* contact, float3* out) {
-  const int i = blockIdx.x * blockDim.x + threadIdx.x;
-  if (i < m.vertices) respondToPlane(i, m, p, v, settings, depth, stiffness, hold, contact, out);
-}
 
 // The contact response (collision::contactResponse) with kGroup lanes per vertex: in each round
 // the group's lanes search the next kGroup structures, then the group's first lane adds their
@@ -336,8 +331,7 @@ __global__ void respondPlanes(MeshView m, ParamView p, BvhView v, ContactSetting
 // of 78 us (H100, one leaf at a time). One leaf at a time it lost where many lanes walk at once
 // (591 against 497 us at 325,632 vertices); two at a time, 4 lanes a vertex won there (358.5
 // against 826.5 us), but not with 100 structures, whose 25 rounds a vertex cost more (launchCollision).
-// The engine launches it on the steps of a full search only (DeviceCollision::searchesAt); on the
-// others respondPlanes runs instead.
+// The engine launches it on the steps of a full search only (DeviceCollision::searchesAt).
 //
 // kWarpLeaves: held to 6 blocks of 128 threads an SM (80 registers instead of the compiler's 91,
 // which allowed 5). The walks are latency-bound (ncu at 20,352 vertices: 9.2 cycles between a

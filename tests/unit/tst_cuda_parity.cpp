@@ -559,7 +559,7 @@ private slots:
     QTest::newRow("damped_verlet, full search every 8") << "damped_verlet" << 100 << 8 << 15.0f << 0.0f << 3 << 2 << 10.0f;
     QTest::newRow("damped_verlet, radii 10 and 6 (size_share)") << "damped_verlet" << 100 << 1 << 13.0f << 0.0f << 3 << 2 << 6.0f;
     QTest::newRow("damped_verlet, radii 10 and 6, every 8") << "damped_verlet" << 100 << 8 << 13.0f << 0.0f << 3 << 2 << 6.0f;
-    // Without a hold the step ends in its own kernel (advance): the counter must move there too.
+    // Without a hold the step ends in its own kernel (advance): the largest move is reset there too.
     QTest::newRow("damped_verlet, no hold, full search every 8") << "damped_verlet" << 100 << 8 << 15.0f << -1.0f << 3 << 2 << 10.0f;
     // 163,840 vertices: the refit's climb from the leaves and 4 lanes a vertex from 131,072.
     QTest::newRow("damped_verlet, 163,840 vertices") << "damped_verlet" << 100 << 1 << 15.0f << 0.0f << 6 << 2 << 10.0f;

@@ -58,7 +58,6 @@ struct BvhView {
 // (CollisionTree::setShares: the larger structure gives way more); 1 without a table.
 SINEW_HD float shareOf(const BvhView& v, int own, int other) { return v.share ? v.share[own * v.meshes + other] : 1.0f; }
 
-
 SINEW_HD P3 sub(P3 a, P3 b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
 SINEW_HD P3 add(P3 a, P3 b) { return {a.x + b.x, a.y + b.y, a.z + b.z}; }
 SINEW_HD P3 scale(P3 a, float s) { return {a.x * s, a.y * s, a.z * s}; }
