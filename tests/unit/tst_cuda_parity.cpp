@@ -565,7 +565,7 @@ private slots:
     QTest::newRow("damped_verlet, 163,840 vertices") << "damped_verlet" << 100 << 1 << 15.0f << 0.0f << 6 << 2 << 10.0f;
     QTest::newRow("damped_verlet, 163,840 vertices, every 8") << "damped_verlet" << 100 << 8 << 15.0f << 0.0f << 6 << 2 << 10.0f;
     // Centres 8 mm apart: the vertices inside the other sphere have its far side as their contact
-    // and retreat (collision::respondTo), by the full search and by the patch tests between. Not
+    // and retreat (collision::respondTo), by the full search and by the contact planes between. Not
     // with implicit Euler: there the solver's float differences (1e-5 mm) meet the jumps of a deep
     // vertex's nearest point across the other sphere's middle, and the backends were 0.15-0.25 mm
     // apart after 20 steps (H200, 2026-11-26; docs/collisions.md).
