@@ -169,6 +169,13 @@ collision::BvhView CollisionTree::view() {
           share.empty() ? nullptr : share.data()};
 }
 
+collision::ContactSettings contactSettingsOf(const ParamTable& params) {
+  const auto get = [&](const char* name) { return params.getf(0, params.indexOf(name)); };
+  return {get("margin_mm"), get("contact_damping"), get("reach_mm"), get("retreat_mm"), get("hold_mm")};
+}
+
+int fullSearchEveryOf(const ParamTable& params) { return std::max(1, int(params.get(0, params.indexOf("full_search_every")))); }
+
 void CollisionTree::setShares(MeshStore& store, const ParamTable& collisionParams) {
   share.clear();
   const double exponent = collisionParams.get(0, collisionParams.indexOf("size_share"));

@@ -57,30 +57,22 @@ void DeviceCollision::buildNodeLists(const CollisionTree& tree, cudaStream_t str
   blockNodes_.upload(blockNodes, stream);
 }
 
-namespace {
-int fullSearchEvery(const ParamTable& params) { return std::max(1, int(params.get(0, params.indexOf("full_search_every")))); }
-collision::ContactSettings contactSettings(const ParamTable& params) {
-  const auto get = [&](const char* name) { return params.getf(0, params.indexOf(name)); };
-  return {get("margin_mm"), get("contact_damping"), get("reach_mm"), get("retreat_mm"), get("hold_mm")};
-}
-}  // namespace
-
 void DeviceCollision::refit(const MeshView& m, cudaStream_t stream) const { launchCollisionRefit(m, view(), stream); }
 
 float DeviceCollision::respond(const MeshView& m, ParamView p, const ParamTable& params, cudaStream_t stream) const {
-  const collision::ContactSettings settings = contactSettings(params);
-  launchCollisionRespond(m, p, view(), settings, fullSearchEvery(params), stream);
+  const collision::ContactSettings settings = contactSettingsOf(params);
+  launchCollisionRespond(m, p, view(), settings, fullSearchEveryOf(params), stream);
   return settings.hold;
 }
 
-int DeviceCollision::phase(const ParamTable& params) const { return int(steps_ % fullSearchEvery(params)); }
+int DeviceCollision::phase(const ParamTable& params) const { return int(steps_ % fullSearchEveryOf(params)); }
 
 bool DeviceCollision::searchesAt(int ahead, const ParamTable& params) const {
-  return (steps_ + ahead) % fullSearchEvery(params) == 0;
+  return (steps_ + ahead) % fullSearchEveryOf(params) == 0;
 }
 
 float DeviceCollision::planes(const MeshView& m, ParamView p, const ParamTable& params, cudaStream_t stream) const {
-  const collision::ContactSettings settings = contactSettings(params);
+  const collision::ContactSettings settings = contactSettingsOf(params);
   launchCollisionPlanes(m, p, view(), settings, stream);
   return settings.hold;
 }

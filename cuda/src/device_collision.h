@@ -27,8 +27,9 @@ public:
   void refit(const MeshView& m, cudaStream_t stream) const;
   float respond(const MeshView& m, ParamView p, const ParamTable& params, cudaStream_t stream) const;
   // The full searches' schedule, kept on the host: the steps enqueued at this level (advance), and
-  // whether the step `ahead` steps after them searches in full (the level's first does). Between full searches the engine enqueues planes instead of
-  // refit and respond (launchCollisionPlanes; it returns hold_mm as respond does).
+  // whether the step `ahead` steps after them searches in full (the level's first does). Between
+  // full searches the engine enqueues planes instead of refit and respond (launchCollisionPlanes;
+  // it returns hold_mm as respond does).
   void advance(int steps) { steps_ += steps; }
   int phase(const ParamTable& params) const;
   bool searchesAt(int ahead, const ParamTable& params) const;

@@ -250,8 +250,8 @@ struct CollisionDevice {
   float* depth = nullptr;  // per vertex, the last penetration (collision::contactResponse)
   int* hint = nullptr;     // per vertex, the last nearest contact leaf
   float* slack = nullptr;  // per vertex, its clearance beyond the margin (collision::clearOfContacts)
-  float* moved = nullptr;  // per vertex, how far it moved since the last step
-  float3* last = nullptr;  // the positions the last step saw
+  float* moved = nullptr;  // per vertex, how far it moved since the last full search
+  float3* last = nullptr;  // the positions the last full search saw
   unsigned* motion = nullptr;  // the step's largest move (a float's bits: atomicMax orders them)
   const unsigned char* exempt = nullptr;  // pairs left out (meshes x meshes), or null
   const float* share = nullptr;           // collision::shareOf's table (meshes x meshes), or null
@@ -264,13 +264,13 @@ struct CollisionDevice {
 // to m.force for each vertex i with a partner j; stiffness (may be null) gets alpha m_i, or 0.
 void launchContactSprings(const MeshView& m, ParamView p, const int* partner, const float3* offset, float* stiffness,
                           cudaStream_t s);
-// The collision force in two launches, which write nothing of m, so that they may run beside the
-// step's other kernels. every: a full search every this many steps (collision::contactResponse).
-// Refits the hierarchies: reads m.x and, where c.climb, m.cellCentre (below kClimbFrom vertices
+// The collision force's full search in two launches, which write nothing of m, so that they may
+// run beside the step's other kernels. Refits the hierarchies: reads m.x and, where c.climb, m.cellCentre (below kClimbFrom vertices
 // it computes the centres it needs, so it need not follow the geometry kernel).
 void launchCollisionRefit(const MeshView& m, const CollisionDevice& c, cudaStream_t s);
 // After the refit and the geometry: writes the contact response to c.force (reads m.x, m.prev,
-// m.normal, m.mass, m.cellCentre).
+// m.normal, m.mass, m.cellCentre). every: a full search every this many steps (its search radius,
+// collision::fullSearchBound).
 void launchCollisionRespond(const MeshView& m, ParamView p, const CollisionDevice& c,
                             const collision::ContactSettings& settings, int every, cudaStream_t s);
 // Adds c.force (launchCollisionRespond's) to m.force.

@@ -1,7 +1,7 @@
 // Non-penetration between structures (paper 001 section 2.2; the issue on collisions). Detection
 // and response are core/collision_bvh.h, the code the CUDA backend runs too: each structure's box
 // (broad phase), then its hierarchy over the coarse proxy down to the Fig. 1b triangles (narrow
-// phase), refitted every step. A vertex inside another structure, or closer than the margin, is
+// phase), refitted at each full search. A vertex inside another structure, or closer than the margin, is
 // pulled to the point `margin` outside that surface (optionally with extra damping while it touches);
 // one that has gone past that structure's middle moves back into its own (collision::respondTo).
 #include "sinew/core/collision_tree.h"
@@ -49,13 +49,10 @@ public:
       checked_ = true;
       tree_.handleEnclosures(s, ctx.scene, margin, ctx.params.getf(0, ctx.params.indexOf("ignore_enclosed")) > 0.5f);
     }
-    const int every = std::max(1, int(ctx.params.get(0, ctx.params.indexOf("full_search_every"))));
+    const int every = fullSearchEveryOf(ctx.params);
     const bool full = step_++ % every == 0;
     if (full) tree_.refit(s.positions(), s.cellCentres(), ctx.executor);  // only full searches read the boxes
-    const collision::ContactSettings settings{margin, ctx.params.getf(0, ctx.params.indexOf("contact_damping")),
-                                              ctx.params.getf(0, ctx.params.indexOf("reach_mm")),
-                                              ctx.params.getf(0, ctx.params.indexOf("retreat_mm")),
-                                              ctx.params.getf(0, ctx.params.indexOf("hold_mm"))};
+    const collision::ContactSettings settings = contactSettingsOf(ctx.params);
     const collision::BvhView view = tree_.view();
     const collision::P3* x = asP3(s.positions());
     const collision::P3* centres = asP3(s.cellCentres());

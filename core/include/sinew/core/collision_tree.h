@@ -52,6 +52,11 @@ struct CollisionTree {
   void handleEnclosures(MeshStore& store, const SceneData& scene, float margin, bool ignore);
 };
 
+// The collision force's parameters as the response reads them, on either backend: the settings
+// of collision::contactResponse, and how many steps a full search covers (at least 1).
+collision::ContactSettings contactSettingsOf(const ParamTable& collisionParams);
+int fullSearchEveryOf(const ParamTable& collisionParams);
+
 // Per vertex of the store, 1 where it lies inside another structure or within `margin` of its
 // surface (pairs nested by design left out): the contact regions a view shows. Builds its own
 // hierarchy and searches without bound, so it is meant on request, not every step. Allocates the
