@@ -84,7 +84,7 @@ int main(int argc, char** argv) {
   cli.add_option("--collision-margin-mm", collisionMargin, "distance the collision force keeps between structures")
       ->check(CLI::Range(0.0, 5.0))->capture_default_str();
   cli.add_option("--collision-search-every", collisionSearchEvery,
-                 "a full contact search every this many steps, contact planes in between (default: 8 for schedules "
+                 "a full contact search every this many steps, contact planes in between (default: 16 for schedules "
                  "of up to 4 levels, 1 for finer ones)")
       ->check(CLI::Range(1, 16));
   cli.add_option("--contact-weight", contactWeight,
@@ -187,7 +187,7 @@ int main(int argc, char** argv) {
     // A full search every 8 steps (contact planes between) cost nothing measurable in accuracy at 3
     // and 4 levels (18 new subjects, demo seeds 1-8 and 1-5) and takes half the collisions' GPU time
     // or less; at 5 levels it cost 0.004-0.008 mm of mean ASSD (docs/collisions.md).
-    if (collisionSearchEvery == 0) collisionSearchEvery = counts.size() <= 4 ? 8 : 1;
+    if (collisionSearchEvery == 0) collisionSearchEvery = counts.size() <= 4 ? 16 : 1;
     if (collisions)
       scene["forces"]["collision"] = {{"weight", 0.0}, {"margin_mm", collisionMargin}, {"full_search_every", collisionSearchEvery}};
     if (contactWeight < 0.0) contactWeight = subject ? kSubjectContactWeight : 0.0;

@@ -171,7 +171,7 @@ collision::BvhView CollisionTree::view() {
 
 collision::ContactSettings contactSettingsOf(const ParamTable& params) {
   const auto get = [&](const char* name) { return params.getf(0, params.indexOf(name)); };
-  return {get("margin_mm"), get("contact_damping"), get("reach_mm"), get("retreat_mm"), get("hold_mm")};
+  return {get("margin_mm"), get("contact_damping"), get("reach_mm"), get("retreat_mm"), get("hold_mm"), get("ahead_mm")};
 }
 
 int fullSearchEveryOf(const ParamTable& params) { return std::max(1, int(params.get(0, params.indexOf("full_search_every")))); }

@@ -1,6 +1,7 @@
 // Collision detection and response on the device (core/collision_bvh.h holds the code the CPU
 // force runs too): the hierarchies refitted (bottom up in large scenes; in smaller ones every
 // node's box at once from its vertices'), then 1-16 threads per vertex finding its contacts.
+#include "contact_planes.h"
 #include "cuda_check.h"
 #include "device_math.cuh"
 #include "mesh_geometry.cuh"
@@ -289,35 +290,18 @@ __device__ bool contactWithWarp(const BvhView& v, int own, int other, P3 p, floa
   return h.d2 < maxD2;
 }
 
-// Between full searches (collision::contactResponse's branch for them), a thread a vertex: the
-// plane of the vertex's deepest contact at the last full search; no clearance (it is paid at the
-// full searches). The engine launches it instead of the refit and respondGroup. Done by
-// respondGroup's lanes (16 a vertex below 32,768 vertices), such a step cost about 16 us more than
-// one without collisions at 20,352 vertices (H200, from the steps with a full search every 8 and
-// every 16); with the refit and respondGroup launched to return at once, about 9 us more.
-__global__ void respondPlanes(MeshView m, ParamView p, BvhView v, ContactSettings settings, float* depth,
-                              float* stiffness, HoldPlane* hold, const ContactPlane* contact, float3* out) {
+// Between full searches (contact_planes.h), a thread a vertex; no clearance (it is paid at the
+// full searches). The engine launches it instead of the refit and respondGroup, or adds the planes
+// in the profile's pass instead (launchProfileAfterTerms). Done by respondGroup's lanes (16 a vertex
+// below 32,768 vertices), such a step cost about 16 us more than one without collisions at 20,352
+// vertices (H200, from the steps with a full search every 8 and every 16); with the refit and
+// respondGroup launched to return at once, about 9 us more.
+__global__ void respondPlanes(MeshView m, ContactPlanes planes, float3* out, bool add) {
   const int i = blockIdx.x * blockDim.x + threadIdx.x;
   if (i >= m.vertices) return;
-  const float weight = param(p, m.meshOf[i], 0);
-  P3 force{0, 0, 0};
-  float k = 0.0f;
   HoldPlane plane;
-  if (weight > 0.0f) {
-    const ContactPlane c = contact[i];
-    float deepest = 0.0f;
-    if (c.share >= 0.0f) {
-      const P3* x = reinterpret_cast<const P3*>(m.x);
-      const P3 point = x[i];
-      k = respondTo(contactHit(v, c, point, x, reinterpret_cast<const P3*>(m.cellCentre)), point,
-                    reinterpret_cast<const P3*>(m.prev)[i], reinterpret_cast<const P3*>(m.normal)[i], weight * m.mass[i],
-                    settings, deepest, force, settings.hold >= 0.0f ? &plane : nullptr, c.share);
-    }
-    depth[i] = deepest;
-  }
-  out[i] = make_float3(force.x, force.y, force.z);
-  if (stiffness) stiffness[i] = k;
-  if (hold && settings.hold >= 0.0f) hold[i] = plane;
+  const float3 f = contactPlaneForce(m, planes, i, plane);
+  out[i] = add ? out[i] + f : f;
 }
 
 // The contact response (collision::contactResponse) with kGroup lanes per vertex: in each round
@@ -361,7 +345,7 @@ __global__ void __launch_bounds__(kThreads, kWarpLeaves ? kRespondBlocks : 0)
   const bool clear = active && clearOfContacts(lastDepth, moved[i], __uint_as_float(*motion), lastSlack);
   // Every lane runs every round (the shuffles need the whole warp).
   const bool search = active && !clear;
-  const float maxD2 = fullSearchBound(lastDepth, settings.margin, settings.reach, every, point, previous);
+  const float maxD2 = fullSearchBound(lastDepth, settings, every, point, previous);
   ContactSum sum;
   HoldPlane plane;
   HoldPlane* const holdPlane = hold && settings.hold >= 0.0f ? &plane : nullptr;
@@ -526,12 +510,8 @@ void launchCollisionMove(const MeshView& m, const CollisionDevice& c, const Verl
                                                                            c.motion);
 }
 
-void launchCollisionPlanes(const MeshView& m, ParamView p, const CollisionDevice& c, const ContactSettings& settings,
-                           cudaStream_t s) {
-  BvhView v{c.nodes, c.boxes, c.tris, c.order, c.roots, c.exempt, c.meshes, c.nodeCount, c.share};
-  respondPlanes<<<(m.vertices + kThreads - 1) / kThreads, kThreads, 0, s>>>(m, p, v, settings, c.depth, c.stiffness, c.hold,
-                                                                          c.contact, c.force);
-  if (settings.hold < 0.0f) advance<<<1, 1, 0, s>>>(c.motion);
+void launchCollisionPlanes(const MeshView& m, const ContactPlanes& planes, float3* out, bool add, cudaStream_t s) {
+  respondPlanes<<<(m.vertices + kThreads - 1) / kThreads, kThreads, 0, s>>>(m, planes, out, add);
 }
 
 void launchCollisionHold(const MeshView& m, const CollisionDevice& c, cudaStream_t s) {

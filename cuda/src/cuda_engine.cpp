@@ -5,6 +5,7 @@
 #include "cuda_check.h"
 #include "device_attachments.h"
 #include "device_collision.h"
+#include "device_forces.h"
 #include "device_contour.h"
 #include "device_error.h"
 #include "device_image.h"
@@ -16,37 +17,16 @@
 #include "step_graphs.h"
 
 #include <algorithm>
-#include <cmath>
-#include <map>
 
 namespace sinew::cuda {
 
-namespace {
-// The profile force's largest reach in samples (the kernel's floor(search_depth / spacing), in float).
-int maxProfileReach(const ParamTable& t) {
-  const int kDepth = t.indexOf("search_depth");
-  const float spacing = t.getf(0, t.indexOf("spacing"));
-  int reach = 0;
-  for (Index r = 0; r < t.rows(); ++r) reach = std::max(reach, static_cast<int>(std::floor(t.getf(r, kDepth) / spacing)));
-  return reach;
-}
-
-// Built-in forces have kernels here; a plugin's force brings its own (DeviceForce).
-enum class Kind { Smoothing, ShapePrior, Gradient, Profile, Attraction, Collision, Contacts, Radial, Plugin };
-}  // namespace
+using Kind = ForceKind;  // built-in forces have kernels here; a plugin's force brings its own (DeviceForce)
 
 struct CudaEngine::Impl {
   Simulation& sim;
   cudaStream_t stream = nullptr;
   StreamBranch branch;  // the collision response beside the other forces (enqueueStep)
   std::string device;
-  struct ForceSlot {
-    std::string name;
-    Kind kind;
-    DeviceArray<float> params;
-    int count = 0;
-    DeviceForce* device = nullptr;  // Kind::Plugin
-  };
   std::vector<ForceSlot> forces;
   // Mesh store mirror.
   DeviceTopology topology;
@@ -55,6 +35,9 @@ struct CudaEngine::Impl {
   std::vector<int> hostMeshBegin;  // the current level's vertex ranges, for the next level change
   DeviceArray<float> density, massFloor, elevation, area, mass;
   DeviceArray<float3> x, prev, force, normal, centre;
+  // With the hierarchies: a third position buffer, for the collision's hold in the profile's pass
+  // (ContactPlanes::heldPrevious); then x, prev and it rotate (enqueueStep, run).
+  DeviceArray<float3> thirdPositions;
   DeviceArray<float4> reference;
   // Implicit Euler: per-structure Jacobian weights and the solver's work arrays.
   DeviceArray<float> meshPull, meshNormalPull, implicitA, implicitB, implicitOff, implicitC;
@@ -125,6 +108,17 @@ struct CudaEngine::Impl {
         collision.build(sim.store(), sim.scene(), sim.forceParams(f.name), implicit(), stream);
         invalidateGraph();
       }
+    const size_t third = collision.built() ? size_t(sim.store().vertexCount()) : 0;
+    if (thirdPositions.size() != third) {
+      thirdPositions.resize(third);
+      invalidateGraph();
+    }
+  }
+  // The position buffer that is neither view.x nor view.prev (the third allocated above).
+  float3* spareBuffer() {
+    for (DeviceArray<float3>* a : {&x, &prev, &thirdPositions})
+      if (a->get() != view.x && a->get() != view.prev) return a->get();
+    return nullptr;
   }
 
   bool contactsActive() const {
@@ -329,41 +323,14 @@ struct CudaEngine::Impl {
       imageTarget.force = imageForce.get();
       SINEW_CUDA(cudaMemsetAsync(imageForce.get(), 0, imageForce.bytes(), stream));
     }
-    FusedTerms fused;
+    size_t next = 0;
+    FusedTerms fused = fusedPrefix(forces, sim, regularise, next);
     fused.reference = reference.get();
     fused.gradient = gradient.get();
     fused.gradientVolume = gradientView;
-    size_t next = 0;
-    for (; next < forces.size() && fused.count < 4; ++next) {
-      const ForceSlot& f = forces[next];
-      const ParamTable& t = sim.forceParams(f.name);
-      if (f.kind == Kind::Profile || f.kind == Kind::Attraction || f.kind == Kind::Collision ||
-          f.kind == Kind::Contacts || f.kind == Kind::Radial || f.kind == Kind::Plugin)
-        break;
-      if (regularise && f.kind == Kind::Gradient) break;
-      if (!t.anyPositive(0)) continue;
-      FusedTerm term{};
-      term.params = ParamView{f.params.get(), f.count};
-      if (f.kind == Kind::Smoothing) {
-        term.kind = FusedTerm::Smoothing;
-        term.k0 = t.indexOf("elevation_term");
-      } else if (f.kind == Kind::ShapePrior) {
-        term.kind = FusedTerm::ShapePrior;
-      } else {
-        term.kind = FusedTerm::Gradient;
-        term.k0 = t.indexOf("epsilon");
-        term.k1 = t.indexOf("search_depth");
-        term.k2 = t.indexOf("sample_spacing");
-      }
-      fused.terms[fused.count++] = term;
-    }
     // Damped Verlet runs in the profile kernel's pass when the profile is the step's last force
     // and nothing else comes between the forces and the move.
-    const auto activeAfter = [&](size_t i) {
-      for (size_t k = i + 1; k < forces.size(); ++k)
-        if (sim.forceParams(forces[k].name).anyPositive(0)) return true;
-      return false;
-    };
+    const auto activeAfter = [&](size_t i) { return cuda::activeAfter(forces, sim, i); };
     const bool moveAlone = implicit() || regularise || !coarseLevels.empty() || !attachments.empty();
     VerletMove move{};
     if (!moveAlone) {
@@ -375,12 +342,23 @@ struct CudaEngine::Impl {
     // two: the new positions are written aside, so x and prev swap.
     size_t profile = next;
     while (profile < forces.size() && !sim.forceParams(forces[profile].name).anyPositive(0)) ++profile;
+    // The collision's schedule (DeviceCollision::searchesAt, asked once a step). Between full
+    // searches, where the collision is the only force after the profile, its contact planes and
+    // hold join the profile's pass (small scenes), or the planes add to the profile's term before
+    // the terms' pass and the hold follows the move (larger ones).
+    const ForceSlot* slot = activeCollision();
+    const bool collide = slot != nullptr;
+    const bool search = collide && collision.searchesAt(collisionAhead++, sim.forceParams(slot->name));
+    const ParamView collisionParams = slot ? ParamView{slot->params.get(), slot->count} : ParamView{};
+    const bool planesAfterProfile = collide && !search && onlyActiveAfter(forces, sim, profile, slot);
+    const ContactPlanes planes =
+        planesAfterProfile ? collision.contactPlanes(collisionParams, sim.forceParams(slot->name)) : ContactPlanes{};
     // The geometry without what no kernel of the step reads (the lean geometry, docs/benchmarks.md):
     // the pass of the terms and the move computes the normals and masses itself.
     const bool lean = !moveAlone && !hasGradientTerm(fused) && view.area;
-    const auto geometry = [&](bool normals) {
+    const auto geometry = [&](bool normals, bool masses = false) {
       MeshView g = view;
-      if (lean) g.mass = nullptr;
+      if (lean && !masses) g.mass = nullptr;
       if (lean && !normals) g.normal = nullptr;
       launchGeometry(g, topology.cellSpans.get(), stream);
     };
@@ -401,26 +379,35 @@ struct CudaEngine::Impl {
       return;
     }
     if (!moveAlone && !hasGradientTerm(fused) && profile < forces.size() && forces[profile].kind == Kind::Profile &&
-        !activeAfter(profile)) {
+        (!activeAfter(profile) || planesAfterProfile)) {
       const ForceSlot& f = forces[profile];
       const ParamTable& t = sim.forceParams(f.name);
       const ParamView p{f.params.get(), f.count};
       const int reach = maxProfileReach(t), kDepth = t.indexOf("search_depth");
       if (profileTakesTerms(view.vertices, profileInside, profileOutside, reach)) {
+        // The hold in the pass too: the previous positions to the spare buffer, x to prev's.
+        ContactPlanes inPass = planes;
+        if (planes.hold) {
+          inPass.hold = nullptr;
+          inPass.heldPrevious = spareBuffer();
+        }
         launchGeometry(view, topology.cellSpans.get(), stream);
         launchProfileAfterTerms(view, fused, p, kDepth, imageView, imageTexture.get(), profiles.get(), profileInside,
-                                profileSpacing, reach, move, stream);
+                                profileSpacing, reach, move, planesAfterProfile ? &inPass : nullptr, stream);
         std::swap(view.x, view.prev);
+        if (inPass.heldPrevious) view.prev = inPass.heldPrevious;
         return;
       }
       // Larger scenes: the profile's term first, then the terms added to it in the move's pass, so
       // that the move needs no pass of its own.
       if (lean && profileGoesFirst(view.vertices, profileInside, profileOutside, reach)) {
-        geometry(true);
+        geometry(true, planesAfterProfile);  // the planes read the masses
         launchProfileFirst(view, p, kDepth, imageView, imageTexture.get(), profiles.get(), profileInside, profileSpacing,
                            reach, stream);
+        if (planesAfterProfile) launchCollisionPlanes(view, planes, view.force, true, stream);
         fused.plus = view.force;
         termsAndMove();
+        if (planes.hold) launchCollisionHold(view, collision.view(), stream);
         return;
       }
     }
@@ -428,30 +415,28 @@ struct CudaEngine::Impl {
     // that computes the cells' centres itself) and the forces before it (its response), joined at its
     // place in the force order: its force added as the CPU adds it, or, as the last force before damped
     // Verlet, with the move and the hold in one pass (docs/collisions.md, "The response beside ...").
-    // Between full searches the branch holds only the contact planes (DeviceCollision::planes).
-    const ForceSlot* slot = activeCollision();
-    const bool collide = slot != nullptr;
-    const bool search = collide && collision.searchesAt(collisionAhead++, sim.forceParams(slot->name));
+    // Between full searches the branch holds only the contact planes (launchCollisionPlanes).
     cudaStream_t side = search ? branch.begin(stream) : nullptr;
     const bool early = search && collision.refitsBeforeGeometry();
     if (early) collision.refit(view, side);
     launchGeometry(view, topology.cellSpans.get(), stream);
     float hold = -1.0f;  // negative: no hold
-    const ParamView collisionParams = slot ? ParamView{slot->params.get(), slot->count} : ParamView{};
     if (search) {
       branch.follow(stream);
       if (!early) collision.refit(view, side);
       hold = collision.respond(view, collisionParams, sim.forceParams(slot->name), side);
     } else if (collide) {
       side = branch.begin(stream);
-      hold = collision.planes(view, collisionParams, sim.forceParams(slot->name), side);
+      const ContactPlanes c = collision.contactPlanes(collisionParams, sim.forceParams(slot->name));
+      launchCollisionPlanes(view, c, collision.view().force, false, side);
+      hold = c.settings.hold;
     }
     bool joined = !collide, held = false, moved = false;
     const auto joinCollision = [&](size_t at) {
       if (joined) return;
       branch.join(stream);
       joined = true;
-      if (moveAlone || activeAfter(at) || anyPluginActive()) return launchCollisionAdd(view, collision.view(), stream);
+      if (moveAlone || activeAfter(at) || anyPluginActive(forces, sim)) return launchCollisionAdd(view, collision.view(), stream);
       launchCollisionMove(view, collision.view(), move, hold >= 0.0f, stream);
       moved = held = true;
     };
@@ -500,10 +485,6 @@ struct CudaEngine::Impl {
     if (!attachments.empty()) launchAttachmentProject(view, attachments.view(), stream);
   }
 
-  bool anyPluginActive() const {
-    return std::any_of(forces.begin(), forces.end(),
-                       [&](const ForceSlot& f) { return f.kind == Kind::Plugin && sim.forceParams(f.name).anyPositive(0); });
-  }
   void enqueueIntegrator() {
     const ParamTable& ip = sim.integratorParams();
     if (!implicit()) {
@@ -528,20 +509,13 @@ CudaEngine::CudaEngine(Simulation& simulation) : impl_(std::make_unique<Impl>(si
   impl_->device = st.description;
   if (simulation.integratorName() != "damped_verlet" && simulation.integratorName() != "implicit_euler")
     throw std::runtime_error("integrator '" + simulation.integratorName() + "' has no CUDA implementation");
-  static const std::map<std::string, Kind> kinds = {{"smoothing", Kind::Smoothing},
-                                                    {"shape_prior", Kind::ShapePrior},
-                                                    {"gradient", Kind::Gradient},
-                                                    {"intensity_profile", Kind::Profile},
-                                                    {"attraction_points", Kind::Attraction},
-                                                    {"collision", Kind::Collision},
-                                                    {"contacts", Kind::Contacts},
-                                                    {"radial", Kind::Radial}};
   for (const std::string& name : simulation.forceNames()) {
-    auto it = kinds.find(name);
-    DeviceForce* device = it == kinds.end() ? simulation.force(name).deviceForce() : nullptr;
-    if (it == kinds.end() && !device)
+    Kind kind = Kind::Plugin;
+    const bool builtIn = builtInForceKind(name, kind);
+    DeviceForce* device = builtIn ? nullptr : simulation.force(name).deviceForce();
+    if (!builtIn && !device)
       throw std::runtime_error("force '" + name + "' has no CUDA implementation (its Force::deviceForce() gives none)");
-    impl_->forces.push_back({name, device ? Kind::Plugin : it->second, {}, 0, device});
+    impl_->forces.push_back({name, kind, {}, 0, device});
   }
   SINEW_CUDA(cudaStreamCreateWithFlags(&impl_->stream, cudaStreamNonBlocking));
   impl_->upload();
@@ -607,11 +581,16 @@ void CudaEngine::run(int iterations) {
   const int kBatch = std::clamp(4000 / (4 * cgIterations + 8), 1, 32);
   // The current positions back in x after the batches, for everything between runs (downloads,
   // drawing, sampling, the next level), also when a batch failed.
-  const auto currentInX = [&] { if (I.view.x != I.x.get()) std::swap(I.x, I.prev); };
+  // (Three buffers rotate where the collision's hold runs in the profile's pass.)
+  const auto currentInX = [&] {
+    for (DeviceArray<float3>* a : {&I.prev, &I.thirdPositions})
+      if (a->get() == I.view.x) std::swap(*a, I.x);
+    if (I.thirdPositions.get() == I.view.prev) std::swap(I.thirdPositions, I.prev);
+  };
   try {
     for (; iterations > 0; iterations -= std::min(iterations, kBatch)) {
       const int n = std::min(iterations, kBatch);
-      const Impl::ForceSlot* collisionSlot = I.activeCollision();
+      const ForceSlot* collisionSlot = I.activeCollision();
       const int phase = collisionSlot ? I.collision.phase(I.sim.forceParams(collisionSlot->name)) : 0;
       I.collisionAhead = 0;
       I.graphs.enqueue(n, phase, I.view, I.stream, [&](bool last) { I.enqueueStep(last); });
@@ -711,7 +690,7 @@ std::size_t CudaEngine::deviceBytes() const {
          I.centre.bytes() + I.reference.bytes() + I.imageTexture.bytes() + I.profiles.bytes() + I.gradient.bytes() +
          I.contour.bytes() + I.implicitA.bytes() + I.implicitB.bytes() + I.implicitOff.bytes() + I.implicitC.bytes() +
          I.implicitVel.bytes() + I.implicitRhs.bytes() + I.implicitR.bytes() + I.implicitZ.bytes() + I.implicitP.bytes() +
-         I.implicitAp.bytes() + I.collision.bytes() + I.sampledError.bytes() + I.contactLinks.bytes() + I.radial.bytes() +
+         I.implicitAp.bytes() + I.collision.bytes() + I.thirdPositions.bytes() + I.sampledError.bytes() + I.contactLinks.bytes() + I.radial.bytes() +
          I.attachments.bytes();
 }
 

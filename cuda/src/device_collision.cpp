@@ -71,10 +71,16 @@ bool DeviceCollision::searchesAt(int ahead, const ParamTable& params) const {
   return (steps_ + ahead) % fullSearchEveryOf(params) == 0;
 }
 
-float DeviceCollision::planes(const MeshView& m, ParamView p, const ParamTable& params, cudaStream_t stream) const {
-  const collision::ContactSettings settings = contactSettingsOf(params);
-  launchCollisionPlanes(m, p, view(), settings, stream);
-  return settings.hold;
+ContactPlanes DeviceCollision::contactPlanes(ParamView p, const ParamTable& params) const {
+  ContactPlanes planes;
+  planes.params = p;
+  planes.settings = contactSettingsOf(params);
+  planes.tris = tris_.get();
+  planes.contact = contact_.get();
+  planes.depth = depth_.get();
+  planes.stiffness = stiffness_.get();
+  planes.hold = planes.settings.hold >= 0.0f ? hold_.get() : nullptr;
+  return planes;
 }
 
 CollisionDevice DeviceCollision::view() const {

@@ -3,6 +3,7 @@
 // in a scene of two or more structures. Host C++ only.
 #pragma once
 
+#include "contact_planes.h"
 #include "cuda_check.h"
 #include "kernels.h"
 #include "sinew/core/collision_tree.h"
@@ -28,12 +29,12 @@ public:
   float respond(const MeshView& m, ParamView p, const ParamTable& params, cudaStream_t stream) const;
   // The full searches' schedule, kept on the host: the steps enqueued at this level (advance), and
   // whether the step `ahead` steps after them searches in full (the level's first does). Between
-  // full searches the engine enqueues planes instead of refit and respond (launchCollisionPlanes;
-  // it returns hold_mm as respond does).
+  // full searches the engine enqueues the contact planes instead of refit and respond
+  // (launchCollisionPlanes, or in the profile's pass), with these (hold null: no hold).
   void advance(int steps) { steps_ += steps; }
   int phase(const ParamTable& params) const;
   bool searchesAt(int ahead, const ParamTable& params) const;
-  float planes(const MeshView& m, ParamView p, const ParamTable& params, cudaStream_t stream) const;
+  ContactPlanes contactPlanes(ParamView p, const ParamTable& params) const;
   std::size_t bytes() const;
 
 private:

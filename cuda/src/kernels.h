@@ -27,6 +27,8 @@ struct WeightedDistance;
 
 namespace sinew::cuda {
 
+struct ContactPlanes;  // contact_planes.h
+
 // A volume in linear device memory with the host Volume's world-to-index transform.
 struct VolumeView {
   int sx, sy, sz;
@@ -154,9 +156,13 @@ bool profileTakesTerms(int vertices, int inside, int outside, int maxReach);
 // force is the terms' sum plus its profile term, written to m.force, and its new position is
 // written over m.prev (verletMoveAside), so that the pass's other vertices still read this step's
 // positions; the caller swaps m.x and m.prev afterwards. One launch instead of two.
+// planes (or null): the collision's contact planes between full searches, added after the profile's
+// term (contact_planes.h; the collision then the step's last force). Their hold follows after the
+// swap (launchCollisionHold), or, with planes->heldPrevious, runs in the pass: the previous
+// positions then go to that third buffer, which becomes m.prev after the swap.
 void launchProfileAfterTerms(const MeshView& m, const FusedTerms& terms, ParamView p, int kDepth, VolumeView volume,
                              cudaTextureObject_t image, const float* profiles, int inside, float spacing, int maxReach,
-                             const VerletMove& move, cudaStream_t s);
+                             const VerletMove& move, const ContactPlanes* planes, cudaStream_t s);
 // For larger scenes, where the move leaves the profile's pass (profileTakesTerms false but the
 // register layout): the profile's term alone written to m.force (zero where it is off), for
 // launchFusedForcesAndMove with FusedTerms::plus = m.force to add after the terms. The separate
@@ -279,12 +285,12 @@ void launchCollisionAdd(const MeshView& m, const CollisionDevice& c, cudaStream_
 // arithmetic: for a step whose last force is the collision's and whose move follows directly.
 void launchCollisionMove(const MeshView& m, const CollisionDevice& c, const VerletMove& move, bool hold, cudaStream_t s);
 // A step between full searches (collision::contactResponse), which the engine schedules itself:
-// instead of the refit and the response, each vertex's contact plane (c.contact) writes its
-// response to c.force, c.hold and c.stiffness as launchCollisionRespond would (reads m.x, m.prev,
-// m.normal, m.mass, m.cellCentre); launchCollisionAdd and launchCollisionHold follow as after it.
-// Without a hold it ends the collision's step.
-void launchCollisionPlanes(const MeshView& m, ParamView p, const CollisionDevice& c,
-                           const collision::ContactSettings& settings, cudaStream_t s);
+// instead of the refit and the response, each vertex's contact plane writes its response to `out`
+// (add: added to it), and its depth, hold and stiffness as launchCollisionRespond would (reads
+// m.x, m.prev, m.normal, m.mass, m.cellCentre). With out = c.force, launchCollisionAdd or
+// launchCollisionMove and launchCollisionHold follow as after the response. Such a step leaves the
+// largest move alone (only full searches set it, and their step's end resets it).
+void launchCollisionPlanes(const MeshView& m, const ContactPlanes& planes, float3* out, bool add, cudaStream_t s);
 // After the step's move: each vertex below its hold plane (c.hold, written by
 // launchCollisionRespond when settings.hold >= 0) moves out along its normal onto it
 // (CollisionForce::constrain). Every launchCollisionRespond with settings.hold >= 0 must be followed

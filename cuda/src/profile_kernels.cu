@@ -10,6 +10,7 @@
 // again. About one vertex in 500 then picks another offset than the CPU in a step, almost always
 // one sample away (tst_cuda_parity states the tolerance; docs/benchmarks.md). Run to run the kernels
 // repeat themselves exactly.
+#include "contact_planes.h"
 #include "force_terms.cuh"
 
 #include <cstdlib>
@@ -98,14 +99,15 @@ __device__ __forceinline__ void scoreWindows(const float (&w)[kCount + kLength -
 // vertex's first lane then moves it by damped Verlet (the step's force complete): a vertex's
 // position is read and written by its own lanes only, so the move needs no pass of its own.
 // kWithTerms: the fused terms are summed here instead of read from m.force, and the move is
-// verletMoveAside (launchProfileAfterTerms). Two lanes a vertex are held to 6 blocks an SM (80
+// verletMoveAside (launchProfileAfterTerms), so the pass writes no position another vertex reads:
+// it can also add the collision's contact planes (planes.contact not null), after the profile. Two lanes a vertex are held to 6 blocks an SM (80
 // registers): at 7 (72) the kernel with the terms spilled 40 bytes (H200, case (a): 42,496 vertices
 // 21.6 -> 20.9-21.1 us a step, 2,719,744 vertices 699-702 -> 681-682).
 template <int kLength, int kMaxReach, int kLanes, bool kWithTerms>
 __global__ void __launch_bounds__(128, kLanes == 1 ? 0 : kLanes == 2 ? 6 : 8) profileLanes(MeshView m, ParamView p, int kDepth, VolumeView vol,
                                                     cudaTextureObject_t image, const float* __restrict__ profiles,
                                                     int inside, float spacing, bool integrate, VerletMove move,
-                                                    FusedTerms terms, bool termFirst) {
+                                                    FusedTerms terms, bool termFirst, ContactPlanes planes) {
   constexpr int kLine = kLength + 2 * kMaxReach, kPerWarp = 32 / kLanes, kWindows = 2 * kMaxReach + 1;
   constexpr int kTurns = (kWindows + kLanes - 1) / kLanes;  // windows per lane
   constexpr int kLocal = kTurns + kLength - 1;               // the slots one lane's windows cover
@@ -172,9 +174,23 @@ __global__ void __launch_bounds__(128, kLanes == 1 ? 0 : kLanes == 2 ? 6 : 8) pr
   if constexpr (kWithTerms) f = fusedSum<false, false>(m, terms, v);
   else f = termFirst ? make_float3(0, 0, 0) : m.force[v];
   if (reach >= 0) f = f + (param(p, m.meshOf[v], 0) * (static_cast<float>(bestJ) * spacing)) * n;
+  collision::HoldPlane hold;
+  if constexpr (kWithTerms)
+    if (planes.contact) f = f + contactPlaneForce(m, planes, v, hold);  // reads x, which the pass does not write
   if (reach >= 0 || kWithTerms || termFirst) m.force[v] = f;
-  if constexpr (kWithTerms) verletMoveAside(m, v, f, move.dt, move.keep);
-  else if (integrate) verletMove(m, v, f, move.dt, move.keep);
+  if constexpr (kWithTerms) {
+    if (planes.heldPrevious) {  // verletMoveAside and the hold (launchCollisionMove's arithmetic)
+      const float3 current = m.x[v], next = verletStep(current, m.prev[v], f, move.dt, move.keep, m.mass[v]);
+      collision::P3 p{next.x, next.y, next.z}, q{current.x, current.y, current.z};
+      collision::holdOut(hold, p, q);
+      m.prev[v] = make_float3(p.x, p.y, p.z);
+      planes.heldPrevious[v] = make_float3(q.x, q.y, q.z);
+    } else {
+      verletMoveAside(m, v, f, move.dt, move.keep);
+    }
+  } else if (integrate) {
+    verletMove(m, v, f, move.dt, move.keep);
+  }
 }
 
 // Any other layout: one warp per vertex; the lanes sample the search line into shared memory
@@ -242,28 +258,29 @@ bool registerLayout(int inside, int outside, int maxReach) {
 template <int kMaxReach, int kLanes>
 void launchProfileLanes(const MeshView& m, ParamView p, int kDepth, VolumeView vol, cudaTextureObject_t image,
                         const float* profiles, int inside, float spacing, const VerletMove* then, const FusedTerms* terms,
-                        bool first, cudaStream_t s) {
+                        bool first, const ContactPlanes* planes, cudaStream_t s) {
   constexpr int perBlock = 4 * (32 / kLanes);
   const unsigned grid = (m.vertices + perBlock - 1) / perBlock;
   if (terms)
     profileLanes<kRegisterLength, kMaxReach, kLanes, true><<<grid, 128, 0, s>>>(m, p, kDepth, vol, image, profiles, inside,
-                                                                              spacing, true, *then, *terms, false);
+                                                                              spacing, true, *then, *terms, false,
+                                                                              planes ? *planes : ContactPlanes{});
   else
     profileLanes<kRegisterLength, kMaxReach, kLanes, false><<<grid, 128, 0, s>>>(
         m, p, kDepth, vol, image, profiles, inside, spacing, then != nullptr, then ? *then : VerletMove{}, FusedTerms{},
-        first);
+        first, ContactPlanes{});
 }
 // The kernel for the scene's largest reach, rounded up to an even number of samples: a line is
 // sampled and scored for that reach, whatever a vertex's own.
 template <int kLanes>
 void launchForReach(int maxReach, const MeshView& m, ParamView p, int kDepth, VolumeView vol, cudaTextureObject_t image,
                     const float* profiles, int inside, float spacing, const VerletMove* then, const FusedTerms* terms,
-                    bool first, cudaStream_t s) {
-  if (maxReach <= 2) launchProfileLanes<2, kLanes>(m, p, kDepth, vol, image, profiles, inside, spacing, then, terms, first, s);
-  else if (maxReach <= 4) launchProfileLanes<4, kLanes>(m, p, kDepth, vol, image, profiles, inside, spacing, then, terms, first, s);
-  else if (maxReach <= 6) launchProfileLanes<6, kLanes>(m, p, kDepth, vol, image, profiles, inside, spacing, then, terms, first, s);
-  else if (maxReach <= 8) launchProfileLanes<8, kLanes>(m, p, kDepth, vol, image, profiles, inside, spacing, then, terms, first, s);
-  else launchProfileLanes<10, kLanes>(m, p, kDepth, vol, image, profiles, inside, spacing, then, terms, first, s);
+                    bool first, const ContactPlanes* planes, cudaStream_t s) {
+  if (maxReach <= 2) launchProfileLanes<2, kLanes>(m, p, kDepth, vol, image, profiles, inside, spacing, then, terms, first, planes, s);
+  else if (maxReach <= 4) launchProfileLanes<4, kLanes>(m, p, kDepth, vol, image, profiles, inside, spacing, then, terms, first, planes, s);
+  else if (maxReach <= 6) launchProfileLanes<6, kLanes>(m, p, kDepth, vol, image, profiles, inside, spacing, then, terms, first, planes, s);
+  else if (maxReach <= 8) launchProfileLanes<8, kLanes>(m, p, kDepth, vol, image, profiles, inside, spacing, then, terms, first, planes, s);
+  else launchProfileLanes<10, kLanes>(m, p, kDepth, vol, image, profiles, inside, spacing, then, terms, first, planes, s);
 }
 
 // Lanes per vertex by scene size, measured with bench_cuda case (a) (docs/benchmarks.md): on an H100
@@ -283,12 +300,12 @@ int lanesFor(int vertices) {
 
 void launchRegisterKernel(const MeshView& m, ParamView p, int kDepth, VolumeView vol, cudaTextureObject_t image,
                           const float* profiles, int inside, float spacing, int maxReach, const VerletMove* then,
-                          const FusedTerms* terms, bool first, cudaStream_t s) {
+                          const FusedTerms* terms, bool first, const ContactPlanes* planes, cudaStream_t s) {
   switch (lanesFor(m.vertices)) {
-    case 1: launchForReach<1>(maxReach, m, p, kDepth, vol, image, profiles, inside, spacing, then, terms, first, s); break;
-    case 2: launchForReach<2>(maxReach, m, p, kDepth, vol, image, profiles, inside, spacing, then, terms, first, s); break;
-    case 4: launchForReach<4>(maxReach, m, p, kDepth, vol, image, profiles, inside, spacing, then, terms, first, s); break;
-    default: launchForReach<8>(maxReach, m, p, kDepth, vol, image, profiles, inside, spacing, then, terms, first, s); break;
+    case 1: launchForReach<1>(maxReach, m, p, kDepth, vol, image, profiles, inside, spacing, then, terms, first, planes, s); break;
+    case 2: launchForReach<2>(maxReach, m, p, kDepth, vol, image, profiles, inside, spacing, then, terms, first, planes, s); break;
+    case 4: launchForReach<4>(maxReach, m, p, kDepth, vol, image, profiles, inside, spacing, then, terms, first, planes, s); break;
+    default: launchForReach<8>(maxReach, m, p, kDepth, vol, image, profiles, inside, spacing, then, terms, first, planes, s); break;
   }
 }
 
@@ -303,8 +320,8 @@ bool profileTakesTerms(int vertices, int inside, int outside, int maxReach) {
 
 void launchProfileAfterTerms(const MeshView& m, const FusedTerms& terms, ParamView p, int kDepth, VolumeView vol,
                              cudaTextureObject_t image, const float* profiles, int inside, float spacing, int maxReach,
-                             const VerletMove& move, cudaStream_t s) {
-  launchRegisterKernel(m, p, kDepth, vol, image, profiles, inside, spacing, maxReach, &move, &terms, false, s);
+                             const VerletMove& move, const ContactPlanes* planes, cudaStream_t s) {
+  launchRegisterKernel(m, p, kDepth, vol, image, profiles, inside, spacing, maxReach, &move, &terms, false, planes, s);
 }
 
 bool profileGoesFirst(int vertices, int inside, int outside, int maxReach) {
@@ -313,7 +330,7 @@ bool profileGoesFirst(int vertices, int inside, int outside, int maxReach) {
 
 void launchProfileFirst(const MeshView& m, ParamView p, int kDepth, VolumeView vol, cudaTextureObject_t image,
                         const float* profiles, int inside, float spacing, int maxReach, cudaStream_t s) {
-  launchRegisterKernel(m, p, kDepth, vol, image, profiles, inside, spacing, maxReach, nullptr, nullptr, true, s);
+  launchRegisterKernel(m, p, kDepth, vol, image, profiles, inside, spacing, maxReach, nullptr, nullptr, true, nullptr, s);
 }
 
 void launchProfile(const MeshView& m, ParamView p, int kDepth, VolumeView vol, cudaTextureObject_t image,
@@ -329,7 +346,7 @@ void launchProfile(const MeshView& m, ParamView p, int kDepth, VolumeView vol, c
     return;
   }
   if (registerLayout(inside, outside, maxReach)) {
-    launchRegisterKernel(m, p, kDepth, vol, image, profiles, inside, spacing, maxReach, then, nullptr, false, s);
+    launchRegisterKernel(m, p, kDepth, vol, image, profiles, inside, spacing, maxReach, then, nullptr, false, nullptr, s);
     return;
   }
   constexpr int warps = 8;  // lines[8][...] in the kernel

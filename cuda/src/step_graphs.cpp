@@ -11,10 +11,10 @@ void StepGraphs::clear() {
 
 void StepGraphs::enqueue(int n, int variant, MeshView& view, cudaStream_t stream,
                          const std::function<void(bool last)>& enqueueStep) {
-  const auto key = std::make_tuple(n, static_cast<const float3*>(view.x), variant);
+  const auto key = std::make_tuple(n, static_cast<const float3*>(view.x), static_cast<const float3*>(view.prev), variant);
   auto it = batches_.find(key);
   if (it == batches_.end()) {
-    const MeshView before = view;  // capturing swaps the positions as the replay will
+    const MeshView before = view;  // capturing moves the positions as the replay will
     cudaGraph_t g = nullptr;
     SINEW_CUDA(cudaStreamBeginCapture(stream, cudaStreamCaptureModeThreadLocal));
     try {
@@ -27,16 +27,17 @@ void StepGraphs::enqueue(int n, int variant, MeshView& view, cudaStream_t stream
       (void)cudaGetLastError();
       throw;
     }
-    const bool swaps = view.x != before.x;
+    const MeshView after = view;
     view = before;
     SINEW_CUDA(cudaStreamEndCapture(stream, &g));
     cudaGraphExec_t exec;
     SINEW_CUDA(cudaGraphInstantiate(&exec, g, 0));
     SINEW_CUDA(cudaGraphDestroy(g));
-    it = batches_.emplace(key, Batch{exec, swaps}).first;
+    it = batches_.emplace(key, Batch{exec, after.x, after.prev}).first;
   }
   SINEW_CUDA(cudaGraphLaunch(it->second.exec, stream));
-  if (it->second.swapsPositions) std::swap(view.x, view.prev);
+  view.x = it->second.x;
+  view.prev = it->second.prev;
 }
 
 }  // namespace sinew::cuda

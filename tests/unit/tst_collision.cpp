@@ -537,6 +537,28 @@ private slots:
       QVERIFY(steps.back() < 0.01);
     }
   }
+  // How far a full search looks (collision::fullSearchBound): its last depth, the margin, the
+  // reach and twice its last step, as every step; with full searches every few steps twice that
+  // step again for each further step until the next one, but at most ahead_mm more (the trembling
+  // light vertices' long steps would otherwise have them search several millimetres around).
+  void fullSearchLooksAheadAtMostAheadMm() {
+    collision::ContactSettings s;
+    s.margin = 0.15f;
+    s.reach = 0.25f;
+    s.ahead = 0.5f;
+    const collision::P3 previous{0, 0, 0}, slow{0.01f, 0, 0}, fast{1.0f, 0, 0};
+    const auto radius = [&](int every, collision::P3 p) { return std::sqrt(collision::fullSearchBound(0.1f, s, every, p, previous)); };
+    QVERIFY(std::abs(radius(1, fast) - (0.5f + 2.0f)) < 1e-5f);                // every step: no look ahead
+    QVERIFY(std::abs(radius(16, slow) - (0.5f + 0.02f + 15 * 0.02f)) < 1e-5f);  // within the bound
+    QVERIFY(std::abs(radius(16, fast) - (0.5f + 2.0f + 0.5f)) < 1e-5f);         // held to it
+    QCOMPARE(collision::fullSearchBound(collision::kUnknownDepth, s, 16, fast, previous), 3.0e38f);
+    // The force's settings carry the parameter (default 0.5 mm).
+    auto sim = twoSpheres(25.0f, 0.5f);
+    ParamTable& t = sim->forceParams("collision");
+    QCOMPARE(contactSettingsOf(t).ahead, 0.5f);
+    t.setAll("ahead_mm", 0.25);
+    QCOMPARE(contactSettingsOf(t).ahead, 0.25f);
+  }
   // Between full searches a vertex meets the plane of its deepest contact at the last full search:
   // slid along that plane its pull stays the plane's (a new search would turn it with the sphere),
   // the plane moves with the other surface, and a full search's skip (the vertex clear of every

@@ -99,9 +99,9 @@ private slots:
     QVERIFY2(r.code == 0, qPrintable(r.err));
     QVERIFY(!readJson(path("nocontacts.json")).contains("contact_pairs"));
     QVERIFY(!readJson(path("nocontacts.json"))["forces"].toObject().contains("contacts"));
-    // A full contact search every 8 steps (contact planes between) for up to 4 levels, every step for
-    // finer schedules (docs/collisions.md).
-    QCOMPARE(scene["forces"].toObject()["collision"].toObject()["full_search_every"].toInt(), 8);
+    // A full contact search every 16 steps (contact planes between) for up to 4 levels, every step
+    // for finer schedules (docs/collisions.md).
+    QCOMPARE(scene["forces"].toObject()["collision"].toObject()["full_search_every"].toInt(), 16);
     r = runTool(SINEW_MAKE_SCENE, {"--model", model_, "--target", subject_ + "/image.nii.gz", "--structures",
                                    "Hippocampus_L,Amygdala_L", "--iterations", "5,5,5,5,5", "-o", path("fine.json")});
     QVERIFY2(r.code == 0, qPrintable(r.err));

@@ -228,6 +228,7 @@ struct ContactSettings {
   float reach = 0.0f;    // how far beyond its last penetration a full search looks
   float retreat = 0.0f;  // a vertex past another structure's middle is pushed back as if pulled this far
   float hold = -1.0f;    // how far outside its contact's plane a pulled vertex is held after the step; < 0: no hold
+  float ahead = 3.0e38f; // how far past twice its own last step a full search looks for what comes before the next
 };
 
 // The pull of one contact found by the search (h within the search radius) into force, deepest
@@ -286,13 +287,17 @@ SINEW_HD void holdOut(const HoldPlane& h, P3& x, P3& previous) {
   previous = add(previous, scale(h.normal, h.weight * (below + inward)));
 }
 
-// The full search's squared radius. Twice the vertex's own last step, per step until the next full
-// search, stands for how far it and the other surface may close in: pushes of tenths of a
-// millimetre a step would outrun a fixed reach. Unbounded while the depth is unknown.
-SINEW_HD float fullSearchBound(float depth, float margin, float reach, int every, P3 p, P3 previous) {
+// The full search's squared radius. Twice the vertex's own last step stands for how far it and the
+// other surface may close in by the next step: pushes of tenths of a millimetre a step would outrun
+// a fixed reach. With full searches every few steps, twice that step again for each further step
+// until the next one, but at most s.ahead more: the few trembling light vertices, whose steps are
+// the longest, had radii of several millimetres, and the walks of the warps holding them set the
+// search's time (docs/collisions.md, "A bounded look ahead"). Unbounded while the depth is unknown.
+SINEW_HD float fullSearchBound(float depth, const ContactSettings& s, int every, P3 p, P3 previous) {
   if (depth >= kUnknownDepth) return 3.0e38f;
   const P3 moved = sub(p, previous);
-  const float radius = depth + margin + reach + 2.0f * float(every) * sqrtf(dot3(moved, moved));
+  const float step = 2.0f * sqrtf(dot3(moved, moved));
+  const float radius = depth + s.margin + s.reach + step + fmin3(float(every - 1) * step, s.ahead);
   return radius * radius;
 }
 
@@ -422,7 +427,7 @@ SINEW_HD float contactResponse(const BvhView& v, int own, P3 p, P3 previous, P3 
   }
   ContactSum sum;
   sum.force = force;
-  const float maxD2 = fullSearchBound(depth, s.margin, s.reach, every, p, previous);
+  const float maxD2 = fullSearchBound(depth, s, every, p, previous);
   for (int other = 0; other < v.meshes; ++other) {
     Hit h{};
     if (contactWith(v, own, other, p, s.margin, maxD2, hint, x, centres, h, sum.clearance2))

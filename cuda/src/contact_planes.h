@@ -1,0 +1,59 @@
+// The collision force between full searches (collision::contactResponse's branch for them): each
+// vertex meets the plane of its deepest contact at the last full search, through that contact's
+// point on the other surface as it is now. As a per-vertex force that two kernels share: the
+// collision's own planes kernel (collision_kernels.cu) and the profile's pass, which adds it after
+// the profile's term where the collision is the step's last force (launchProfileAfterTerms).
+// Host C++ fills the struct (DeviceCollision::contactPlanes); the device function is CUDA only.
+#pragma once
+
+#include "kernels.h"
+#include "sinew/core/collision_bvh.h"
+
+namespace sinew::cuda {
+
+struct ContactPlanes {
+  ParamView params;  // the collision force's (its weight: column 0)
+  collision::ContactSettings settings;
+  const collision::Tri* tris = nullptr;
+  const collision::ContactPlane* contact = nullptr;  // per vertex, from the last full search
+  float* depth = nullptr;                 // written: the plane's penetration (the next full search's radius)
+  float* stiffness = nullptr;             // written where not null: the pull (implicit Euler's Jacobian)
+  collision::HoldPlane* hold = nullptr;   // written where not null: the plane the hold moves the vertex out of
+  // The profile's pass holds the vertices itself (settings.hold >= 0, hold null): every vertex's
+  // previous position after the hold goes here, a third position buffer, since the pass may not
+  // write x, which other vertices read (launchProfileAfterTerms).
+  float3* heldPrevious = nullptr;
+};
+
+#if defined(__CUDACC__)
+// Vertex i's force from its contact plane (respondTo's arithmetic, as the CPU's plugin), and its
+// hold plane (none: side 3e38); writes its depth (where the force is on for its structure),
+// stiffness and hold plane. Reads m.x (the triangle's corners: nothing may move them in the same
+// pass), m.prev[i], m.normal[i], m.mass[i] and m.cellCentre.
+__device__ inline float3 contactPlaneForce(const MeshView& m, const ContactPlanes& c, int i, collision::HoldPlane& plane) {
+  const float weight = c.params.values[m.meshOf[i] * c.params.count];
+  collision::P3 force{0, 0, 0};
+  float k = 0.0f;
+  plane = collision::HoldPlane{};
+  if (weight > 0.0f) {
+    const collision::ContactPlane contact = c.contact[i];
+    float deepest = 0.0f;
+    if (contact.share >= 0.0f) {
+      const auto* x = reinterpret_cast<const collision::P3*>(m.x);
+      const collision::P3 point = x[i];
+      collision::BvhView v;
+      v.tris = c.tris;
+      k = collision::respondTo(collision::contactHit(v, contact, point, x, reinterpret_cast<const collision::P3*>(m.cellCentre)),
+                               point, reinterpret_cast<const collision::P3*>(m.prev)[i],
+                               reinterpret_cast<const collision::P3*>(m.normal)[i], weight * m.mass[i], c.settings, deepest,
+                               force, &plane, contact.share);  // (a local: written out only with a hold)
+    }
+    c.depth[i] = deepest;
+  }
+  if (c.stiffness) c.stiffness[i] = k;
+  if (c.hold) c.hold[i] = plane;
+  return make_float3(force.x, force.y, force.z);
+}
+#endif
+
+}  // namespace sinew::cuda
