@@ -301,7 +301,8 @@ __global__ void respondPlanes(MeshView m, ContactPlanes planes, float3* out, boo
   if (i >= m.vertices) return;
   HoldPlane plane;
   const float3 f = contactPlaneForce(m, planes, i, plane);
-  out[i] = add ? out[i] + f : f;
+  if (!add) out[i] = f;
+  else if (f.x != 0.0f || f.y != 0.0f || f.z != 0.0f) out[i] = out[i] + f;  // most vertices: none, no read
 }
 
 // The contact response (collision::contactResponse) with kGroup lanes per vertex: in each round

@@ -28,17 +28,20 @@ struct ContactPlanes {
 #if defined(__CUDACC__)
 // Vertex i's force from its contact plane (respondTo's arithmetic, as the CPU's plugin), and its
 // hold plane (none: side 3e38); writes its depth (where the force is on for its structure),
-// stiffness and hold plane. Reads m.x (the triangle's corners: nothing may move them in the same
-// pass), m.prev[i], m.normal[i], m.mass[i] and m.cellCentre.
+// stiffness and, where it has a contact plane, its hold plane (a vertex without one keeps the none
+// that the last full search wrote: most vertices, so that large scenes save the writes). Reads m.x
+// (the triangle's corners: nothing may move them in the same pass), m.prev[i], m.normal[i],
+// m.mass[i] and m.cellCentre.
 __device__ inline float3 contactPlaneForce(const MeshView& m, const ContactPlanes& c, int i, collision::HoldPlane& plane) {
   const float weight = c.params.values[m.meshOf[i] * c.params.count];
   collision::P3 force{0, 0, 0};
   float k = 0.0f;
   plane = collision::HoldPlane{};
+  const collision::ContactPlane contact = c.contact[i];
+  const bool touching = contact.share >= 0.0f;  // (its weight may have changed since: then no hold)
   if (weight > 0.0f) {
-    const collision::ContactPlane contact = c.contact[i];
     float deepest = 0.0f;
-    if (contact.share >= 0.0f) {
+    if (touching) {
       const auto* x = reinterpret_cast<const collision::P3*>(m.x);
       const collision::P3 point = x[i];
       collision::BvhView v;
@@ -51,7 +54,7 @@ __device__ inline float3 contactPlaneForce(const MeshView& m, const ContactPlane
     c.depth[i] = deepest;
   }
   if (c.stiffness) c.stiffness[i] = k;
-  if (c.hold) c.hold[i] = plane;
+  if (c.hold && touching) c.hold[i] = plane;
   return make_float3(force.x, force.y, force.z);
 }
 #endif

@@ -258,6 +258,7 @@ private slots:
     QTest::addColumn<int>("every");
     QTest::newRow("full search every step") << 1;
     QTest::newRow("every 8 steps") << 8;
+    QTest::newRow("every 16 steps (sinew-make-scene's)") << 16;
   }
   void swingingContactsHalveTheStepUntilTheyRest() {
     QFETCH(int, every);
