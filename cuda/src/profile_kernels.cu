@@ -100,9 +100,10 @@ __device__ __forceinline__ void scoreWindows(const float (&w)[kCount + kLength -
 // position is read and written by its own lanes only, so the move needs no pass of its own.
 // kWithTerms: the fused terms are summed here instead of read from m.force, and the move is
 // verletMoveAside (launchProfileAfterTerms), so the pass writes no position another vertex reads:
-// it can also add the collision's contact planes (planes.contact not null), after the profile. Two lanes a vertex are held to 6 blocks an SM (80
-// registers): at 7 (72) the kernel with the terms spilled 40 bytes (H200, case (a): 42,496 vertices
-// 21.6 -> 20.9-21.1 us a step, 2,719,744 vertices 699-702 -> 681-682).
+// it can also add the collision's contact planes after the profile (planes.contact not null), and
+// hold the vertex (planes.heldPrevious not null). Two lanes a vertex are held to 6 blocks an SM
+// (80 registers): at 7 (72) the kernel with the terms spilled 40 bytes (H200, case (a): 42,496
+// vertices 21.6 -> 20.9-21.1 us a step, 2,719,744 vertices 699-702 -> 681-682).
 template <int kLength, int kMaxReach, int kLanes, bool kWithTerms>
 __global__ void __launch_bounds__(128, kLanes == 1 ? 0 : kLanes == 2 ? 6 : 8) profileLanes(MeshView m, ParamView p, int kDepth, VolumeView vol,
                                                     cudaTextureObject_t image, const float* __restrict__ profiles,
