@@ -10,7 +10,7 @@ build="$(realpath "${1:-build/ci}")"
 stage=$(mktemp -d)
 trap 'rm -rf "$stage"' EXIT
 bins=("$build/app/sinew-run" "$build/app/sinew-cohort" "$build/app/sinew-make-scene" "$build/app/sinew-build-model" "$build/app/sinew-make-subject"
-      "$build/tests/tst_cuda_parity" "$build/tests/tst_cuda_profile" "$build/tests/tst_backend_demo" "$build/tests/tst_device_memory")
+      "$build/tests/tst_cuda_parity" "$build/tests/tst_cuda_collision" "$build/tests/tst_cuda_profile" "$build/tests/tst_backend_demo" "$build/tests/tst_device_memory")
 for b in bench_cuda bench_soak bench_autosave bench_error bench_steps; do
   [ -x "$build/tests/bench/$b" ] && bins+=("$build/tests/bench/$b")
 done

@@ -17,7 +17,7 @@ nvidia-smi --query-gpu=name,driver_version,memory.total --format=csv,noheader
 out=${OUT:-/tmp/out}
 for c in ${CHECKS:-parity demo accuracy}; do
   case $c in
-    parity) for t in tst_cuda_parity tst_cuda_profile; do
+    parity) for t in tst_cuda_parity tst_cuda_collision tst_cuda_profile; do
         "$build/tests/$t" 2>&1 | tee "$out/$t.txt" | grep -E "PASS|FAIL|QINFO|Totals|SKIP"
       done ;;
     run) REPEATS=${RUN_REPEATS:-3} bash scripts/bench-run.sh "$build" /tmp/bench-run 2>&1 | tee "$out/bench-run.md"

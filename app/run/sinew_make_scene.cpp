@@ -184,9 +184,10 @@ int main(int argc, char** argv) {
     scene["integrator"] = {{"name", "damped_verlet"}, {"time_step", 0.5}, {"damping", 0.6}};
     const auto counts = splitList(iterations);
     if (counts.empty() || counts.size() > 6) throw sinew::InputError("--iterations: give 1 to 6 counts");
-    // A full search every 8 steps (contact planes between) cost nothing measurable in accuracy at 3
-    // and 4 levels (18 new subjects, demo seeds 1-8 and 1-5) and takes half the collisions' GPU time
-    // or less; at 5 levels it cost 0.004-0.008 mm of mean ASSD (docs/collisions.md).
+    // A full search every 16 steps (contact planes between) cost nothing measurable in accuracy at 3
+    // and 4 levels (18 new subjects, demo seeds 1-8 and 1-5) and takes a third of the collisions'
+    // GPU time or less; at 5 levels fewer full searches cost mean ASSD (every 8: 0.004-0.008 mm;
+    // every 2, on the CPU: 0.002 mm; docs/collisions.md).
     if (collisionSearchEvery == 0) collisionSearchEvery = counts.size() <= 4 ? 16 : 1;
     if (collisions)
       scene["forces"]["collision"] = {{"weight", 0.0}, {"margin_mm", collisionMargin}, {"full_search_every", collisionSearchEvery}};

@@ -271,8 +271,9 @@ struct CollisionDevice {
 void launchContactSprings(const MeshView& m, ParamView p, const int* partner, const float3* offset, float* stiffness,
                           cudaStream_t s);
 // The collision force's full search in two launches, which write nothing of m, so that they may
-// run beside the step's other kernels. Refits the hierarchies: reads m.x and, where c.climb, m.cellCentre (below kClimbFrom vertices
-// it computes the centres it needs, so it need not follow the geometry kernel).
+// run beside the step's other kernels. Refits the hierarchies: reads m.x and, where c.climb,
+// m.cellCentre (below kClimbFrom vertices it computes the centres it needs, so it need not follow
+// the geometry kernel).
 void launchCollisionRefit(const MeshView& m, const CollisionDevice& c, cudaStream_t s);
 // After the refit and the geometry: writes the contact response to c.force (reads m.x, m.prev,
 // m.normal, m.mass, m.cellCentre). every: a full search every this many steps (its search radius,

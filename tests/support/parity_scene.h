@@ -1,9 +1,11 @@
-// The scene both GPU parity suites run (tst_cuda_parity, tst_cuda_profile): two structures, an
+// The scene the GPU parity suites run (tst_cuda_parity, tst_cuda_profile): two structures, an
 // ellipsoid and a noisy ball, on the synthetic ellipsoid image, with the given forces; and what
-// they compare with. Header only: each suite is its own program.
+// they compare with (runOnBoth, also tst_cuda_collision's). Header only: each suite is its own
+// program.
 #pragma once
 
 #include "sinew/core/simulation.h"
+#include "sinew/cuda/cuda_engine.h"
 #include "synthetic.h"
 
 #include <algorithm>
@@ -56,5 +58,26 @@ inline double maxDifference(std::span<const Vec3> a, std::span<const Vec3> b) {
   return worst;
 }
 inline double maxDifference(MeshStore& a, MeshStore& b) { return maxDifference(a.positions(), b.positions()); }
+
+// `steps` steps of four copies of one scene: on the CPU, on the device in two batches, on the
+// device again in one, and none (the start). Largest CPU-CUDA difference, largest motion on the
+// CPU, largest difference between the two device runs (mm).
+struct ParityRun {
+  double cpuCuda = 0, moved = 0, deviceRepeat = 0;
+};
+inline ParityRun runOnBoth(const std::function<std::unique_ptr<Simulation>()>& make, int steps) {
+  auto cpu = make(), gpu = make(), again = make(), init = make();
+  cpu->setStabilityGuard(noGuard());
+  cpu->run(steps);
+  cuda::CudaEngine engine(*gpu);
+  engine.run(steps / 2);
+  engine.run(steps - steps / 2);
+  engine.download();
+  cuda::CudaEngine engine2(*again);
+  engine2.run(steps);
+  engine2.download();
+  return {maxDifference(cpu->store(), gpu->store()), maxDifference(cpu->store(), init->store()),
+          maxDifference(gpu->store(), again->store())};
+}
 
 }  // namespace sinew::testing

@@ -6,7 +6,7 @@
 // another order or fuses multiply-adds (the one-pass lean step of large scenes). The intensity
 // profile samples the image through the texture units on the device (profile_kernels.cu): its
 // tolerance is a share of vertices picking another offset in one step, stated in
-// tst_cuda_profile; the tests here leave it out.
+// tst_cuda_profile; the tests here leave it out. The collision force's parity: tst_cuda_collision.
 #include "builtin_plugins.h"
 #include "parity_scene.h"
 #include "sinew/core/attachments.h"
@@ -62,27 +62,6 @@ double meanRadius(MeshStore& store, Index mesh, const Vec3& centre) {
   double sum = 0;
   for (const Vec3& p : store.mesh(store.positions(), mesh)) sum += (p - centre).norm();
   return sum / store.range(mesh).vertexCount();
-}
-
-// `steps` steps of four copies of one scene: on the CPU, on the device in two batches, on the
-// device again in one, and none (the start). Largest CPU-CUDA difference, largest motion on the
-// CPU, largest difference between the two device runs (mm).
-struct ParityRun {
-  double cpuCuda = 0, moved = 0, deviceRepeat = 0;
-};
-ParityRun runOnBoth(const std::function<std::unique_ptr<Simulation>()>& make, int steps) {
-  auto cpu = make(), gpu = make(), again = make(), init = make();
-  cpu->setStabilityGuard(noGuard());
-  cpu->run(steps);
-  cuda::CudaEngine engine(*gpu);
-  engine.run(steps / 2);
-  engine.run(steps - steps / 2);
-  engine.download();
-  cuda::CudaEngine engine2(*again);
-  engine2.run(steps);
-  engine2.download();
-  return {maxDifference(cpu->store(), gpu->store()), maxDifference(cpu->store(), init->store()),
-          maxDifference(gpu->store(), again->store())};
 }
 
 }  // namespace
@@ -534,134 +513,6 @@ private slots:
     e0.run(2);
     e1.run(2);
     QVERIFY(e1.deviceBytes() > e0.deviceBytes());
-  }
-
-  // Collisions: the hierarchies refitted on the device and the contact response, on two
-  // overlapping spheres held by the shape prior, with both integrators. The same code runs on both
-  // sides (core/collision_bvh.h), but the device computes the cell centres and masses in its own
-  // order, so the parity is a tolerance: 1e-3 mm after 100 steps (Verlet), 1e-2 mm after 20
-  // (implicit Euler, whose solve sums in another order). Run to run the device repeats itself.
-  // With full_search_every 8 (what sinew-make-scene writes), seven steps in eight meet only the
-  // last full search's contact plane (collision::contactHit).
-  void collisionMatchesTheCpu_data() {
-    QTest::addColumn<QString>("integrator");
-    QTest::addColumn<int>("steps");
-    QTest::addColumn<int>("every");
-    QTest::addColumn<float>("gap");   // between the spheres' centres (radius 10 mm)
-    QTest::addColumn<float>("hold");  // hold_mm: 0 holds touching vertices on their contact planes after each step
-    QTest::addColumn<int>("subdivisions");  // of each sphere: 3 gives 1,280 vertices, 6 gives 81,920
-    QTest::addColumn<int>("structures");    // spheres in rows of 6, each `gap` from the next
-    QTest::addColumn<float>("radius");      // of every second sphere: unequal sizes share contacts unequally
-    QTest::newRow("damped_verlet") << "damped_verlet" << 100 << 1 << 15.0f << 0.0f << 3 << 2 << 10.0f;
-    QTest::newRow("damped_verlet, no hold") << "damped_verlet" << 100 << 1 << 15.0f << -1.0f << 3 << 2 << 10.0f;
-    QTest::newRow("implicit_euler") << "implicit_euler" << 20 << 1 << 15.0f << 0.0f << 3 << 2 << 10.0f;
-    QTest::newRow("implicit_euler, every 8") << "implicit_euler" << 20 << 8 << 15.0f << 0.0f << 3 << 2 << 10.0f;
-    QTest::newRow("damped_verlet, full search every 8") << "damped_verlet" << 100 << 8 << 15.0f << 0.0f << 3 << 2 << 10.0f;
-    QTest::newRow("damped_verlet, radii 10 and 6 (size_share)") << "damped_verlet" << 100 << 1 << 13.0f << 0.0f << 3 << 2 << 6.0f;
-    QTest::newRow("damped_verlet, radii 10 and 6, every 8") << "damped_verlet" << 100 << 8 << 13.0f << 0.0f << 3 << 2 << 6.0f;
-    // Without a hold the step ends in its own kernel (advance): the largest move is reset there too.
-    QTest::newRow("damped_verlet, no hold, full search every 8") << "damped_verlet" << 100 << 8 << 15.0f << -1.0f << 3 << 2 << 10.0f;
-    // 163,840 vertices: the refit's climb from the leaves and 4 lanes a vertex from 131,072.
-    QTest::newRow("damped_verlet, 163,840 vertices") << "damped_verlet" << 100 << 1 << 15.0f << 0.0f << 6 << 2 << 10.0f;
-    QTest::newRow("damped_verlet, 163,840 vertices, every 8") << "damped_verlet" << 100 << 8 << 15.0f << 0.0f << 6 << 2 << 10.0f;
-    // Centres 8 mm apart: the vertices inside the other sphere have its far side as their contact
-    // and retreat (collision::respondTo), by the full search and by the contact planes between. Not
-    // with implicit Euler: there the solver's float differences (1e-5 mm) meet the jumps of a deep
-    // vertex's nearest point across the other sphere's middle, and the backends were 0.15-0.25 mm
-    // apart after 20 steps (H200, 2026-11-26; docs/collisions.md).
-    QTest::newRow("damped_verlet, past the middle") << "damped_verlet" << 100 << 1 << 8.0f << 0.0f << 3 << 2 << 10.0f;
-    QTest::newRow("damped_verlet, past the middle, every 8") << "damped_verlet" << 100 << 8 << 8.0f << 0.0f << 3 << 2 << 10.0f;
-    // More structures than one round of a vertex's lanes: 16 lanes a vertex in two rounds (30,720
-    // vertices), and from 131,072 vertices one lane a vertex taking them in turn (133,120).
-    QTest::newRow("damped_verlet, 24 structures") << "damped_verlet" << 100 << 1 << 15.0f << 0.0f << 3 << 24 << 10.0f;
-    QTest::newRow("damped_verlet, 26 structures, 133,120 vertices") << "damped_verlet" << 100 << 1 << 15.0f << 0.0f << 4 << 26 << 10.0f;
-    QTest::newRow("damped_verlet, 26 structures, every 8") << "damped_verlet" << 100 << 8 << 15.0f << 0.0f << 4 << 26 << 10.0f;
-  }
-  void collisionMatchesTheCpu() {
-    QFETCH(QString, integrator);
-    QFETCH(int, steps);
-    QFETCH(int, every);
-    QFETCH(float, gap);
-    QFETCH(float, hold);
-    QFETCH(int, subdivisions);
-    QFETCH(int, structures);
-    QFETCH(float, radius);
-    auto make = [&](int count, float weight) {
-      auto sim = std::make_unique<Simulation>(forceRegistry(), 0);
-      for (int i = 0; i < count; ++i) {
-        std::string name(1, char('a' + i % 26));
-        if (i >= 26) name += std::to_string(i / 26);
-        StructureSpec s = sphereStructure(name, subdivisions, i % 2 ? radius : 10.0f, Vec3(gap * float(i % 6), gap * float(i / 6), 0));
-        s.referencePositions = s.initialPositions;
-        sim->addStructure(std::move(s));
-      }
-      sim->addForce("shape_prior");
-      ParamTable& collision = sim->addForce("collision");
-      collision.setAll("weight", weight);
-      collision.setAll("full_search_every", every);
-      collision.setAll("hold_mm", hold);
-      sim->setIntegrator(integrator.toStdString()).set(0, "time_step", integrator == "implicit_euler" ? 2.0 : 0.5);
-      sim->initialize();
-      return sim;
-    };
-    const ParityRun r = runOnBoth([&] { return make(structures, 0.5f); }, steps);
-    qInfo("collision, %s, %d structures, centres %g mm apart, hold %g: max CPU-CUDA difference %.3g mm after %d steps "
-          "(vertices pushed up to %.3g mm)", qPrintable(integrator), structures, double(gap), double(hold), r.cpuCuda, steps,
-          r.moved);
-    QVERIFY(r.moved > 1.0);
-    QVERIFY2(r.cpuCuda < (integrator == "implicit_euler" ? 1e-2 : 1e-3), qPrintable(QString::number(r.cpuCuda)));
-    QCOMPARE(r.deviceRepeat, 0.0);
-    // The hierarchies exist only where there is something to collide with.
-    auto bytesAfter = [](Simulation& sim) {
-      cuda::CudaEngine e(sim);
-      e.run(2);
-      return e.deviceBytes();
-    };
-    // Nested by design (ignore_enclosed): a small sphere inside the first, with a third sphere
-    // touching the first from outside, so that contacts still act; both sides leave the nested pair out.
-    auto nested = [&] {
-      auto sim = std::make_unique<Simulation>(forceRegistry(), 0);
-      for (const auto& [name, radius, centre] : {std::tuple{"outer", 10.0f, Vec3(0, 0, 0)}, std::tuple{"inner", 4.0f, Vec3(2, 0, 0)},
-                                                 std::tuple{"beside", 10.0f, Vec3(-15, 0, 0)}}) {
-        StructureSpec s = sphereStructure(name, 3, radius, centre);
-        s.referencePositions = s.initialPositions;
-        sim->addStructure(std::move(s));
-      }
-      sim->addForce("shape_prior");
-      ParamTable& t = sim->addForce("collision");
-      t.setAll("weight", 0.5);
-      t.setAll("ignore_enclosed", 1.0);
-      sim->setIntegrator(integrator.toStdString()).set(0, "time_step", integrator == "implicit_euler" ? 2.0 : 0.5);
-      sim->initialize();
-      return sim;
-    };
-    // Without ignore_enclosed the device refuses the nested pair as the CPU does, naming both.
-    {
-      auto refused = nested();
-      refused->forceParams("collision").setAll("ignore_enclosed", 0.0);
-      cuda::CudaEngine e(*refused);
-      try {
-        e.run(1);
-        QFAIL("a structure inside another was not refused on the device");
-      } catch (const NumericalError& error) {
-        QVERIFY(QString(error.what()).contains("structure 'inner' lies inside structure 'outer'"));
-      }
-    }
-    auto nestedCpu = nested(), nestedGpu = nested(), nestedInit = nested();
-    nestedCpu->setStabilityGuard(noGuard());
-    nestedCpu->run(steps);
-    cuda::CudaEngine nestedEngine(*nestedGpu);
-    nestedEngine.run(steps);
-    nestedEngine.download();
-    const double nestedDiff = maxDifference(nestedCpu->store(), nestedGpu->store());
-    const double nestedMoved = maxDifference(nestedCpu->store(), nestedInit->store());
-    qInfo("nested pair left out, %s: max CPU-CUDA difference %.3g mm (vertices pushed up to %.3g mm)",
-          qPrintable(integrator), nestedDiff, nestedMoved);
-    QVERIFY(nestedMoved > 1.0);
-    QVERIFY2(nestedDiff < (integrator == "implicit_euler" ? 1e-2 : 1e-3), qPrintable(QString::number(nestedDiff)));
-    auto one = make(1, 0.5f), oneOff = make(1, 0.0f), two = make(2, 0.5f), twoOff = make(2, 0.0f);
-    QCOMPARE(bytesAfter(*one), bytesAfter(*oneOff));
-    QVERIFY(bytesAfter(*two) > bytesAfter(*twoOff));
   }
 
   // The workstation's interop path draws from the device: surface points and slice contours must
