@@ -3,7 +3,8 @@
 # libraries): the CUDA build's programs and test plugins at their build paths, every library they
 # load, Qt's offscreen platform plugin, fonts and the mricron-data templates, into
 # .device/bundle.tar.xz (ignored by git; carried with the device tool). scripts/device-checks.sh
-# unpacks and runs it there. Usage: [EXTRA="PROGRAM..."] bash scripts/device-bundle.sh [BUILD_DIR]
+# unpacks and runs it there. Usage: [EXTRA="PROGRAM..."] [ONLY="PATH_IN_BUILD..."] bash
+# scripts/device-bundle.sh [BUILD_DIR]
 set -euo pipefail
 cd "$(dirname "$0")/.."
 build="$(realpath "${1:-build/ci}")"
@@ -14,6 +15,11 @@ bins=("$build/app/sinew-run" "$build/app/sinew-cohort" "$build/app/sinew-make-sc
 for b in bench_cuda bench_soak bench_autosave bench_error bench_steps; do
   [ -x "$build/tests/bench/$b" ] && bins+=("$build/tests/bench/$b")
 done
+# ONLY: just these programs (paths in the build tree), for a bundle under the device tool's carry limit.
+if [ -n "${ONLY:-}" ]; then
+  bins=()
+  for f in $ONLY; do bins+=("$build/$f"); done
+fi
 # EXTRA: more programs to carry (an older build's, to time side by side), at their paths.
 for f in ${EXTRA:-}; do bins+=("$(realpath "$f")"); done
 for f in "${bins[@]}" "$build"/core/libsinew_core.so* "$build"/tests/plugins/*/sinew-plugin-*.so; do

@@ -8,6 +8,9 @@
 //   corners   a copy holding each voxel's 2 x 2 x 2 corners in 16 bytes (as halves, as 16-bit
 //             integers, or as a 16-bit corner and half differences from it), by an unfiltered
 //             texture fetch or a 16-byte load through L1, blended in halves or in floats
+//   mixed     every n-th of a lane's samples from the corners (base and half differences, 16-byte
+//             load), the rest from the texture: the texture units and the load-store pipe side by
+//             side (faster alone; in the profile pass it was slower too: docs/benchmarks.md)
 // Only the fetches: in the profile pass itself the fastest accurate variant was slower (the
 // measurements are in docs/benchmarks.md).
 //   bench_profile_fetch [REPEATS (default 20)]
@@ -125,6 +128,23 @@ __global__ void sumSamples(const Vertex* vs, int n, Fetch fetch, float* out) {
   float sum = 0.0f;
 #pragma unroll
   for (int s = part; s < kSamples; s += kLanes) sum += fetch(position(vx, float(s)));
+  sum += __shfl_xor_sync(0xffffffffu, sum, 1);
+  if (part == 0) out[v] = sum;
+}
+
+// The same, every kEvery-th of a lane's samples (its last of each kEvery) fetched by `other`, the
+// rest by `fetch`: the texture units and the load-store pipe working side by side.
+template <int kEvery, class Fetch, class Other>
+__global__ void sumSamplesMixed(const Vertex* vs, int n, Fetch fetch, Other other, float* out) {
+  const int t = blockIdx.x * blockDim.x + threadIdx.x, v = t / kLanes, part = t % kLanes;
+  if (v >= n) return;
+  const Vertex vx = vs[v];
+  float sum = 0.0f;
+#pragma unroll
+  for (int k = 0; k < kSamples / kLanes; ++k) {
+    const float3 at = position(vx, float(part + kLanes * k));
+    sum += k % kEvery == kEvery - 1 ? other(at) : fetch(at);
+  }
   sum += __shfl_xor_sync(0xffffffffu, sum, 1);
   if (part == 0) out[v] = sum;
 }
@@ -298,6 +318,13 @@ int main(int argc, char** argv) {
            microseconds([&] { sumSamples<<<blocks, threads>>>(vs, n, ViaGlobal<2>{integersGlobal}, outOther); }, repeats), outOther);
     report("a 16-bit corner and half differences, 16-byte global load, half blend",
            microseconds([&] { sumSamples<<<blocks, threads>>>(vs, n, ViaGlobal<3>{deltasGlobal}, outOther); }, repeats), outOther);
+    const ViaTexture tex{imageTexture};
+    const ViaGlobal<3> deltas{deltasGlobal};
+    report("mixed: every 2nd sample by half differences, the rest by the texture",
+           microseconds([&] { sumSamplesMixed<2><<<blocks, threads>>>(vs, n, tex, deltas, outOther); }, repeats), outOther);
+    report("mixed: every 3rd", microseconds([&] { sumSamplesMixed<3><<<blocks, threads>>>(vs, n, tex, deltas, outOther); }, repeats), outOther);
+    report("mixed: every 4th", microseconds([&] { sumSamplesMixed<4><<<blocks, threads>>>(vs, n, tex, deltas, outOther); }, repeats), outOther);
+    report("mixed: every 6th", microseconds([&] { sumSamplesMixed<6><<<blocks, threads>>>(vs, n, tex, deltas, outOther); }, repeats), outOther);
   }
   return 0;
 }
