@@ -330,7 +330,7 @@ template <int kGroup, bool kWarpLeaves>
 __global__ void __launch_bounds__(kThreads, kWarpLeaves ? kRespondBlocks : 0)
     respondGroup(MeshView m, ParamView p, BvhView v, ContactSettings settings, int every,
                  const float* moved, const unsigned* motion, float* depth, int* hint, float* slack, float* stiffness,
-                 HoldPlane* hold, ContactPlane* contact, float3* out) {
+                 HoldPlane* hold, ContactPlane* contact, float* contactShare, float3* out) {
   const int t = blockIdx.x * blockDim.x + threadIdx.x;
   const int i = t / kGroup, g = t % kGroup;
   const bool valid = i < m.vertices;  // every lane stays for the shuffles
@@ -396,8 +396,10 @@ __global__ void __launch_bounds__(kThreads, kWarpLeaves ? kRespondBlocks : 0)
     lastHint = sum.nearestLeaf;
     lastSlack = slackAfterSearch(lastDepth, clearance2, settings.margin);
     contact[i] = sum.deepestShare >= 0.0f ? contactOn(v, sum.deepestHit, sum.deepestShare, x, centres) : ContactPlane{};
+    contactShare[i] = sum.deepestShare >= 0.0f ? sum.deepestShare : -1.0f;
   } else {  // clear: a full search's skip leaves no plane (contactResponse)
     contact[i].share = -1.0f;
+    contactShare[i] = -1.0f;
   }
   if (holdPlane) hold[i] = plane;
   depth[i] = lastDepth;
@@ -428,10 +430,10 @@ __global__ void contactSprings(MeshView m, ParamView p, const int* partner, cons
 __device__ void advanceStep(unsigned* motion) { *motion = 0; }
 // The hold (CollisionForce::constrain's arithmetic); then the step's end (advanceStep: the response
 // read both).
-__global__ void holdOut(MeshView m, const HoldPlane* hold, unsigned* motion) {
+__global__ void holdOut(MeshView m, const HoldPlane* hold, const float* contactShare, unsigned* motion) {
   const int i = blockIdx.x * blockDim.x + threadIdx.x;
   if (i == 0) advanceStep(motion);
-  if (i >= m.vertices) return;
+  if (i >= m.vertices || contactShare[i] < 0.0f) return;  // no contact plane: no hold plane (respondGroup)
   const HoldPlane h = hold[i];
   if (!(h.side < 3.0e38f)) return;  // most vertices: no plane, and no loads of x and prev
   P3* x = reinterpret_cast<P3*>(m.x);
@@ -493,13 +495,13 @@ void launchCollisionRespond(const MeshView& m, ParamView p, const CollisionDevic
   const unsigned grid = static_cast<unsigned>((static_cast<size_t>(m.vertices) * group + kThreads - 1) / kThreads);
   if (group == 1)
     respondGroup<1, false><<<grid, kThreads, 0, s>>>(m, p, v, settings, every, c.moved, c.motion, c.depth, c.hint, c.slack,
-                                                c.stiffness, c.hold, c.contact, c.force);
+                                                c.stiffness, c.hold, c.contact, c.contactShare, c.force);
   else if (group == 4)
     respondGroup<4, true><<<grid, kThreads, 0, s>>>(m, p, v, settings, every, c.moved, c.motion, c.depth, c.hint, c.slack,
-                                                c.stiffness, c.hold, c.contact, c.force);
+                                                c.stiffness, c.hold, c.contact, c.contactShare, c.force);
   else
     respondGroup<16, true><<<grid, kThreads, 0, s>>>(m, p, v, settings, every, c.moved, c.motion, c.depth, c.hint, c.slack,
-                                                c.stiffness, c.hold, c.contact, c.force);
+                                                c.stiffness, c.hold, c.contact, c.contactShare, c.force);
   // With a hold, the hold's kernel ends the step: a launch fewer (2.7 us a step, H100).
   if (settings.hold < 0.0f) advance<<<1, 1, 0, s>>>(c.motion);
 }
@@ -518,7 +520,7 @@ void launchCollisionPlanes(const MeshView& m, const ContactPlanes& planes, float
 }
 
 void launchCollisionHold(const MeshView& m, const CollisionDevice& c, cudaStream_t s) {
-  holdOut<<<(m.vertices + kThreads - 1) / kThreads, kThreads, 0, s>>>(m, c.hold, c.motion);
+  holdOut<<<(m.vertices + kThreads - 1) / kThreads, kThreads, 0, s>>>(m, c.hold, c.contactShare, c.motion);
 }
 
 }  // namespace sinew::cuda

@@ -8,6 +8,9 @@
 
 #include "kernels.h"
 #include "sinew/core/collision_bvh.h"
+#if defined(__CUDACC__)
+#include "device_math.cuh"  // massFromArea
+#endif
 
 namespace sinew::cuda {
 
@@ -16,6 +19,7 @@ struct ContactPlanes {
   collision::ContactSettings settings;
   const collision::Tri* tris = nullptr;
   const collision::ContactPlane* contact = nullptr;  // per vertex, from the last full search
+  const float* share = nullptr;  // per vertex, contact's share alone (< 0: none), read first
   float* depth = nullptr;                 // written: the plane's penetration (the next full search's radius)
   float* stiffness = nullptr;             // written where not null: the pull (implicit Euler's Jacobian)
   collision::HoldPlane* hold = nullptr;   // written where not null: the plane the hold moves the vertex out of
@@ -29,28 +33,28 @@ struct ContactPlanes {
 // Vertex i's force from its contact plane (respondTo's arithmetic, as the CPU's plugin), and its
 // hold plane (none: side 3e38); writes its depth (where the force is on for its structure),
 // stiffness and, where it has a contact plane, its hold plane (a vertex without one keeps the none
-// that the last full search wrote: most vertices, so that large scenes save the writes). Reads m.x
-// (the triangle's corners: nothing may move them in the same pass), m.prev[i], m.normal[i],
-// m.mass[i] and m.cellCentre.
+// and the depth 0 that the last full search wrote: most vertices, which read only their share, so
+// that large scenes save the traffic). Reads m.x (the triangle's corners: nothing may move them in
+// the same pass), m.prev[i], m.normal[i], m.mass[i] (with m.mass null, the mass from m.area[i],
+// as the lean geometry's passes do) and m.cellCentre.
 __device__ inline float3 contactPlaneForce(const MeshView& m, const ContactPlanes& c, int i, collision::HoldPlane& plane) {
   const float weight = c.params.values[m.meshOf[i] * c.params.count];
   collision::P3 force{0, 0, 0};
   float k = 0.0f;
   plane = collision::HoldPlane{};
-  const collision::ContactPlane contact = c.contact[i];
-  const bool touching = contact.share >= 0.0f;  // (its weight may have changed since: then no hold)
-  if (weight > 0.0f) {
+  const bool touching = c.share[i] >= 0.0f;  // (its weight may have changed since: then no hold)
+  if (weight > 0.0f && touching) {
+    const collision::ContactPlane contact = c.contact[i];
+    const float mass = m.mass ? m.mass[i] : massFromArea(m, m.meshOf[i], m.area[i]);
+    const auto* x = reinterpret_cast<const collision::P3*>(m.x);
+    const collision::P3 point = x[i];
+    collision::BvhView v;
+    v.tris = c.tris;
     float deepest = 0.0f;
-    if (touching) {
-      const auto* x = reinterpret_cast<const collision::P3*>(m.x);
-      const collision::P3 point = x[i];
-      collision::BvhView v;
-      v.tris = c.tris;
-      k = collision::respondTo(collision::contactHit(v, contact, point, x, reinterpret_cast<const collision::P3*>(m.cellCentre)),
-                               point, reinterpret_cast<const collision::P3*>(m.prev)[i],
-                               reinterpret_cast<const collision::P3*>(m.normal)[i], weight * m.mass[i], c.settings, deepest,
-                               force, &plane, contact.share);  // (a local: written out only with a hold)
-    }
+    k = collision::respondTo(collision::contactHit(v, contact, point, x, reinterpret_cast<const collision::P3*>(m.cellCentre)),
+                             point, reinterpret_cast<const collision::P3*>(m.prev)[i],
+                             reinterpret_cast<const collision::P3*>(m.normal)[i], weight * mass, c.settings, deepest, force,
+                             &plane, contact.share);  // (a local: written out only with a hold)
     c.depth[i] = deepest;
   }
   if (c.stiffness) c.stiffness[i] = k;

@@ -401,10 +401,12 @@ struct CudaEngine::Impl {
       // Larger scenes: the profile's term first, then the terms added to it in the move's pass, so
       // that the move needs no pass of its own.
       if (lean && profileGoesFirst(view.vertices, profileInside, profileOutside, reach)) {
-        geometry(true, planesAfterProfile);  // the planes read the masses
+        geometry(true);
         launchProfileFirst(view, p, kDepth, imageView, imageTexture.get(), profiles.get(), profileInside, profileSpacing,
                            reach, stream);
-        if (planesAfterProfile) launchCollisionPlanes(view, planes, view.force, true, stream);
+        MeshView g = view;
+        g.mass = nullptr;  // lean: the planes take the masses from the areas, as the terms' pass does
+        if (planesAfterProfile) launchCollisionPlanes(g, planes, view.force, true, stream);
         fused.plus = view.force;
         termsAndMove();
         if (planes.hold) launchCollisionHold(view, collision.view(), stream);

@@ -37,6 +37,7 @@ void DeviceCollision::build(MeshStore& store, const SceneData& scene, const Para
   last_.upload(reinterpret_cast<const float3*>(x.data()), x.size(), stream);
   hold_.resize(store.vertexCount());  // written by every response before the hold reads it
   contact_.resize(store.vertexCount());  // written by the level's first step (a full search) before any read
+  contactShare_.upload(std::vector<float>(store.vertexCount(), -1.0f), stream);  // likewise; none for inactive structures
   force_.resize(store.vertexCount());  // likewise, before launchCollisionAdd reads it
   motion_.resize(1);
   SINEW_CUDA(cudaMemsetAsync(motion_.get(), 0, motion_.bytes(), stream));
@@ -77,6 +78,7 @@ ContactPlanes DeviceCollision::contactPlanes(ParamView p, const ParamTable& para
   planes.settings = contactSettingsOf(params);
   planes.tris = tris_.get();
   planes.contact = contact_.get();
+  planes.share = contactShare_.get();
   planes.depth = depth_.get();
   planes.stiffness = stiffness_.get();
   planes.hold = planes.settings.hold >= 0.0f ? hold_.get() : nullptr;
@@ -108,6 +110,7 @@ CollisionDevice DeviceCollision::view() const {
   c.motion = motion_.get();
   c.hold = hold_.get();
   c.contact = contact_.get();
+  c.contactShare = contactShare_.get();
   c.force = force_.get();
   c.meshes = meshes_;
   c.nodeCount = int(nodes_.size());
@@ -119,7 +122,7 @@ std::size_t DeviceCollision::bytes() const {
          visits_.bytes() + threadNodes_.bytes() + warpNodes_.bytes() + blockNodes_.bytes() + vertexBoxes_.bytes() +
          stiffness_.bytes() + depth_.bytes() + hint_.bytes() + exempt_.bytes() + share_.bytes() +
          slack_.bytes() + moved_.bytes() + last_.bytes() + motion_.bytes() + hold_.bytes() +
-         contact_.bytes() + force_.bytes();
+         contact_.bytes() + contactShare_.bytes() + force_.bytes();
 }
 
 }  // namespace sinew::cuda
