@@ -353,6 +353,10 @@ void Simulation::recover(std::span<const Vec3> goodPositions, std::vector<Vec3>&
   auto x = store_.positionsForWrite();
   std::copy(goodPositions.begin(), goodPositions.end(), x.begin());
   if (!goodPrevious.empty()) std::copy(goodPrevious.begin(), goodPrevious.end(), store_.previousPositions().begin());
+  for (auto& s : forces_) {
+    ForceContext ctx{store_, s->params, scene_, executor_};
+    s->force->restored(ctx);
+  }
   int kStep = -1;
   for (int i = 0; i < static_cast<int>(integratorParams_.decls().size()); ++i)
     if (integratorParams_.decls()[i].name == "time_step") kStep = i;

@@ -622,6 +622,7 @@ void CudaEngine::reload() { impl_->upload(); }
 
 void CudaEngine::restoreState() {
   impl_->uploadState();
+  impl_->collision.restart();  // the next step searches in full, as the CPU's force after a rollback
   SINEW_CUDA(cudaStreamSynchronize(impl_->stream));
 }
 

@@ -32,6 +32,8 @@ public:
   // full searches the engine enqueues the contact planes instead of refit and respond
   // (launchCollisionPlanes, or in the profile's pass), with these (hold null: no hold).
   void advance(int steps) { steps_ += steps; }
+  // After a guard's rollback: the next step searches in full (CollisionForce::restored).
+  void restart() { steps_ = 0; }
   int phase(const ParamTable& params) const;
   bool searchesAt(int ahead, const ParamTable& params) const;
   ContactPlanes contactPlanes(ParamView p, const ParamTable& params) const;

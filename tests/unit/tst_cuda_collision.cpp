@@ -9,6 +9,7 @@
 
 #include <QtTest>
 
+#include <functional>
 #include <tuple>
 
 using namespace sinew;
@@ -151,6 +152,61 @@ private slots:
     QVERIFY(bytesAfter(*two) > bytesAfter(*twoOff));
   }
 
+  // After a guard's rollback on the device (Simulation::recover, then CudaEngine::restoreState, as
+  // SceneRunner does) the next step searches in full, as the CPU's force does
+  // (tst_collision::rollbackSearchesInFullAtOnce). Structure a must include a point 2 mm inside b,
+  // so the two stay pressed together; during the undone steps, whose full search (step 32) sees
+  // them, the point is off and a's cap eases back. Kept, that search's planes would leave the cap
+  // free to sink into b once the point is on again.
+  void rollbackSearchesInFullAtOnce() {
+    auto make = [] {
+      auto sim = std::make_unique<Simulation>(forceRegistry(), 0);
+      for (const auto& [name, centre] : {std::pair{"a", Vec3(0, 0, 0)}, std::pair{"b", Vec3(21, 0, 0)}}) {
+        StructureSpec s = sphereStructure(name, 3, 10.0f, centre);
+        s.referencePositions = s.initialPositions;
+        sim->addStructure(std::move(s));
+      }
+      sim->addForce("shape_prior");
+      sim->addForce("attraction_points");
+      ParamTable& collision = sim->addForce("collision");
+      collision.setAll("weight", 0.5);
+      collision.setAll("full_search_every", 16);
+      sim->scene().constraintPoints()[0] = {{Vec3(13, 0, 0), true}};
+      sim->setIntegrator("damped_verlet").set(0, "time_step", 0.5);
+      StabilityGuard guard = noGuard();  // the CPU takes the device's steps; recover halves the step once
+      guard.maxRetries = 1;
+      sim->setStabilityGuard(guard);
+      sim->initialize();
+      return sim;
+    };
+    // 28 steps, 7 undone with the point off, then 40: through `run` (the CPU, or the engine) and
+    // `restore` (the engine's upload after the rollback).
+    const auto rollBack = [](Simulation& sim, const std::function<void(int)>& run, const std::function<void()>& sync,
+                             const std::function<void()>& restore) {
+      run(28);
+      sync();
+      const std::vector<Vec3> good(sim.store().positions().begin(), sim.store().positions().end());
+      std::vector<Vec3> goodPrevious(sim.store().previousPositions().begin(), sim.store().previousPositions().end());
+      sim.forceParams("attraction_points").setAll("weight", 0.0);
+      run(7);
+      sim.forceParams("attraction_points").setAll("weight", 1.0);
+      sim.recover(good, goodPrevious, "a rollback", 0);
+      restore();
+      run(40);
+      sync();
+    };
+    auto cpu = make(), gpu = make();
+    rollBack(*cpu, [&](int n) { cpu->run(n); }, [] {}, [] {});
+    cuda::CudaEngine engine(*gpu);
+    rollBack(*gpu, [&](int n) { engine.run(n); }, [&] { engine.download(); }, [&] { engine.restoreState(); });
+    float front = -1e9f;  // a's cap along +x; b's surface is at x = 11 mm there
+    for (Index v = gpu->store().range(0).vertexBegin; v < gpu->store().range(0).vertexEnd; ++v)
+      front = std::max(front, gpu->store().positions()[v].x());
+    const double cpuCuda = maxDifference(cpu->store(), gpu->store());
+    qInfo("after a rollback: %.3g mm between the device and the CPU (a's cap at x = %.2f mm)", cpuCuda, double(front));
+    QVERIFY(front > 10.5f);  // pressed against b
+    QVERIFY2(cpuCuda < 1e-3, qPrintable(QString::number(cpuCuda)));
+  }
 };
 
 QTEST_APPLESS_MAIN(TestCudaCollision)

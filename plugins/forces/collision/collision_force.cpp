@@ -73,6 +73,13 @@ public:
     });
   }
 
+  // After a guard's rollback the planes are those of the undone steps' last full search, which may
+  // lie where the other surface never was in the state put back: the next step searches in full
+  // (5 levels, a full search every 16 steps: Pallidum_L had been pushed 2 mm off its place;
+  // docs/collisions.md). The clearances need nothing: each vertex's move back from where that
+  // search saw it is paid at the next one, as any move is. The depths and hints bound and start it.
+  void restored(ForceContext&) override { step_ = 0; }
+
   // A touching vertex is pulled toward a point held fixed over the step (a retreating vertex's push
   // is constant: no stiffness).
   bool addJacobian(ForceContext& ctx, JacobianBlocks& jacobian) override {

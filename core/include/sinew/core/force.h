@@ -55,6 +55,9 @@ public:
   // The force's CUDA path, for the CUDA backend (a run-time plugin's force provides one by also
   // deriving from cuda::DeviceForce). Null: the force runs on the CPU backend only.
   virtual cuda::DeviceForce* deviceForce() { return nullptr; }
+  // The stability guard put back an earlier state (positions and previous positions; Simulation::
+  // recover): a force that carries state from step to step forgets what the undone steps taught it.
+  virtual void restored(ForceContext&) {}
 };
 
 struct IntegratorContext {
