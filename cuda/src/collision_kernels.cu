@@ -291,20 +291,18 @@ __device__ bool contactWithWarp(const BvhView& v, int own, int other, P3 p, floa
 }
 
 // Between full searches (contact_planes.h), a thread a vertex; no clearance (it is paid at the
-// full searches). The engine launches it instead of the refit and respondGroup: on the branch,
-// writing the collision's own force (add false), or, from 131,072 vertices where the collision is
-// the step's last force, adding to the profile's term (add true); below that size the profile's
-// pass takes the planes instead (launchProfileAfterTerms). Done by respondGroup's lanes (16 a
+// full searches). The engine launches it instead of the refit and respondGroup on the branch,
+// writing the collision's own force; where the collision is the step's last force after the
+// profile, the profile's pass takes the planes instead (launchProfileAfterTerms, launchProfileFirst).
+// Done by respondGroup's lanes (16 a
 // vertex below 32,768 vertices), such a step cost about 16 us more than one without collisions at
 // 20,352 vertices (H200, from the steps with a full search every 8 and every 16); with the refit
 // and respondGroup launched to return at once, about 9 us more.
-__global__ void respondPlanes(MeshView m, ContactPlanes planes, float3* out, bool add) {
+__global__ void respondPlanes(MeshView m, ContactPlanes planes, float3* out) {
   const int i = blockIdx.x * blockDim.x + threadIdx.x;
   if (i >= m.vertices) return;
   HoldPlane plane;
-  const float3 f = contactPlaneForce(m, planes, i, plane);
-  if (!add) out[i] = f;
-  else if (f.x != 0.0f || f.y != 0.0f || f.z != 0.0f) out[i] = out[i] + f;  // most vertices: none, no read
+  out[i] = contactPlaneForce(m, planes, i, hasContactPlane(planes, i), plane);
 }
 
 // The contact response (collision::contactResponse) with kGroup lanes per vertex: in each round
@@ -515,8 +513,8 @@ void launchCollisionMove(const MeshView& m, const CollisionDevice& c, const Verl
                                                                            c.motion);
 }
 
-void launchCollisionPlanes(const MeshView& m, const ContactPlanes& planes, float3* out, bool add, cudaStream_t s) {
-  respondPlanes<<<(m.vertices + kThreads - 1) / kThreads, kThreads, 0, s>>>(m, planes, out, add);
+void launchCollisionPlanes(const MeshView& m, const ContactPlanes& planes, float3* out, cudaStream_t s) {
+  respondPlanes<<<(m.vertices + kThreads - 1) / kThreads, kThreads, 0, s>>>(m, planes, out);
 }
 
 void launchCollisionHold(const MeshView& m, const CollisionDevice& c, cudaStream_t s) {

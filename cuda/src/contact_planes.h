@@ -17,7 +17,6 @@ namespace sinew::cuda {
 struct ContactPlanes {
   ParamView params;  // the collision force's (its weight: column 0)
   collision::ContactSettings settings;
-  const collision::Tri* tris = nullptr;
   const collision::ContactPlane* contact = nullptr;  // per vertex, from the last full search
   const float* share = nullptr;  // per vertex, contact's share alone (< 0: none), read first
   float* depth = nullptr;                 // written: the plane's penetration (the next full search's radius)
@@ -36,22 +35,22 @@ struct ContactPlanes {
 // and the depth 0 that the last full search wrote: most vertices, which read only their share, so
 // that large scenes save the traffic). Reads m.x (the triangle's corners: nothing may move them in
 // the same pass), m.prev[i], m.normal[i], m.mass[i] (with m.mass null, the mass from m.area[i],
-// as the lean geometry's passes do) and m.cellCentre.
-__device__ inline float3 contactPlaneForce(const MeshView& m, const ContactPlanes& c, int i, collision::HoldPlane& plane) {
+// as the lean geometry's passes do) and m.cellCentre. `touching`: hasContactPlane(c, i), which a
+// pass can read early, so that its round trip is not on the pass's last stretch.
+__device__ inline bool hasContactPlane(const ContactPlanes& c, int i) { return c.share[i] >= 0.0f; }
+__device__ inline float3 contactPlaneForce(const MeshView& m, const ContactPlanes& c, int i, bool touching,
+                                           collision::HoldPlane& plane) {
   const float weight = c.params.values[m.meshOf[i] * c.params.count];
   collision::P3 force{0, 0, 0};
   float k = 0.0f;
   plane = collision::HoldPlane{};
-  const bool touching = c.share[i] >= 0.0f;  // (its weight may have changed since: then no hold)
-  if (weight > 0.0f && touching) {
+  if (weight > 0.0f && touching) {  // (its weight may have changed since the plane was found: then no hold)
     const collision::ContactPlane contact = c.contact[i];
     const float mass = m.mass ? m.mass[i] : massFromArea(m, m.meshOf[i], m.area[i]);
     const auto* x = reinterpret_cast<const collision::P3*>(m.x);
     const collision::P3 point = x[i];
-    collision::BvhView v;
-    v.tris = c.tris;
     float deepest = 0.0f;
-    k = collision::respondTo(collision::contactHit(v, contact, point, x, reinterpret_cast<const collision::P3*>(m.cellCentre)),
+    k = collision::respondTo(collision::contactHit(contact, point, x, reinterpret_cast<const collision::P3*>(m.cellCentre)),
                              point, reinterpret_cast<const collision::P3*>(m.prev)[i],
                              reinterpret_cast<const collision::P3*>(m.normal)[i], weight * mass, c.settings, deepest, force,
                              &plane, contact.share);  // (a local: written out only with a hold)

@@ -402,11 +402,10 @@ struct CudaEngine::Impl {
       // that the move needs no pass of its own.
       if (lean && profileGoesFirst(view.vertices, profileInside, profileOutside, reach)) {
         geometry(true);
-        launchProfileFirst(view, p, kDepth, imageView, imageTexture.get(), profiles.get(), profileInside, profileSpacing,
-                           reach, stream);
         MeshView g = view;
         g.mass = nullptr;  // lean: the planes take the masses from the areas, as the terms' pass does
-        if (planesAfterProfile) launchCollisionPlanes(g, planes, view.force, true, stream);
+        launchProfileFirst(g, p, kDepth, imageView, imageTexture.get(), profiles.get(), profileInside, profileSpacing,
+                           reach, planesAfterProfile ? &planes : nullptr, stream);
         fused.plus = view.force;
         termsAndMove();
         if (planes.hold) launchCollisionHold(view, collision.view(), stream);
@@ -430,7 +429,7 @@ struct CudaEngine::Impl {
     } else if (collide) {
       side = branch.begin(stream);
       const ContactPlanes c = collision.contactPlanes(collisionParams, sim.forceParams(slot->name));
-      launchCollisionPlanes(view, c, collision.view().force, false, side);
+      launchCollisionPlanes(view, c, collision.view().force, side);
       hold = c.settings.hold;
     }
     bool joined = !collide, held = false, moved = false;

@@ -76,7 +76,6 @@ ContactPlanes DeviceCollision::contactPlanes(ParamView p, const ParamTable& para
   ContactPlanes planes;
   planes.params = p;
   planes.settings = contactSettingsOf(params);
-  planes.tris = tris_.get();
   planes.contact = contact_.get();
   planes.share = contactShare_.get();
   planes.depth = depth_.get();

@@ -166,10 +166,12 @@ void launchProfileAfterTerms(const MeshView& m, const FusedTerms& terms, ParamVi
 // For larger scenes, where the move leaves the profile's pass (profileTakesTerms false but the
 // register layout): the profile's term alone written to m.force (zero where it is off), for
 // launchFusedForcesAndMove with FusedTerms::plus = m.force to add after the terms. The separate
-// move's pass goes.
+// move's pass goes. planes (or null): the collision's contact planes between full searches, added
+// after the profile's term (their hold planes written for launchCollisionHold after the move).
 bool profileGoesFirst(int vertices, int inside, int outside, int maxReach);
 void launchProfileFirst(const MeshView& m, ParamView p, int kDepth, VolumeView volume, cudaTextureObject_t image,
-                        const float* profiles, int inside, float spacing, int maxReach, cudaStream_t s);
+                        const float* profiles, int inside, float spacing, int maxReach, const ContactPlanes* planes,
+                        cudaStream_t s);
 // The attraction_points force. points: every placed point; pointMesh: the structure of each;
 // pointKind: kAttractPoint, kIncludePoint or kExcludePoint; keys, windings: one of each per point;
 // constraints: whether any point is an include or exclude point (m.cellCentre is then required).
@@ -287,12 +289,12 @@ void launchCollisionAdd(const MeshView& m, const CollisionDevice& c, cudaStream_
 // arithmetic: for a step whose last force is the collision's and whose move follows directly.
 void launchCollisionMove(const MeshView& m, const CollisionDevice& c, const VerletMove& move, bool hold, cudaStream_t s);
 // A step between full searches (collision::contactResponse), which the engine schedules itself:
-// instead of the refit and the response, each vertex's contact plane writes its response to `out`
-// (add: added to it), and its depth, hold and stiffness as launchCollisionRespond would (reads
+// instead of the refit and the response, each vertex's contact plane writes its response to `out`,
+// and its depth, hold and stiffness as launchCollisionRespond would (reads
 // m.x, m.prev, m.normal, m.mass, m.cellCentre). With out = c.force, launchCollisionAdd or
 // launchCollisionMove and launchCollisionHold follow as after the response. Such a step leaves the
 // largest move alone (only full searches set it, and their step's end resets it).
-void launchCollisionPlanes(const MeshView& m, const ContactPlanes& planes, float3* out, bool add, cudaStream_t s);
+void launchCollisionPlanes(const MeshView& m, const ContactPlanes& planes, float3* out, cudaStream_t s);
 // After the step's move: each vertex below its hold plane (c.hold, written by
 // launchCollisionRespond when settings.hold >= 0) moves out along its normal onto it
 // (CollisionForce::constrain). Every launchCollisionRespond with settings.hold >= 0 must be followed

@@ -101,7 +101,8 @@ __device__ __forceinline__ void scoreWindows(const float (&w)[kCount + kLength -
 // kWithTerms: the fused terms are summed here instead of read from m.force, and the move is
 // verletMoveAside (launchProfileAfterTerms), so the pass writes no position another vertex reads:
 // it can also add the collision's contact planes after the profile (planes.contact not null), and
-// hold the vertex (planes.heldPrevious not null). Two lanes a vertex are held to 6 blocks an SM
+// hold the vertex (planes.heldPrevious not null). So can the pass of the term alone (termFirst,
+// launchProfileFirst), which writes no position either; its hold planes go to planes.hold. Two lanes a vertex are held to 6 blocks an SM
 // (80 registers): at 7 (72) the kernel with the terms spilled 40 bytes (H200, case (a): 42,496
 // vertices 21.6 -> 20.9-21.1 us a step, 2,719,744 vertices 699-702 -> 681-682).
 template <int kLength, int kMaxReach, int kLanes, bool kWithTerms>
@@ -130,7 +131,9 @@ __global__ void __launch_bounds__(128, kLanes == 1 ? 0 : kLanes == 2 ? 6 : 8) pr
     refIn[r] = lane < kLength && r < count ? profiles[static_cast<size_t>(first + r) * kLength + lane] : 0.0f;
   int reach = -1;  // -1: nothing to do for this vertex
   float3 n = make_float3(0, 0, 0), at = n;
+  bool touching = false;  // a contact plane to add (read here, off the pass's last stretch)
   if (v < m.vertices) {
+    if (planes.contact) touching = hasContactPlane(planes, v);
     // Loaded before the weight is known, beside the structure's index: one round trip fewer before
     // the line's fetches (H200, case (a): 2,656 vertices 9.50 -> 9.18-9.29 us a step, 2,719,744
     // vertices 699-702 -> 680-686).
@@ -176,8 +179,7 @@ __global__ void __launch_bounds__(128, kLanes == 1 ? 0 : kLanes == 2 ? 6 : 8) pr
   else f = termFirst ? make_float3(0, 0, 0) : m.force[v];
   if (reach >= 0) f = f + (param(p, m.meshOf[v], 0) * (static_cast<float>(bestJ) * spacing)) * n;
   collision::HoldPlane hold;
-  if constexpr (kWithTerms)
-    if (planes.contact) f = f + contactPlaneForce(m, planes, v, hold);  // reads x, which the pass does not write
+  if (planes.contact) f = f + contactPlaneForce(m, planes, v, touching, hold);  // reads x, which the pass does not write
   if (reach >= 0 || kWithTerms || termFirst) m.force[v] = f;
   if constexpr (kWithTerms) {
     if (planes.heldPrevious) {  // verletMoveAside and the hold (launchCollisionMove's arithmetic)
@@ -269,7 +271,7 @@ void launchProfileLanes(const MeshView& m, ParamView p, int kDepth, VolumeView v
   else
     profileLanes<kRegisterLength, kMaxReach, kLanes, false><<<grid, 128, 0, s>>>(
         m, p, kDepth, vol, image, profiles, inside, spacing, then != nullptr, then ? *then : VerletMove{}, FusedTerms{},
-        first, ContactPlanes{});
+        first, first && planes ? *planes : ContactPlanes{});
 }
 // The kernel for the scene's largest reach, rounded up to an even number of samples: a line is
 // sampled and scored for that reach, whatever a vertex's own.
@@ -330,8 +332,9 @@ bool profileGoesFirst(int vertices, int inside, int outside, int maxReach) {
 }
 
 void launchProfileFirst(const MeshView& m, ParamView p, int kDepth, VolumeView vol, cudaTextureObject_t image,
-                        const float* profiles, int inside, float spacing, int maxReach, cudaStream_t s) {
-  launchRegisterKernel(m, p, kDepth, vol, image, profiles, inside, spacing, maxReach, nullptr, nullptr, true, nullptr, s);
+                        const float* profiles, int inside, float spacing, int maxReach, const ContactPlanes* planes,
+                        cudaStream_t s) {
+  launchRegisterKernel(m, p, kDepth, vol, image, profiles, inside, spacing, maxReach, nullptr, nullptr, true, planes, s);
 }
 
 void launchProfile(const MeshView& m, ParamView p, int kDepth, VolumeView vol, cudaTextureObject_t image,

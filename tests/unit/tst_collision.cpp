@@ -585,7 +585,7 @@ private slots:
     collision::contactResponse(view, 0, x[v], x[v], normals[v], 1.0f, settings, true, 8, 0.0f, 0.0f, depth, hint, slack, plane,
                                x, c, first);
     QVERIFY(plane.share >= 0.0f && depth > 4.0f);  // 5 mm inside b
-    const collision::Hit found = collision::contactHit(view, plane, x[v], x, c);
+    const collision::Hit found = collision::contactHit(plane, x[v], x, c);
     QVERIFY(found.normal.x < -0.95f);  // b's surface there faces -x
     QVERIFY(std::abs(found.side + depth - settings.margin) < 1e-4f);  // the contact the search found
     const collision::P3 slid{x[v].x, x[v].y + 3.0f, x[v].z};  // 3 mm along the plane
@@ -603,7 +603,7 @@ private slots:
     auto moving = store.positionsForWrite();
     for (Index i = 0; i < store.vertexCount(); ++i)
       if (store.meshOfVertex()[i] == 1) moving[i] += Vec3(-1.0f, 0.0f, 0.0f);
-    const collision::Hit moved = collision::contactHit(view, plane, at, asP3(store.positions()), asP3(store.cellCentres()));
+    const collision::Hit moved = collision::contactHit(plane, at, asP3(store.positions()), asP3(store.cellCentres()));
     QVERIFY(std::abs(moved.side - (found.side + found.normal.x)) < 1e-3f);
     // Clear of every structure (no depth, slack left): a full search's skip drops the plane, and
     // without it a step between full searches adds nothing.
