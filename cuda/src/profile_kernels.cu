@@ -100,12 +100,12 @@ __device__ __forceinline__ void scoreWindows(const float (&w)[kCount + kLength -
 // position is read and written by its own lanes only, so the move needs no pass of its own.
 // kWithTerms: the fused terms are summed here instead of read from m.force, and the move is
 // verletMoveAside (launchProfileAfterTerms), so the pass writes no position another vertex reads:
-// it can also add the collision's contact planes after the profile (planes.contact not null), and
-// hold the vertex (planes.heldPrevious not null). So can the pass of the term alone (termFirst,
-// launchProfileFirst), which writes no position either; its hold planes go to planes.hold. Two lanes a vertex are held to 6 blocks an SM
-// (80 registers): at 7 (72) the kernel with the terms spilled 40 bytes (H200, case (a): 42,496
+// it can also add the collision's contact planes after the profile (kPlanes), and hold the vertex
+// (planes.heldPrevious not null). So can the pass of the term alone (termFirst, launchProfileFirst),
+// which writes no position either; its hold planes go to planes.hold. Two lanes a vertex are held
+// to 6 blocks an SM (80 registers): at 7 (72) the kernel with the terms spilled 40 bytes (H200, case (a): 42,496
 // vertices 21.6 -> 20.9-21.1 us a step, 2,719,744 vertices 699-702 -> 681-682).
-template <int kLength, int kMaxReach, int kLanes, bool kWithTerms>
+template <int kLength, int kMaxReach, int kLanes, bool kWithTerms, bool kPlanes>
 __global__ void __launch_bounds__(128, kLanes == 1 ? 0 : kLanes == 2 ? 6 : 8) profileLanes(MeshView m, ParamView p, int kDepth, VolumeView vol,
                                                     cudaTextureObject_t image, const float* __restrict__ profiles,
                                                     int inside, float spacing, bool integrate, VerletMove move,
@@ -133,7 +133,7 @@ __global__ void __launch_bounds__(128, kLanes == 1 ? 0 : kLanes == 2 ? 6 : 8) pr
   float3 n = make_float3(0, 0, 0), at = n;
   bool touching = false;  // a contact plane to add (read here, off the pass's last stretch)
   if (v < m.vertices) {
-    if (planes.contact) touching = hasContactPlane(planes, v);
+    if constexpr (kPlanes) touching = hasContactPlane(planes, v);
     // Loaded before the weight is known, beside the structure's index: one round trip fewer before
     // the line's fetches (H200, case (a): 2,656 vertices 9.50 -> 9.18-9.29 us a step, 2,719,744
     // vertices 699-702 -> 680-686).
@@ -179,10 +179,10 @@ __global__ void __launch_bounds__(128, kLanes == 1 ? 0 : kLanes == 2 ? 6 : 8) pr
   else f = termFirst ? make_float3(0, 0, 0) : m.force[v];
   if (reach >= 0) f = f + (param(p, m.meshOf[v], 0) * (static_cast<float>(bestJ) * spacing)) * n;
   collision::HoldPlane hold;
-  if (planes.contact) f = f + contactPlaneForce(m, planes, v, touching, hold);  // reads x, which the pass does not write
+  if constexpr (kPlanes) f = f + contactPlaneForce(m, planes, v, touching, hold);  // reads x, which the pass does not write
   if (reach >= 0 || kWithTerms || termFirst) m.force[v] = f;
   if constexpr (kWithTerms) {
-    if (planes.heldPrevious) {  // verletMoveAside and the hold (launchCollisionMove's arithmetic)
+    if (kPlanes && planes.heldPrevious) {  // verletMoveAside and the hold (launchCollisionMove's arithmetic)
       const float3 current = m.x[v], next = verletStep(current, m.prev[v], f, move.dt, move.keep, m.mass[v]);
       collision::P3 p{next.x, next.y, next.z}, q{current.x, current.y, current.z};
       collision::holdOut(hold, p, q);
@@ -264,14 +264,23 @@ void launchProfileLanes(const MeshView& m, ParamView p, int kDepth, VolumeView v
                         bool first, const ContactPlanes* planes, cudaStream_t s) {
   constexpr int perBlock = 4 * (32 / kLanes);
   const unsigned grid = (m.vertices + perBlock - 1) / perBlock;
-  if (terms)
-    profileLanes<kRegisterLength, kMaxReach, kLanes, true><<<grid, 128, 0, s>>>(m, p, kDepth, vol, image, profiles, inside,
-                                                                              spacing, true, *then, *terms, false,
-                                                                              planes ? *planes : ContactPlanes{});
+  // The planes' path compiled in only where there are planes: in every pass it cost case (a) 0.3-1.2 %
+  // (H200, 42,496-2,719,744 vertices, beside b4731ca's bench_cuda).
+  const bool withPlanes = planes && planes->contact && (terms || first);
+  const ContactPlanes c = withPlanes ? *planes : ContactPlanes{};
+  if (terms && withPlanes)
+    profileLanes<kRegisterLength, kMaxReach, kLanes, true, true>
+        <<<grid, 128, 0, s>>>(m, p, kDepth, vol, image, profiles, inside, spacing, true, *then, *terms, false, c);
+  else if (terms)
+    profileLanes<kRegisterLength, kMaxReach, kLanes, true, false>
+        <<<grid, 128, 0, s>>>(m, p, kDepth, vol, image, profiles, inside, spacing, true, *then, *terms, false, c);
+  else if (withPlanes)
+    profileLanes<kRegisterLength, kMaxReach, kLanes, false, true><<<grid, 128, 0, s>>>(
+        m, p, kDepth, vol, image, profiles, inside, spacing, false, VerletMove{}, FusedTerms{}, true, c);
   else
-    profileLanes<kRegisterLength, kMaxReach, kLanes, false><<<grid, 128, 0, s>>>(
+    profileLanes<kRegisterLength, kMaxReach, kLanes, false, false><<<grid, 128, 0, s>>>(
         m, p, kDepth, vol, image, profiles, inside, spacing, then != nullptr, then ? *then : VerletMove{}, FusedTerms{},
-        first, first && planes ? *planes : ContactPlanes{});
+        first, c);
 }
 // The kernel for the scene's largest reach, rounded up to an even number of samples: a line is
 // sampled and scored for that reach, whatever a vertex's own.
