@@ -7,7 +7,8 @@
 # forces. EVERY: values of the collision force's full_search_every, a scene each (default 1).
 # BENCH: other bench_steps binaries to run after this build's on the same scenes (an older
 # build's, side by side). MAKE_SCENE_ARGS: more sinew-make-scene options (e.g. another
-# --structures list); SCHEDULE: iterations per level instead. docs/benchmarks.md.
+# --structures list); SCHEDULE: iterations per level instead; BENCH_FLAGS: --cpu for the CPU
+# backend. docs/benchmarks.md.
 # Usage: bash scripts/collision-step-time.sh BUILD_DIR OUT_DIR ["3 4"]
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -28,7 +29,7 @@ for l in $levels; do
   done
   for bench in "$build/tests/bench/bench_steps" ${BENCH:-}; do
     echo "$bench, $l levels:"
-    "$bench" "${STEPS:-64}" "${ROUNDS:-15}" "${scenes[@]}"
+    "$bench" ${BENCH_FLAGS:-} "${STEPS:-64}" "${ROUNDS:-15}" "${scenes[@]}"
     echo
   done
 done

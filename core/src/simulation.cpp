@@ -348,15 +348,19 @@ void Simulation::step() {
   ++iteration_;
 }
 
-void Simulation::recover(std::span<const Vec3> goodPositions, std::vector<Vec3>& goodPrevious,
-                         const std::string& problem, int attempt) {
+void Simulation::restoreState(std::span<const Vec3> positions, std::span<const Vec3> previous) {
   auto x = store_.positionsForWrite();
-  std::copy(goodPositions.begin(), goodPositions.end(), x.begin());
-  if (!goodPrevious.empty()) std::copy(goodPrevious.begin(), goodPrevious.end(), store_.previousPositions().begin());
+  std::copy(positions.begin(), positions.end(), x.begin());
+  if (!previous.empty()) std::copy(previous.begin(), previous.end(), store_.previousPositions().begin());
   for (auto& s : forces_) {
     ForceContext ctx{store_, s->params, scene_, executor_};
     s->force->restored(ctx);
   }
+}
+
+void Simulation::recover(std::span<const Vec3> goodPositions, std::vector<Vec3>& goodPrevious,
+                         const std::string& problem, int attempt) {
+  restoreState(goodPositions, goodPrevious);
   int kStep = -1;
   for (int i = 0; i < static_cast<int>(integratorParams_.decls().size()); ++i)
     if (integratorParams_.decls()[i].name == "time_step") kStep = i;

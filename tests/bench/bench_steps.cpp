@@ -7,8 +7,10 @@
 // without a force (collisions) this is what the force adds to a step as the device runs it, the
 // step's kernels overlapping where they may: Nsight Compute's kernel durations
 // (scripts/collision-kernel-time.sh) are serialised and cannot show that.
-// scripts/collision-step-time.sh makes the scenes; docs/benchmarks.md.
-//   bench_steps STEPS ROUNDS SCENE.json...
+// scripts/collision-step-time.sh makes the scenes; docs/benchmarks.md. With --cpu the same on the
+// CPU backend (all hardware threads), each round from the schedule's end state put back
+// (Simulation::restoreState), each step as sinew-run steps it (with the numerical guard's check).
+//   bench_steps [--cpu] STEPS ROUNDS SCENE.json...
 #include "synthetic.h"
 #include "sinew/core/scene.h"
 #include "sinew/core/scene_runner.h"
@@ -26,33 +28,41 @@
 using namespace sinew;
 
 int main(int argc, char** argv) {
+  const bool cpu = argc > 1 && std::string(argv[1]) == "--cpu";
+  if (cpu) --argc, ++argv;
   if (argc < 4) {
-    std::fprintf(stderr, "usage: bench_steps STEPS ROUNDS SCENE.json...\n");
+    std::fprintf(stderr, "usage: bench_steps [--cpu] STEPS ROUNDS SCENE.json...\n");
     return 2;
   }
   const int steps = std::atoi(argv[1]), rounds = std::atoi(argv[2]);
-  const cuda::DeviceStatus st = cuda::probeDevice();
-  if (!st.usable) {
-    std::printf("no CUDA device: %s\n", st.reason.c_str());
-    return 0;
+  std::string device = "CPU backend";
+  if (!cpu) {
+    const cuda::DeviceStatus st = cuda::probeDevice();
+    if (!st.usable) {
+      std::printf("no CUDA device: %s\n", st.reason.c_str());
+      return 0;
+    }
+    device = st.description;
   }
   struct Run {
     const char* path;
     std::unique_ptr<SceneRunner> runner;
-    std::unique_ptr<cuda::CudaEngine> engine;
+    std::unique_ptr<cuda::CudaEngine> engine;  // null: the CPU backend
     std::vector<double> us;
+    std::vector<Vec3> positions, previous;  // the CPU's rounds start from these
   };
   std::vector<Run> runs;
   try {
     for (int a = 3; a < argc; ++a) {
-      Run r{argv[a], std::make_unique<SceneRunner>(testing::builtinRegistry(), readScene(argv[a])), nullptr, {}};
+      Run r{argv[a], std::make_unique<SceneRunner>(testing::builtinRegistry(), readScene(argv[a])), nullptr, {}, {}, {}};
       r.runner->load();
-      r.engine = std::make_unique<cuda::CudaEngine>(r.runner->simulation());
+      Simulation& sim = r.runner->simulation();
+      if (!cpu) r.engine = std::make_unique<cuda::CudaEngine>(sim);
       const auto& schedule = r.runner->scene().schedule;
       for (size_t level = 0; level < schedule.size(); ++level) {
         if (level > 0) {
           r.runner->enterNextLevel();
-          r.engine->levelChanged();
+          if (r.engine) r.engine->levelChanged();
         }
         const int interval = std::max(1, r.runner->scene().sampleInterval);
         for (int done = 0; done < schedule[level].iterations; done += interval) {
@@ -61,22 +71,32 @@ int main(int argc, char** argv) {
           if (!failure.empty()) throw std::runtime_error(std::string(argv[a]) + ": " + failure);
         }
       }
-      r.engine->download();  // the host store keeps the state every round starts from
+      if (r.engine) {
+        r.engine->download();  // the host store keeps the state every round starts from
+      } else {
+        MeshStore& store = sim.store();
+        r.positions.assign(store.positions().begin(), store.positions().end());
+        r.previous.assign(store.previousPositions().begin(), store.previousPositions().end());
+        device = "CPU backend, " + std::to_string(sim.executor().threads()) + " threads";
+      }
       runs.push_back(std::move(r));
     }
     using Clock = std::chrono::steady_clock;
     for (int round = 0; round < rounds; ++round)
       for (Run& r : runs) {
-        r.engine->restoreState();
+        Simulation& sim = r.runner->simulation();
+        if (r.engine) r.engine->restoreState();
+        else sim.restoreState(r.positions, r.previous);
         const auto t0 = Clock::now();
-        r.engine->run(steps);
+        if (r.engine) r.engine->run(steps);
+        else sim.run(steps);
         r.us.push_back(1e6 * std::chrono::duration<double>(Clock::now() - t0).count() / steps);
       }
   } catch (const std::exception& e) {
     std::fprintf(stderr, "bench_steps: %s\n", e.what());
     return 1;
   }
-  std::printf("device: %s; %d rounds of %d steps a scene, alternated\n\n", st.description.c_str(), rounds, steps);
+  std::printf("device: %s; %d rounds of %d steps a scene, alternated\n\n", device.c_str(), rounds, steps);
   std::printf("| scene | vertices | us a step (median) | fastest round | ratio to the first |\n| --- | ---: | ---: | ---: | ---: |\n");
   double first = 0;
   for (Run& r : runs) {

@@ -97,6 +97,10 @@ public:
   // before the first halving (unless the step was set by hand since).
   void recover(std::span<const Vec3> goodPositions, std::vector<Vec3>& goodPrevious, const std::string& problem,
                int attempt);
+  // Puts the positions (and, where given, the previous positions) back and tells every force
+  // (Force::restored), as a rollback does, without halving the step or recording an event
+  // (bench_steps' rounds on the CPU).
+  void restoreState(std::span<const Vec3> positions, std::span<const Vec3> previous);
   // The time step the last advanceLevel() doubled back to, or 0 when it changed none.
   double restoredTimeStep() const { return restoredTimeStep_; }
   // Every rollback so far, in order.
