@@ -293,11 +293,11 @@ __device__ bool contactWithWarp(const BvhView& v, int own, int other, P3 p, floa
 // Between full searches (contact_planes.h), a thread a vertex; no clearance (it is paid at the
 // full searches). The engine launches it instead of the refit and respondGroup on the branch,
 // writing the collision's own force; where the collision is the step's last force after the
-// profile, the profile's pass takes the planes instead (launchProfileAfterTerms, launchProfileFirst).
-// Done by respondGroup's lanes (16 a
-// vertex below 32,768 vertices), such a step cost about 16 us more than one without collisions at
-// 20,352 vertices (H200, from the steps with a full search every 8 and every 16); with the refit
-// and respondGroup launched to return at once, about 9 us more.
+// profile, the profile's passes take the planes instead (launchProfileAfterTerms,
+// launchProfileFirst). Done by respondGroup's lanes (16 a vertex below 32,768 vertices), such a
+// step cost about 16 us more than one without collisions at 20,352 vertices (H200, from the steps
+// with a full search every 8 and every 16); with the refit and respondGroup launched to return at
+// once, about 9 us more.
 __global__ void respondPlanes(MeshView m, ContactPlanes planes, float3* out) {
   const int i = blockIdx.x * blockDim.x + threadIdx.x;
   if (i >= m.vertices) return;

@@ -1,8 +1,9 @@
 // The collision force between full searches (collision::contactResponse's branch for them): each
 // vertex meets the plane of its deepest contact at the last full search, through that contact's
 // point on the other surface as it is now. As a per-vertex force that two kernels share: the
-// collision's own planes kernel (collision_kernels.cu) and the profile's pass, which adds it after
-// the profile's term where the collision is the step's last force (launchProfileAfterTerms).
+// collision's own planes kernel (collision_kernels.cu) and the profile's passes, which add it after
+// the profile's term where the collision is the step's last force (launchProfileAfterTerms,
+// launchProfileFirst).
 // Host C++ fills the struct (DeviceCollision::contactPlanes); the device function is CUDA only.
 #pragma once
 

@@ -103,8 +103,8 @@ __device__ __forceinline__ void scoreWindows(const float (&w)[kCount + kLength -
 // it can also add the collision's contact planes after the profile (kPlanes), and hold the vertex
 // (planes.heldPrevious not null). So can the pass of the term alone (termFirst, launchProfileFirst),
 // which writes no position either; its hold planes go to planes.hold. Two lanes a vertex are held
-// to 6 blocks an SM (80 registers): at 7 (72) the kernel with the terms spilled 40 bytes (H200, case (a): 42,496
-// vertices 21.6 -> 20.9-21.1 us a step, 2,719,744 vertices 699-702 -> 681-682).
+// to 6 blocks an SM (80 registers): at 7 (72) the kernel with the terms spilled 40 bytes (H200,
+// case (a): 42,496 vertices 21.6 -> 20.9-21.1 us a step, 2,719,744 vertices 699-702 -> 681-682).
 template <int kLength, int kMaxReach, int kLanes, bool kWithTerms, bool kPlanes>
 __global__ void __launch_bounds__(128, kLanes == 1 ? 0 : kLanes == 2 ? 6 : 8) profileLanes(MeshView m, ParamView p, int kDepth, VolumeView vol,
                                                     cudaTextureObject_t image, const float* __restrict__ profiles,

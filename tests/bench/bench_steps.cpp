@@ -1,6 +1,7 @@
-// GPU wall time of a step at the finest level of real scenes, side by side in one process. Each
-// scene's schedule is run on the CUDA backend as sinew-run runs it (in chunks of the report's
-// sample interval under the stability and shape guards, without the samples themselves). Then
+// Wall time of a step on the GPU (or, with --cpu, the CPU) at the finest level of real scenes, side
+// by side in one process. Each scene's schedule is run on the CUDA backend as sinew-run runs it (in
+// chunks of the report's sample interval under the stability and shape guards, without the samples
+// themselves). Then
 // rounds of STEPS steps are timed on each scene in turn, each round from the state the schedule
 // left (so every round does the same work, and the unguarded steps cannot drift into a swing), and
 // the median of the rounds is reported per scene with its ratio to the first scene's. With and
