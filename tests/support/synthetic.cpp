@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <random>
+#include <utility>
 
 namespace sinew::testing {
 
@@ -32,6 +33,14 @@ StructureSpec sphereStructure(const std::string& name, int level, float radius, 
   s.levels = LevelHierarchy::build(m.topology, levels);
   s.initialPositions = m.positions;
   return s;
+}
+
+void addSpherePair(Simulation& sim, float gap) {
+  for (const auto& [name, centre] : {std::pair{"a", Vec3(0, 0, 0)}, std::pair{"b", Vec3(gap, 0, 0)}}) {
+    StructureSpec s = sphereStructure(name, 3, 10.0f, centre);
+    s.referencePositions = s.initialPositions;
+    sim.addStructure(std::move(s));
+  }
 }
 
 Vec3 onEllipsoid(const Vec3& unitDirection, const Vec3& centre, const Vec3& radii) {

@@ -162,11 +162,7 @@ private slots:
   void rollbackSearchesInFullAtOnce() {
     auto make = [] {
       auto sim = std::make_unique<Simulation>(forceRegistry(), 0);
-      for (const auto& [name, centre] : {std::pair{"a", Vec3(0, 0, 0)}, std::pair{"b", Vec3(21, 0, 0)}}) {
-        StructureSpec s = sphereStructure(name, 3, 10.0f, centre);
-        s.referencePositions = s.initialPositions;
-        sim->addStructure(std::move(s));
-      }
+      addSpherePair(*sim, 21.0f);
       sim->addForce("shape_prior");
       sim->addForce("attraction_points");
       ParamTable& collision = sim->addForce("collision");

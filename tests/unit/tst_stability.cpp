@@ -47,11 +47,7 @@ private Q_SLOTS:
   // collision's full searches start again, as after a rollback).
   void restoredStateRunsTheSameSteps() {
     auto sim = std::make_unique<Simulation>(forceRegistry(), 2);
-    for (const auto& [name, centre] : {std::pair{"a", Vec3(0, 0, 0)}, std::pair{"b", Vec3(15.0f, 0, 0)}}) {
-      StructureSpec s = sphereStructure(name, 3, 10.0f, centre);
-      s.referencePositions = s.initialPositions;
-      sim->addStructure(std::move(s));
-    }
+    addSpherePair(*sim, 15.0f);
     sim->addForce("shape_prior");
     ParamTable& collision = sim->addForce("collision");
     collision.setAll("weight", 0.5);
