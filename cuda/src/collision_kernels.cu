@@ -393,10 +393,10 @@ __global__ void __launch_bounds__(kThreads, kWarpLeaves ? kRespondBlocks : 0)
     lastDepth = sum.deepest;
     lastHint = sum.nearestLeaf;
     lastSlack = slackAfterSearch(lastDepth, clearance2, settings.margin);
-    contact[i] = sum.deepestShare >= 0.0f ? contactOn(v, sum.deepestHit, sum.deepestShare, x, centres) : ContactPlane{};
+    // The plane is read only where its share, in an array of its own, says there is one.
+    if (sum.deepestShare >= 0.0f) contact[i] = contactOn(v, sum.deepestHit, sum.deepestShare, x, centres);
     contactShare[i] = sum.deepestShare >= 0.0f ? sum.deepestShare : -1.0f;
   } else {  // clear: a full search's skip leaves no plane (contactResponse)
-    contact[i].share = -1.0f;
     contactShare[i] = -1.0f;
   }
   if (holdPlane) hold[i] = plane;
@@ -433,7 +433,7 @@ __global__ void holdOut(MeshView m, const HoldPlane* hold, const float* contactS
   if (i == 0) advanceStep(motion);
   if (i >= m.vertices || contactShare[i] < 0.0f) return;  // no contact plane: no hold plane (respondGroup)
   const HoldPlane h = hold[i];
-  if (!(h.side < 3.0e38f)) return;  // most vertices: no plane, and no loads of x and prev
+  if (!(h.side < 3.0e38f)) return;  // a contact that does not pull: no plane, and no loads of x and prev
   P3* x = reinterpret_cast<P3*>(m.x);
   P3* previous = reinterpret_cast<P3*>(m.prev);
   P3 p = x[i], q = previous[i];

@@ -18,7 +18,7 @@ namespace sinew::cuda {
 struct ContactPlanes {
   ParamView params;  // the collision force's (its weight: column 0)
   collision::ContactSettings settings;
-  const collision::ContactPlane* contact = nullptr;  // per vertex, from the last full search
+  const collision::ContactPlane* contact = nullptr;  // per vertex, from the last full search; valid where share >= 0
   const float* share = nullptr;  // per vertex, contact's share alone (< 0: none), read first
   float* depth = nullptr;                 // written: the plane's penetration (the next full search's radius)
   float* stiffness = nullptr;             // written where not null: the pull (implicit Euler's Jacobian)

@@ -36,7 +36,7 @@ void DeviceCollision::build(MeshStore& store, const SceneData& scene, const Para
   const auto x = store.positions();
   last_.upload(reinterpret_cast<const float3*>(x.data()), x.size(), stream);
   hold_.resize(store.vertexCount());  // written by every response before the hold reads it
-  contact_.resize(store.vertexCount());  // written by the level's first step (a full search) before any read
+  contact_.resize(store.vertexCount());  // read only where contactShare_ says a full search wrote it
   contactShare_.upload(std::vector<float>(store.vertexCount(), -1.0f), stream);  // none until a full search writes it
   force_.resize(store.vertexCount());  // likewise, before launchCollisionAdd reads it
   motion_.resize(1);

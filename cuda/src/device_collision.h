@@ -30,7 +30,7 @@ public:
   // The full searches' schedule, kept on the host: the steps enqueued at this level (advance), and
   // whether the step `ahead` steps after them searches in full (the level's first does). Between
   // full searches the engine enqueues the contact planes instead of refit and respond
-  // (launchCollisionPlanes, or in the profile's pass), with these (hold null: no hold).
+  // (launchCollisionPlanes, or in the profile's passes), with these (hold null: no hold).
   void advance(int steps) { steps_ += steps; }
   // After a guard's rollback: the next step searches in full (CollisionForce::restored).
   void restart() { steps_ = 0; }

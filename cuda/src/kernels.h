@@ -264,7 +264,8 @@ struct CollisionDevice {
   const unsigned char* exempt = nullptr;  // pairs left out (meshes x meshes), or null
   const float* share = nullptr;           // collision::shareOf's table (meshes x meshes), or null
   collision::HoldPlane* hold = nullptr;  // per vertex, the plane the hold moves it out of after the step
-  collision::ContactPlane* contact = nullptr;  // per vertex, its deepest contact at the last full search
+  // per vertex, its deepest contact at the last full search (valid where contactShare >= 0)
+  collision::ContactPlane* contact = nullptr;
   float* contactShare = nullptr;  // per vertex, contact's share alone: most vertices have none, and read only this
   float3* force = nullptr;  // per vertex, the response's force, apart from m.force (launchCollisionRespond)
   int meshes = 0, nodeCount = 0, leafCount = 0;
