@@ -8,7 +8,7 @@
 # BENCH: other bench_steps binaries to run after this build's on the same scenes (an older
 # build's, side by side). MAKE_SCENE_ARGS: more sinew-make-scene options (e.g. another
 # --structures list); SCHEDULE: iterations per level instead; BENCH_FLAGS: --cpu for the CPU
-# backend. docs/benchmarks.md.
+# backend, --warmup N for N untimed steps before each round. docs/benchmarks.md.
 # Usage: bash scripts/collision-step-time.sh BUILD_DIR OUT_DIR ["3 4"]
 set -euo pipefail
 cd "$(dirname "$0")/.."

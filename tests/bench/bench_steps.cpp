@@ -11,7 +11,10 @@
 // scripts/collision-step-time.sh makes the scenes; docs/benchmarks.md. With --cpu the same on the
 // CPU backend (all hardware threads), each round from the schedule's end state put back
 // (Simulation::restoreState), each step as sinew-run steps it (with the numerical guard's check).
-//   bench_steps [--cpu] STEPS ROUNDS SCENE.json...
+// With --warmup N, each round first runs N steps untimed: putting the state back is a rollback to
+// the forces, so the collision's first full search after it finds no clearance left (every vertex
+// searches), which a run pays once a level and after a rollback, not every STEPS steps.
+//   bench_steps [--cpu] [--warmup N] STEPS ROUNDS SCENE.json...
 #include "synthetic.h"
 #include "sinew/core/scene.h"
 #include "sinew/core/scene_runner.h"
@@ -29,10 +32,18 @@
 using namespace sinew;
 
 int main(int argc, char** argv) {
-  const bool cpu = argc > 1 && std::string(argv[1]) == "--cpu";
-  if (cpu) --argc, ++argv;
-  if (argc < 4) {
-    std::fprintf(stderr, "usage: bench_steps [--cpu] STEPS ROUNDS SCENE.json...\n");
+  bool cpu = false, usable = true;
+  int warmup = 0;
+  while (usable && argc > 1 && std::string(argv[1]).rfind("--", 0) == 0) {
+    const std::string flag = argv[1];
+    const int taken = flag == "--warmup" ? 2 : 1;
+    if (flag == "--cpu") cpu = true;
+    else if (flag == "--warmup" && argc > 2) warmup = std::atoi(argv[2]);
+    else usable = false;
+    argc -= taken, argv += taken;
+  }
+  if (!usable || argc < 4 || warmup < 0) {
+    std::fprintf(stderr, "usage: bench_steps [--cpu] [--warmup N] STEPS ROUNDS SCENE.json...\n");
     return 2;
   }
   const int steps = std::atoi(argv[1]), rounds = std::atoi(argv[2]);
@@ -88,6 +99,8 @@ int main(int argc, char** argv) {
         Simulation& sim = r.runner->simulation();
         if (r.engine) r.engine->restoreState();
         else sim.restoreState(r.positions, r.previous);
+        if (warmup > 0 && r.engine) r.engine->run(warmup);  // (it waits for the device)
+        else if (warmup > 0) sim.run(warmup);
         const auto t0 = Clock::now();
         if (r.engine) r.engine->run(steps);
         else sim.run(steps);
@@ -97,7 +110,8 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "bench_steps: %s\n", e.what());
     return 1;
   }
-  std::printf("device: %s; %d rounds of %d steps a scene, alternated\n\n", device.c_str(), rounds, steps);
+  std::printf("device: %s; %d rounds of %d steps a scene (each after %d untimed), alternated\n\n", device.c_str(), rounds,
+              steps, warmup);
   std::printf("| scene | vertices | us a step (median) | fastest round | ratio to the first |\n| --- | ---: | ---: | ---: | ---: |\n");
   double first = 0;
   for (Run& r : runs) {
