@@ -1,0 +1,115 @@
+#include "collision_scenes.h"
+
+#include "sinew/core/collision_tree.h"
+#include "sinew/core/voxelize.h"
+
+#include <algorithm>
+
+namespace sinew::testing {
+namespace {
+
+// A stand-in for an image force that holds a boundary inside another structure: a constant push
+// along +x of structure 0's cap beyond x = 8 mm (alpha times the vertex's mass, as the collision
+// pull scales).
+class PressForce final : public Force {
+public:
+  Requirements requirements() const override { return {.attributes = {Attribute::Mass}}; }
+  void accumulate(ForceContext& ctx, std::span<Vec3> forces) override {
+    const float alpha = ctx.params.getf(0, 0);
+    const auto mass = ctx.store.masses();
+    const auto x = ctx.store.positions();
+    const MeshRange& r = ctx.store.range(0);
+    for (Index v = r.vertexBegin; v < r.vertexEnd; ++v)
+      if (x[v].x() > 8.0f) forces[v] += alpha * mass[v] * Vec3(1, 0, 0);
+  }
+};
+const Registry& pressRegistry() {
+  static const Registry registry = [] {
+    Registry r;
+    registerBuiltinForces(r);
+    r.addForce({"press", "pushes structure 0 along +x", {}, [] { return std::make_unique<PressForce>(); }});
+    return r;
+  }();
+  return registry;
+}
+
+}  // namespace
+
+std::unique_ptr<Simulation> collidingSpheres(float gap, float weight, float innerRadius, const std::string& integrator,
+                                             double timeStep, double sizeShare) {
+  auto sim = std::make_unique<Simulation>(forceRegistry(), 2);
+  for (const auto& [name, radius, centre] :
+       {std::tuple{"a", 10.0f, Vec3(0, 0, 0)}, std::tuple{"b", innerRadius, Vec3(gap, 0, 0)}}) {
+    StructureSpec s = sphereStructure(name, 3, radius, centre);
+    s.referencePositions = s.initialPositions;
+    sim->addStructure(std::move(s));
+  }
+  sim->addForce("shape_prior");
+  if (weight > 0.0f) {
+    ParamTable& collision = sim->addForce("collision");
+    collision.setAll("weight", weight);
+    collision.setAll("size_share", sizeShare);
+  }
+  sim->setIntegrator(integrator).set(0, "time_step", timeStep);
+  sim->initialize();
+  return sim;
+}
+
+double pairOverlap(Simulation& sim) { return overlapVolume(tessellationOf(sim.store(), 0), tessellationOf(sim.store(), 1), 0.5); }
+
+double largestStep(Simulation& sim) {
+  double worst = 0.0;
+  for (Index v = 0; v < sim.store().vertexCount(); ++v)
+    worst = std::max(worst, double((sim.store().positions()[v] - sim.store().previousPositions()[v]).norm()));
+  return worst;
+}
+
+std::vector<double> largestStepPerHundred(Simulation& sim, int blocks) {
+  std::vector<double> out;
+  for (int b = 0; b < blocks; ++b) {
+    double largest = 0.0;
+    for (int i = 0; i < 100; ++i) {
+      sim.step();
+      largest = std::max(largest, largestStep(sim));
+    }
+    out.push_back(largest);
+  }
+  return out;
+}
+
+std::unique_ptr<Simulation> pressedCap(float radiusA, Vec3 centreA, float radiusB, Vec3 centreB, double hold,
+                                       int steps) {
+  auto sim = std::make_unique<Simulation>(pressRegistry(), 2);
+  for (const auto& [name, radius, centre] : {std::tuple{"a", radiusA, centreA}, std::tuple{"b", radiusB, centreB}}) {
+    StructureSpec s = sphereStructure(name, 3, radius, centre);
+    s.referencePositions = s.initialPositions;
+    sim->addStructure(std::move(s));
+  }
+  sim->addForce("shape_prior");
+  ParamTable& press = sim->addForce("press");
+  press.set(0, "weight", 0.1);
+  press.set(1, "weight", 0.0);
+  ParamTable& collision = sim->addForce("collision");
+  collision.set(0, "weight", 0.5);
+  collision.set(1, "weight", 0.0);
+  collision.setAll("hold_mm", hold);
+  sim->setIntegrator("damped_verlet").set(0, "time_step", 0.5);
+  sim->initialize();
+  sim->run(steps);
+  return sim;
+}
+
+double deepestInside(Simulation& sim, Index own, Index other) {
+  CollisionTree tree = CollisionTree::build(sim.store());
+  const collision::BvhView view = tree.view();
+  MeshStore& s = sim.store();
+  const collision::P3* x = asP3(s.positions());
+  double deepest = 0.0;
+  for (Index v = s.range(own).vertexBegin; v < s.range(own).vertexEnd; ++v) {
+    const collision::Hit h = collision::closestPoint(view, int(other), x[v], x, asP3(s.cellCentres()), 3.0e38f);
+    deepest = std::max(deepest, double(-h.side));
+  }
+  return deepest;
+}
+
+}  // namespace sinew::testing

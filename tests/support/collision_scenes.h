@@ -1,0 +1,38 @@
+// The collision tests' scenes and measures (tst_collision, tst_collision_schedule): two spheres
+// pushed together, a cap pressed into another structure, overlap volumes and the largest steps.
+#pragma once
+
+#include "synthetic.h"
+
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace sinew::testing {
+
+// Two spheres of radius 10 mm and `innerRadius` (each its own reference, held by the shape prior),
+// `gap` between centres; with the collision force weighted `weight` (none at 0).
+std::unique_ptr<Simulation> collidingSpheres(float gap, float weight, float innerRadius = 10.0f,
+                                             const std::string& integrator = "damped_verlet", double timeStep = 0.5,
+                                             double sizeShare = 2.0);
+
+// The overlap of structures 0 and 1 (mm^3, voxelised on a 0.5 mm grid).
+double pairOverlap(Simulation& sim);
+
+// The largest motion of any vertex in the last step (mm).
+double largestStep(Simulation& sim);
+
+// The largest per-step motion over each of `blocks` blocks of 100 steps.
+std::vector<double> largestStepPerHundred(Simulation& sim, int blocks);
+
+// Structure a's cap (x beyond 8 mm) pressed by a constant force along +x (weight 0.1 times the
+// vertex's mass, as the collision's pull scales: the force "press", a stand-in for an image force
+// that holds a boundary inside another structure) into structure b, which does not respond
+// (collision weight 0), for `steps` steps; spheres of the given radii and centres.
+std::unique_ptr<Simulation> pressedCap(float radiusA, Vec3 centreA, float radiusB, Vec3 centreB, double hold,
+                                       int steps = 400);
+
+// The deepest any vertex of structure `own` lies inside structure `other` (mm; 0 when none does).
+double deepestInside(Simulation& sim, Index own, Index other);
+
+}  // namespace sinew::testing
