@@ -84,8 +84,8 @@ int main(int argc, char** argv) {
   cli.add_option("--collision-margin-mm", collisionMargin, "distance the collision force keeps between structures")
       ->check(CLI::Range(0.0, 5.0))->capture_default_str();
   cli.add_option("--collision-search-every", collisionSearchEvery,
-                 "a full contact search every this many steps, contact planes in between (default: 16 for schedules "
-                 "of up to 4 levels, 1 for finer ones)")
+                 "a full contact search every this many steps, contact planes in between (default 16; schedules of "
+                 "5 levels or more also search in full at each level's first 8 steps)")
       ->check(CLI::Range(1, 16));
   cli.add_option("--contact-weight", contactWeight,
                  "weight of the deforming contacts (springs keeping the initialised model's relative placement of "
@@ -186,11 +186,14 @@ int main(int argc, char** argv) {
     if (counts.empty() || counts.size() > 6) throw sinew::InputError("--iterations: give 1 to 6 counts");
     // A full search every 16 steps (contact planes between) cost nothing measurable in accuracy at 3
     // and 4 levels (18 new subjects, demo seeds 1-8 and 1-5) and takes a third of the collisions'
-    // GPU time or less; at 5 levels fewer full searches cost mean ASSD (every 8: 0.004-0.008 mm;
-    // every 2, on the CPU: 0.002 mm; docs/collisions.md).
-    if (collisionSearchEvery == 0) collisionSearchEvery = counts.size() <= 4 ? 16 : 1;
-    if (collisions)
+    // GPU time or less. At 5 levels and more it lost accuracy at the levels' first steps, where the
+    // structures move the most: there the first 8 steps search in full as well (demo seeds 1-10,
+    // as accurate as a search every step on CUDA; docs/collisions.md).
+    if (collisionSearchEvery == 0) collisionSearchEvery = 16;
+    if (collisions) {
       scene["forces"]["collision"] = {{"weight", 0.0}, {"margin_mm", collisionMargin}, {"full_search_every", collisionSearchEvery}};
+      if (counts.size() > 4 && collisionSearchEvery > 1) scene["forces"]["collision"]["full_search_first"] = 8;
+    }
     if (contactWeight < 0.0) contactWeight = subject ? kSubjectContactWeight : 0.0;
     const bool contacts = contactWeight > 0.0 && items.size() >= 2 && counts.size() >= 2;
     if (contacts) {

@@ -176,6 +176,8 @@ collision::ContactSettings contactSettingsOf(const ParamTable& params) {
 
 int fullSearchEveryOf(const ParamTable& params) { return std::max(1, int(params.get(0, params.indexOf("full_search_every")))); }
 
+int fullSearchFirstOf(const ParamTable& params) { return std::max(0, int(params.get(0, params.indexOf("full_search_first")))); }
+
 void CollisionTree::setShares(MeshStore& store, const ParamTable& collisionParams) {
   share.clear();
   const double exponent = collisionParams.get(0, collisionParams.indexOf("size_share"));

@@ -592,9 +592,9 @@ void CudaEngine::run(int iterations) {
     for (; iterations > 0; iterations -= std::min(iterations, kBatch)) {
       const int n = std::min(iterations, kBatch);
       const ForceSlot* collisionSlot = I.activeCollision();
-      const int phase = collisionSlot ? I.collision.phase(I.sim.forceParams(collisionSlot->name)) : 0;
+      const int schedule = collisionSlot ? I.collision.schedule(I.sim.forceParams(collisionSlot->name)) : 0;
       I.collisionAhead = 0;
-      I.graphs.enqueue(n, phase, I.view, I.stream, [&](bool last) { I.enqueueStep(last); });
+      I.graphs.enqueue(n, schedule, I.view, I.stream, [&](bool last) { I.enqueueStep(last); });
       if (collisionSlot) I.collision.advance(n);
     }
   } catch (...) {

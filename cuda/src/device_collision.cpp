@@ -42,7 +42,7 @@ void DeviceCollision::build(MeshStore& store, const SceneData& scene, const Para
   motion_.resize(1);
   SINEW_CUDA(cudaMemsetAsync(motion_.get(), 0, motion_.bytes(), stream));
   meshes_ = int(tree.roots.size());
-  steps_ = 0;
+  steps_ = levelSteps_ = 0;
   SINEW_CUDA(cudaStreamSynchronize(stream));  // the host vectors go out of scope
 }
 
@@ -66,10 +66,13 @@ float DeviceCollision::respond(const MeshView& m, ParamView p, const ParamTable&
   return settings.hold;
 }
 
-int DeviceCollision::phase(const ParamTable& params) const { return int(steps_ % fullSearchEveryOf(params)); }
+int DeviceCollision::schedule(const ParamTable& params) const {
+  const int every = fullSearchEveryOf(params);
+  return int(std::min<long>(levelSteps_, fullSearchFirstOf(params))) * every + int(steps_ % every);
+}
 
 bool DeviceCollision::searchesAt(int ahead, const ParamTable& params) const {
-  return (steps_ + ahead) % fullSearchEveryOf(params) == 0;
+  return (steps_ + ahead) % fullSearchEveryOf(params) == 0 || levelSteps_ + ahead < fullSearchFirstOf(params);
 }
 
 ContactPlanes DeviceCollision::contactPlanes(ParamView p, const ParamTable& params) const {

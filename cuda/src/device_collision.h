@@ -28,13 +28,16 @@ public:
   void refit(const MeshView& m, cudaStream_t stream) const;
   float respond(const MeshView& m, ParamView p, const ParamTable& params, cudaStream_t stream) const;
   // The full searches' schedule, kept on the host: the steps enqueued at this level (advance), and
-  // whether the step `ahead` steps after them searches in full (the level's first does). Between
-  // full searches the engine enqueues the contact planes instead of refit and respond
-  // (launchCollisionPlanes, or in the profile's passes), with these (hold null: no hold).
-  void advance(int steps) { steps_ += steps; }
+  // whether the step `ahead` steps after them searches in full (the level's first does, and its
+  // first full_search_first). Between full searches the engine enqueues the contact planes instead
+  // of refit and respond (launchCollisionPlanes, or in the profile's passes), with these (hold
+  // null: no hold).
+  void advance(int steps) { steps_ += steps, levelSteps_ += steps; }
   // After a guard's rollback: the next step searches in full (CollisionForce::restored).
   void restart() { steps_ = 0; }
-  int phase(const ParamTable& params) const;
+  // What decides which of a batch's steps search in full (StepGraphs' variant): the place between
+  // full searches, and while a level's first steps search, how many have gone.
+  int schedule(const ParamTable& params) const;
   bool searchesAt(int ahead, const ParamTable& params) const;
   ContactPlanes contactPlanes(ParamView p, const ParamTable& params) const;
   std::size_t bytes() const;
@@ -56,7 +59,8 @@ private:
   DeviceArray<float> share_;
   int meshes_ = 0;
   bool climb_ = false;
-  long steps_ = 0;  // the level's steps enqueued
+  long steps_ = 0;       // the steps enqueued since the level began or a rollback
+  long levelSteps_ = 0;  // the steps enqueued since the level began
 };
 
 }  // namespace sinew::cuda

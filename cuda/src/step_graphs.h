@@ -27,8 +27,8 @@ public:
   // Enqueues n steps on `stream`: the captured batch for (n, view.x, view.prev, variant), captured
   // first from enqueueStep(last) (which enqueues one step and may move view.x and view.prev to
   // other buffers; last: whether it is the batch's last step) when there is none. variant: what
-  // else decides the steps' kernels (the collisions' full searches: the batch's first step's place
-  // between them). view leaves as the steps leave it.
+  // else decides the steps' kernels (the collisions' full searches: DeviceCollision::schedule).
+  // view leaves as the steps leave it.
   void enqueue(int n, int variant, MeshView& view, cudaStream_t stream, const std::function<void(bool last)>& enqueueStep);
 
 private:

@@ -43,6 +43,29 @@ private slots:
       QVERIFY(steps.back() < 0.01);
     }
   }
+  // full_search_first: a level's first steps search in full besides the schedule. Every 16 steps
+  // with the first 4 in full runs those 4 as a search every step does; without them, steps 1-3 meet
+  // step 0's planes and end elsewhere. Rollbacks do not count (CollisionForce::restored).
+  void levelsFirstStepsSearchInFull() {
+    const auto positionsAfter = [](int every, int first, int steps) {
+      auto sim = collidingSpheres(15.0f, 0.5f);
+      sim->forceParams("collision").setAll("full_search_every", every);
+      sim->forceParams("collision").setAll("full_search_first", first);
+      sim->run(steps);
+      return std::vector<Vec3>(sim->store().positions().begin(), sim->store().positions().end());
+    };
+    const auto largestGap = [](const std::vector<Vec3>& a, const std::vector<Vec3>& b) {
+      double gap = 0.0;
+      for (size_t i = 0; i < a.size(); ++i) gap = std::max(gap, double((a[i] - b[i]).norm()));
+      return gap;
+    };
+    const auto everyStep = positionsAfter(1, 0, 4);
+    const double first = largestGap(positionsAfter(16, 4, 4), everyStep);
+    const double planes = largestGap(positionsAfter(16, 0, 4), everyStep);
+    qInfo("after 4 steps, from a search every step: %.3g mm with the first 4 in full, %.3g mm without", first, planes);
+    QVERIFY(first < 1e-6);
+    QVERIFY(planes > 1e-3);
+  }
   // How far a full search looks (collision::fullSearchBound): its last depth, the margin, the
   // reach and twice its last step, as every step; with full searches every few steps twice that
   // step again for each further step until the next one, but at most ahead_mm more (the trembling

@@ -152,11 +152,36 @@ private slots:
     QVERIFY(bytesAfter(*two) > bytesAfter(*twoOff));
   }
 
+  // full_search_first on the device (DeviceCollision::searchesAt): two overlapping spheres, a full
+  // search every 16 steps and at the first 6, 40 steps in batches of 32 and 8, captured per schedule
+  // (DeviceCollision::schedule: the first batch's with the first steps, the second's without).
+  void levelsFirstStepsSearchInFull() {
+    const ParityRun r = runOnBoth(
+        [] {
+          auto sim = std::make_unique<Simulation>(forceRegistry(), 0);
+          addSpherePair(*sim, 15.0f);
+          sim->addForce("shape_prior");
+          ParamTable& collision = sim->addForce("collision");
+          collision.setAll("weight", 0.5);
+          collision.setAll("full_search_every", 16);
+          collision.setAll("full_search_first", 6);
+          sim->setIntegrator("damped_verlet").set(0, "time_step", 0.5);
+          sim->initialize();
+          return sim;
+        },
+        40);
+    qInfo("every 16 steps and the first 6: max CPU-CUDA difference %.3g mm after 40 steps (vertices pushed up to %.3g mm)",
+          r.cpuCuda, r.moved);
+    QVERIFY(r.moved > 1.0);
+    QVERIFY2(r.cpuCuda < 1e-3, qPrintable(QString::number(r.cpuCuda)));
+    QCOMPARE(r.deviceRepeat, 0.0);
+  }
+
   // After a guard's rollback on the device (Simulation::recover, then CudaEngine::restoreState, as
   // SceneRunner does) the next step searches in full, as the CPU's force does
-  // (tst_collision::rollbackSearchesInFullAtOnce). Structure a must include a point 2 mm inside b;
-  // the include point wins over the collision (a's cap ends about 2.25 mm past b's surface), so the
-  // two stay in contact throughout. During the undone steps, whose full search (step 32) sees them,
+  // (tst_collision_schedule::rollbackSearchesInFullAtOnce). Structure a must include a point 2 mm
+  // inside b; the include point wins over the collision (a's cap ends about 2.25 mm past b's
+  // surface), so the two stay in contact throughout. During the undone steps, whose full search (step 32) sees them,
   // the point is off. A device that kept that search's planes after the rollback ended 0.092 mm
   // from the CPU, which searches in full at once (H200, 2026-11-29).
   void rollbackSearchesInFullAtOnce() {

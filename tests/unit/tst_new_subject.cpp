@@ -99,13 +99,16 @@ private slots:
     QVERIFY2(r.code == 0, qPrintable(r.err));
     QVERIFY(!readJson(path("nocontacts.json")).contains("contact_pairs"));
     QVERIFY(!readJson(path("nocontacts.json"))["forces"].toObject().contains("contacts"));
-    // A full contact search every 16 steps (contact planes between) for up to 4 levels, every step
-    // for finer schedules (docs/collisions.md).
+    // A full contact search every 16 steps (contact planes between); finer schedules (5 levels and
+    // more) search in full at each level's first 8 steps too (docs/collisions.md).
     QCOMPARE(scene["forces"].toObject()["collision"].toObject()["full_search_every"].toInt(), 16);
     r = runTool(SINEW_MAKE_SCENE, {"--model", model_, "--target", subject_ + "/image.nii.gz", "--structures",
                                    "Hippocampus_L,Amygdala_L", "--iterations", "5,5,5,5,5", "-o", path("fine.json")});
     QVERIFY2(r.code == 0, qPrintable(r.err));
-    QCOMPARE(readJson(path("fine.json"))["forces"].toObject()["collision"].toObject()["full_search_every"].toInt(), 1);
+    const QJsonObject fine = readJson(path("fine.json"))["forces"].toObject()["collision"].toObject();
+    QCOMPARE(fine["full_search_every"].toInt(), 16);
+    QCOMPARE(fine["full_search_first"].toInt(), 8);
+    QVERIFY(!scene["forces"].toObject()["collision"].toObject().contains("full_search_first"));
     run_ = path("run");
     r = runTool(SINEW_RUN, {scene_, "-o", run_, "-q", "--backend", "cpu"});
     QVERIFY2(r.code == 0, qPrintable(r.err));

@@ -31,6 +31,7 @@ public:
     const auto x = ctx.store.positions();
     last_.assign(x.begin(), x.end());
     step_ = 0;
+    levelStep_ = 0;
     builtFor_ = ctx.store.vertexCount();
     checked_ = false;
     if (ctx.store.meshCount() >= 2 && ctx.params.anyPositive(0)) {
@@ -50,7 +51,8 @@ public:
       tree_.handleEnclosures(s, ctx.scene, margin, ctx.params.getf(0, ctx.params.indexOf("ignore_enclosed")) > 0.5f);
     }
     const int every = fullSearchEveryOf(ctx.params);
-    const bool full = step_++ % every == 0;
+    const bool full = step_++ % every == 0 || levelStep_ < fullSearchFirstOf(ctx.params);
+    ++levelStep_;
     if (full) tree_.refit(s.positions(), s.cellCentres(), ctx.executor);  // only full searches read the boxes
     const collision::ContactSettings settings = contactSettingsOf(ctx.params);
     const collision::BvhView view = tree_.view();
@@ -130,7 +132,8 @@ private:
   std::vector<collision::ContactPlane> plane_;  // each vertex's deepest contact at the last full search
   std::vector<float> moved_;
   std::vector<Vec3> last_;    // the positions the last full search saw
-  long step_ = 0;  // steps at this level: every full_search_every-th one searches in full
+  long step_ = 0;       // steps since the level began or a rollback: every full_search_every-th one searches in full
+  long levelStep_ = 0;  // steps since the level began, rollbacks or not (full_search_first)
 };
 }  // namespace
 
@@ -145,7 +148,8 @@ void registerCollisionForce(Registry& registry) {
                       {"retreat_mm", 0.25, 0.0, 5.0, "mm", "a vertex that has gone past the middle of another structure (its nearest surface there faces the way its own does) is pushed back into its own structure, as if pulled toward a point this far behind it along its normal, instead of on through", false},
                       {"hold_mm", 0.1, -1.0, 5.0, "mm", "after each step, a vertex pulled by a contact is moved out to at least this far outside the plane of that contact; negative: no hold", false},
                       {"size_share", 2.0, 0.0, 8.0, "", "how two structures in contact share the correction: a vertex takes min(1, 2 a^p / (a^p + b^p)) of it, a its structure's surface area, b the other's, p this; the larger gives way more; against a structure weighted 0 a vertex takes all; 0: both take all of it", false},
-                      {"full_search_every", 1, 1, 16, "steps", "a full contact search every this many steps; in between, each vertex meets only the plane of the deepest contact the last full search found, moved with that surface (sinew-make-scene writes 16 for schedules of up to 4 levels)", false},
+                      {"full_search_every", 1, 1, 16, "steps", "a full contact search every this many steps; in between, each vertex meets only the plane of the deepest contact the last full search found, moved with that surface (sinew-make-scene writes 16)", false},
+                      {"full_search_first", 0, 0, 1000, "steps", "with full_search_every above 1: a full search at each of a level's first this many steps as well, where the structures move the most (sinew-make-scene writes 8 for schedules of 5 levels or more)", false},
                       {"ahead_mm", 0.5, 0.0, 50.0, "mm", "with full_search_every above 1: how much farther, at most, a full search looks for the contacts a vertex may meet before the next one (twice its last step for each step until then, beyond the first)", false},
                       {"ignore_enclosed", 0.0, 0.0, 1.0, "", "1: a structure lying inside another by design (nested labels) is left out of collisions with it; 0: such a pair stops the run with the reason", false}},
                      [] { return std::make_unique<CollisionForce>(); }});

@@ -56,6 +56,8 @@ struct CollisionTree {
 // of collision::contactResponse, and how many steps a full search covers (at least 1).
 collision::ContactSettings contactSettingsOf(const ParamTable& collisionParams);
 int fullSearchEveryOf(const ParamTable& collisionParams);
+// How many of a level's first steps search in full besides (full_search_first, at least 0).
+int fullSearchFirstOf(const ParamTable& collisionParams);
 
 // Per vertex of the store, 1 where it lies inside another structure or within `margin` of its
 // surface (pairs nested by design left out): the contact regions a view shows. Builds its own
