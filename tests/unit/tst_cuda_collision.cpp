@@ -2,6 +2,7 @@
 // device, the full searches' response and the contact planes between them, against the CPU's
 // plugin running the same code (core/collision_bvh.h). Skips without a GPU. (The contact planes
 // in the profile's pass: tst_cuda_profile; deforming contacts beside collisions: tst_cuda_parity.)
+#include "collision_scenes.h"
 #include "parity_scene.h"
 #include "sinew/core/types.h"
 #include "sinew/cuda/cuda_engine.h"
@@ -158,15 +159,9 @@ private slots:
   void levelsFirstStepsSearchInFull() {
     const ParityRun r = runOnBoth(
         [] {
-          auto sim = std::make_unique<Simulation>(forceRegistry(), 0);
-          addSpherePair(*sim, 15.0f);
-          sim->addForce("shape_prior");
-          ParamTable& collision = sim->addForce("collision");
-          collision.setAll("weight", 0.5);
-          collision.setAll("full_search_every", 16);
-          collision.setAll("full_search_first", 6);
-          sim->setIntegrator("damped_verlet").set(0, "time_step", 0.5);
-          sim->initialize();
+          auto sim = collidingSpheres(15.0f, 0.5f);
+          sim->forceParams("collision").setAll("full_search_every", 16);
+          sim->forceParams("collision").setAll("full_search_first", 6);
           return sim;
         },
         40);
