@@ -79,7 +79,7 @@ void CollisionTree::refit(std::span<const Vec3> positions, std::span<const Vec3>
 
 std::string CollisionTree::Enclosure::message(const SceneData& scene, float margin) const {
   return "collision: structure '" + scene.structureName(inner) + "' lies inside structure '" + scene.structureName(outer) +
-         "' (" + std::to_string(inside) + " of its " + std::to_string(vertices) + " vertices inside it or within the " +
+         "' (" + std::to_string(inside) + " of " + std::to_string(vertices) + " of its vertices, sampled evenly, inside it or within the " +
          std::to_string(margin).substr(0, 4) + " mm margin of its surface), which no contact response can separate; "
          "correct the initialisation of one of them, or, if one lies inside the other by design (nested labels), "
          "set the collision force's ignore_enclosed to 1";
@@ -102,25 +102,30 @@ std::vector<CollisionTree::Enclosure> CollisionTree::findEnclosures(MeshStore& s
       const float overlapZ = std::min(a.hi.z, b.hi.z + margin) - std::max(a.lo.z, b.lo.z - margin);
       if (overlapX < 0.5f * (a.hi.x - a.lo.x) || overlapY < 0.5f * (a.hi.y - a.lo.y) || overlapZ < 0.5f * (a.hi.z - a.lo.z))
         continue;
-      // Chunk by chunk (each in parallel), stopping as soon as more than (1 - fraction) of the
-      // vertices are clear of it: most pairs stop after the first chunk.
-      const Index allowedOutside = r.vertexCount() - Index(std::ceil(fraction * float(r.vertexCount())));
-      constexpr Index kChunk = 4096;
+      // An even sample of at most kSample of its vertices (every vertex of a smaller structure),
+      // chunk by chunk (each in parallel), stopping as soon as more than (1 - fraction) of the
+      // sample is clear of it: most pairs stop after the first chunk. Every vertex, 4,096 at a
+      // time, took the check 150-280 ms a level on two cores at 81,408-325,632 vertices; the
+      // fraction is a threshold for a gross error, which a sample of 512 finds as well.
+      constexpr Index kSample = 512, kChunk = 128;
+      const Index stride = (r.vertexCount() + kSample - 1) / kSample;
+      const Index sampled = (r.vertexCount() + stride - 1) / stride;
+      const Index allowedOutside = sampled - Index(std::ceil(fraction * float(sampled)));
       Index outside = 0;
-      for (Index begin = r.vertexBegin; begin < r.vertexEnd && outside <= allowedOutside; begin += kChunk) {
-        const Index count = std::min(kChunk, r.vertexEnd - begin);
+      for (Index begin = 0; begin < sampled && outside <= allowedOutside; begin += kChunk) {
         outside += store.executor().reduce(
-            begin, begin + count, Index(0),
+            begin, std::min(begin + kChunk, sampled), Index(0),
             [&](Index b, Index e, Index acc) {
-              for (Index i = b; i < e; ++i) {
+              for (Index k = b; k < e; ++k) {
+                const Index i = r.vertexBegin + k * stride;
                 const collision::Hit h = collision::closestPoint(v, int(outer), x[i], x, c, 3.0e38f);
                 acc += h.d2 < 3.0e38f && h.side < margin ? 0 : 1;
               }
               return acc;
             },
-            std::plus<Index>(), 256);
+            std::plus<Index>(), 16);
       }
-      if (outside <= allowedOutside) found.push_back({inner, outer, r.vertexCount() - outside, r.vertexCount()});
+      if (outside <= allowedOutside) found.push_back({inner, outer, sampled - outside, sampled});
     }
   }
   return found;

@@ -39,11 +39,12 @@ struct CollisionTree {
   void setShares(MeshStore& store, const ParamTable& collisionParams);
 
   // A structure that lies inside another (or on it: two copies of one mesh), which no contact
-  // response can separate: at least `fraction` of its vertices inside the other or within the
-  // margin of its surface. Unbounded searches: meant once per level, not every step.
+  // response can separate: at least `fraction` of its vertices (an even sample of at most 512)
+  // inside the other or within the margin of its surface. Unbounded searches: meant once per
+  // level, not every step.
   struct Enclosure {
     Index inner = -1, outer = -1;
-    Index inside = 0, vertices = 0;
+    Index inside = 0, vertices = 0;  // of the inner structure's vertices sampled
     std::string message(const SceneData& scene, float margin) const;
   };
   std::vector<Enclosure> findEnclosures(MeshStore& store, float margin, float fraction = 0.9f);
