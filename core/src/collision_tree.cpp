@@ -108,7 +108,7 @@ std::vector<CollisionTree::Enclosure> CollisionTree::findEnclosures(MeshStore& s
       // time, took the check 150-280 ms a level on two cores at 81,408-325,632 vertices; the
       // fraction is a threshold for a gross error, which a sample of 512 finds as well.
       constexpr Index kSample = 512, kChunk = 128;
-      const Index stride = (r.vertexCount() + kSample - 1) / kSample;
+      const Index stride = std::max<Index>(1, (r.vertexCount() + kSample - 1) / kSample);
       const Index sampled = (r.vertexCount() + stride - 1) / stride;
       const Index allowedOutside = sampled - Index(std::ceil(fraction * float(sampled)));
       Index outside = 0;
