@@ -79,7 +79,7 @@ void CollisionTree::refit(std::span<const Vec3> positions, std::span<const Vec3>
 
 std::string CollisionTree::Enclosure::message(const SceneData& scene, float margin) const {
   return "collision: structure '" + scene.structureName(inner) + "' lies inside structure '" + scene.structureName(outer) +
-         "' (" + std::to_string(inside) + " of " + std::to_string(vertices) + " of its vertices, sampled evenly, inside it or within the " +
+         "' (" + std::to_string(inside) + " of " + std::to_string(sampled) + " of its vertices, sampled evenly, inside it or within the " +
          std::to_string(margin).substr(0, 4) + " mm margin of its surface), which no contact response can separate; "
          "correct the initialisation of one of them, or, if one lies inside the other by design (nested labels), "
          "set the collision force's ignore_enclosed to 1";

@@ -4,6 +4,7 @@
 #include "sinew/core/voxelize.h"
 
 #include <algorithm>
+#include <tuple>
 
 namespace sinew::testing {
 namespace {
@@ -38,12 +39,7 @@ const Registry& pressRegistry() {
 std::unique_ptr<Simulation> collidingSpheres(float gap, float weight, float innerRadius, const std::string& integrator,
                                              double timeStep, double sizeShare) {
   auto sim = std::make_unique<Simulation>(forceRegistry(), 2);
-  for (const auto& [name, radius, centre] :
-       {std::tuple{"a", 10.0f, Vec3(0, 0, 0)}, std::tuple{"b", innerRadius, Vec3(gap, 0, 0)}}) {
-    StructureSpec s = sphereStructure(name, 3, radius, centre);
-    s.referencePositions = s.initialPositions;
-    sim->addStructure(std::move(s));
-  }
+  addSpherePair(*sim, gap, innerRadius);
   sim->addForce("shape_prior");
   if (weight > 0.0f) {
     ParamTable& collision = sim->addForce("collision");

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <random>
+#include <tuple>
 #include <utility>
 
 namespace sinew::testing {
@@ -35,9 +36,9 @@ StructureSpec sphereStructure(const std::string& name, int level, float radius, 
   return s;
 }
 
-void addSpherePair(Simulation& sim, float gap) {
-  for (const auto& [name, centre] : {std::pair{"a", Vec3(0, 0, 0)}, std::pair{"b", Vec3(gap, 0, 0)}}) {
-    StructureSpec s = sphereStructure(name, 3, 10.0f, centre);
+void addSpherePair(Simulation& sim, float gap, float radiusB) {
+  for (const auto& [name, radius, centre] : {std::tuple{"a", 10.0f, Vec3(0, 0, 0)}, std::tuple{"b", radiusB, Vec3(gap, 0, 0)}}) {
+    StructureSpec s = sphereStructure(name, 3, radius, centre);
     s.referencePositions = s.initialPositions;
     sim.addStructure(std::move(s));
   }

@@ -22,9 +22,10 @@ std::vector<Vec3> withNoise(std::vector<Vec3> points, float sigma, unsigned seed
 StructureSpec sphereStructure(const std::string& name, int level, float radius, const Vec3& centre,
                               int levels = 1);
 
-// Two spheres of radius 10 mm (level-3 icosphere duals), "a" at the origin and "b" `gap` mm along
-// +x, each its own reference shape, added to `sim` in that order (the collision tests' pair).
-void addSpherePair(Simulation& sim, float gap);
+// Two spheres (level-3 icosphere duals), "a" of radius 10 mm at the origin and "b" of `radiusB`
+// `gap` mm along +x, each its own reference shape, added to `sim` in that order (the collision
+// tests' pair).
+void addSpherePair(Simulation& sim, float gap, float radiusB = 10.0f);
 
 // Maps a point of the unit sphere around `centre` onto the ellipsoid with these radii.
 Vec3 onEllipsoid(const Vec3& unitDirection, const Vec3& centre, const Vec3& radii);

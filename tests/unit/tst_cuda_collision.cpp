@@ -176,9 +176,9 @@ private slots:
   // SceneRunner does) the next step searches in full, as the CPU's force does
   // (tst_collision_schedule::rollbackSearchesInFullAtOnce). Structure a must include a point 2 mm
   // inside b; the include point wins over the collision (a's cap ends about 2.25 mm past b's
-  // surface), so the two stay in contact throughout. During the undone steps, whose full search (step 32) sees them,
-  // the point is off. A device that kept that search's planes after the rollback ended 0.092 mm
-  // from the CPU, which searches in full at once (H200, 2026-11-29).
+  // surface), so the two stay in contact throughout. During the undone steps, whose full search
+  // (step 32) sees them, the point is off. A device that kept that search's planes after the
+  // rollback ended 0.092 mm from the CPU, which searches in full at once (H200, 2026-11-29).
   void rollbackSearchesInFullAtOnce() {
     auto make = [] {
       auto sim = std::make_unique<Simulation>(forceRegistry(), 0);

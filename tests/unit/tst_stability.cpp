@@ -1,6 +1,7 @@
 // Issue 7's acceptance: the stability suite never produces a non-finite vertex, implicit Euler
 // stays stable at >= 5x the largest stable Verlet step on the stiff cases, and the guard's
 // rollback and clean failure are exercised and reported.
+#include "collision_scenes.h"
 #include "sinew/core/self_intersection.h"
 #include "sinew/core/shape_guard.h"
 #include "stability_suite.h"
@@ -46,14 +47,8 @@ private Q_SLOTS:
   // Simulation::restoreState, gives the same steps every time, since the forces are told (the
   // collision's full searches start again, as after a rollback).
   void restoredStateRunsTheSameSteps() {
-    auto sim = std::make_unique<Simulation>(forceRegistry(), 2);
-    addSpherePair(*sim, 15.0f);
-    sim->addForce("shape_prior");
-    ParamTable& collision = sim->addForce("collision");
-    collision.setAll("weight", 0.5);
-    collision.setAll("full_search_every", 8);
-    sim->setIntegrator("damped_verlet").set(0, "time_step", 0.5);
-    sim->initialize();
+    auto sim = collidingSpheres(15.0f, 0.5f);
+    sim->forceParams("collision").setAll("full_search_every", 8);
     sim->run(1);  // off the collision's schedule of full searches
     MeshStore& store = sim->store();
     const std::vector<Vec3> start(store.positions().begin(), store.positions().end());

@@ -44,7 +44,7 @@ struct CollisionTree {
   // level, not every step.
   struct Enclosure {
     Index inner = -1, outer = -1;
-    Index inside = 0, vertices = 0;  // of the inner structure's vertices sampled
+    Index inside = 0, sampled = 0;  // of the inner structure's vertices, an even sample
     std::string message(const SceneData& scene, float margin) const;
   };
   std::vector<Enclosure> findEnclosures(MeshStore& store, float margin, float fraction = 0.9f);
