@@ -22,6 +22,7 @@ if [ -n "${ONLY:-}" ]; then
 fi
 # EXTRA: more programs to carry (an older build's, to time side by side), at their paths.
 for f in ${EXTRA:-}; do bins+=("$(realpath "$f")"); done
+shopt -s nullglob  # a build of a few programs has no test plugins
 for f in "${bins[@]}" "$build"/core/libsinew_core.so* "$build"/tests/plugins/*/sinew-plugin-*.so; do
   mkdir -p "$stage/root$(dirname "$f")"
   cp -a "$f" "$stage/root$f"

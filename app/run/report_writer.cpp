@@ -79,6 +79,12 @@ void writeReportJson(const std::filesystem::path& path, const RunReport& r, cons
     }
     stages.push_back({{"name", st.name}, {"seconds", st.seconds}, {"mean_assd_mm", n ? Json(sum / n) : Json(nullptr)},
                       {"assd_mm", per}});
+    if (const auto& l = st.level) {
+      stages.back()["enter_seconds"] = l->enter;
+      stages.back()["step_seconds"] = l->steps;
+      stages.back()["check_seconds"] = l->checks;
+      stages.back()["rollbacks"] = l->rollbacks;
+    }
   }
   j["stages"] = stages;
   if (r.structures.size() > 1) {

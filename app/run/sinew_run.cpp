@@ -310,6 +310,11 @@ int main(int argc, char** argv) {
       std::fprintf(stderr, "%-20s %8.3f\n", "total", report.totalSeconds);
       for (const auto& [name, seconds] : report.backgroundSeconds)
         std::fprintf(stderr, "  beside the stages: %s %.3f s\n", name.c_str(), seconds);
+      std::fprintf(stderr, "level       set-up  seconds    steps   checks  rollbacks\n");
+      for (const StageResult& st : report.stages)
+        if (const auto& l = st.level)
+          std::fprintf(stderr, "%-9s %8.3f %8.3f %8.3f %8.3f  %9d\n", st.name.c_str(), l->enter, st.seconds, l->steps,
+                       l->checks, l->rollbacks);
     }
     if (!quiet) std::fprintf(stderr, "outputs in %s\n", outDir.c_str());
     for (const StabilityEvent& e : report.stability)

@@ -472,11 +472,13 @@ RunReport SceneRunner::run() {
   bool lastSampleDeferred = false;
   for (int level = 0; level < levels && report.numericalFailure.empty(); ++level) {
     const LevelDesc& lv = scene_.schedule[level];
+    levelSeconds_ = {};
     if (level > 0) {
       const auto t0 = Clock::now();
       enterNextLevel();
       onBackend([](ExecutionBackend& b) { b.levelChanged(); });
-      simSeconds += since(t0);
+      levelSeconds_.enter = since(t0);
+      simSeconds += levelSeconds_.enter;
     }
     report.levelStartSeconds.push_back(simSeconds);
     // Steps run in chunks that end on the sample points; only samples bring state to the host.
@@ -485,9 +487,12 @@ RunReport SceneRunner::run() {
       const auto t0 = Clock::now();
       const auto runChunk = [&] {
         if (onBackend([&](ExecutionBackend& b) { runGuarded(b, chunk, report); })) return;
+        const auto stepsStart = Clock::now();
         try {
           sim.run(chunk);
+          levelSeconds_.steps += since(stepsStart);
         } catch (const NumericalError& e) {
+          levelSeconds_.steps += since(stepsStart);
           // The stability guard gave up and left the last good state: the run ends here and keeps it.
           report.numericalFailure = e.what();
           if (options_.log) options_.log(std::string("numerical failure: ") + e.what());
@@ -509,7 +514,8 @@ RunReport SceneRunner::run() {
       if (options_.progress) options_.progress({level, levels, it, lv.iterations, done, total, simSeconds});
     }
     // The level's error is that of its last sample.
-    StageResult st{"level " + std::to_string(level), simSeconds - report.levelStartSeconds.back(), {}};
+    for (const StabilityEvent& e : sim.stabilityEvents()) levelSeconds_.rollbacks += e.level == level && e.recovered;
+    StageResult st{"level " + std::to_string(level), simSeconds - report.levelStartSeconds.back(), {}, levelSeconds_};
     for (Index i = 0; i < sim.structureCount(); ++i)
       st.assdMm.push_back(report.timeline[report.timeline.size() - sim.structureCount() + i].assdMm);
     report.stages.push_back(std::move(st));
@@ -527,7 +533,7 @@ RunReport SceneRunner::run() {
   }
   std::vector<StageResult> firstStages;  // before the levels'
   auto stageOf = [&](std::string name, double seconds, const std::vector<StructureResult>& rs) {
-    StageResult st{std::move(name), seconds, {}};
+    StageResult st{std::move(name), seconds, {}, std::nullopt};
     for (const auto& x : rs) st.assdMm.push_back(x.assdFinalMm);
     firstStages.push_back(std::move(st));
   };

@@ -2,6 +2,8 @@
 // guard for a backend (scene_runner.cpp runs the schedule).
 #include "sinew/core/scene_runner.h"
 
+#include "scene_runner_loaded.h"
+
 namespace sinew {
 
 void SceneRunner::holdChunkStart() {
@@ -29,8 +31,10 @@ void SceneRunner::runShapeGuarded(const std::function<void()>& runChunk, int chu
     // The swing check needs a few steps: over one or two, a vertex moving steadily also ends
     // within two steps of where it began.
     const std::span<const Vec3> swingFrom = chunk >= 4 ? std::span<const Vec3>(chunkStart_.positions) : std::span<const Vec3>();
+    const auto t0 = Clock::now();
     const std::string problem =
         shapeGuard_.check(store, sim.scene().targetImage().geometry(), sim.stabilityGuard().shape, names, swingFrom);
+    levelSeconds_.checks += since(t0);
     if (problem.empty()) return;
     if (options_.log) options_.log("stability guard: " + problem + "; the last " + std::to_string(chunk) + " steps undone");
     sim.countExternalSteps(-chunk);
@@ -51,17 +55,20 @@ void SceneRunner::runShapeGuarded(const std::function<void()>& runChunk, int chu
 // the step halved, and the backend reloaded to run it again.
 void SceneRunner::runGuarded(ExecutionBackend& backend, int chunk, RunReport& report) {
   Simulation& sim = simulation();
-  if (!sim.stabilityGuard().enabled) {
+  const auto steps = [&] {
+    const auto t0 = Clock::now();
     backend.run(chunk);
     backend.download();
-    return;
-  }
+    levelSeconds_.steps += since(t0);
+  };
+  if (!sim.stabilityGuard().enabled) return steps();
   for (int attempt = 0;; ++attempt) {
-    backend.run(chunk);
-    backend.download();
+    steps();
     // A whole chunk may move a vertex no farther than one step may on the CPU: legitimate motion is
     // far slower, and a looser bound would let oscillation just below the explosion through.
+    const auto t0 = Clock::now();
     const std::string problem = sim.checkStep(chunkStart_.positions, chunk);
+    levelSeconds_.checks += since(t0);
     if (problem.empty()) return;
     sim.countExternalSteps(-chunk);  // the chunk is undone
     try {

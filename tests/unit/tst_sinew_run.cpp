@@ -198,6 +198,24 @@ private slots:
     QVERIFY(timeline.size() > 5);
     for (const char* key : {"seconds", "iteration", "level", "structure", "assd_mm"})
       QVERIFY(timeline[0].toObject().contains(key));
+    // Each level's seconds split into its steps and the guards' checks, its set-up beside them;
+    // only a level after the first has a set-up, and the parts never add up to more than the level
+    // took.
+    int levels = 0;
+    for (const QJsonValue v : report["stages"].toArray()) {
+      const QJsonObject st = v.toObject();
+      if (!st["name"].toString().startsWith("level ")) {
+        QVERIFY(!st.contains("step_seconds"));
+        continue;
+      }
+      const double enter = st["enter_seconds"].toDouble(-1), steps = st["step_seconds"].toDouble(-1),
+                   checks = st["check_seconds"].toDouble(-1), seconds = st["seconds"].toDouble();
+      QVERIFY2(steps > 0.0 && checks >= 0.0 && st["rollbacks"].toInt(-1) == 0, qPrintable(QJsonDocument(st).toJson()));
+      QVERIFY2(levels == 0 ? enter == 0.0 : enter > 0.0, qPrintable(QJsonDocument(st).toJson()));
+      QVERIFY2(steps + checks <= seconds + 1e-6, qPrintable(QJsonDocument(st).toJson()));
+      ++levels;
+    }
+    QCOMPARE(levels, 2);
 
     // The report's ASSD agrees with VTK's own distance computation.
     const auto& meshIO = builtinRegistry().meshIOFor("x.vtp");

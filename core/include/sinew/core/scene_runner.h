@@ -58,10 +58,21 @@ struct StructureResult {
 
 // One stage of a run with its error per structure: "model" (where the model puts the structures),
 // "initialisation", then "level 0", "level 1", ... (the error at the end of each level).
+// Where a level's simulation time went: its set-up (not in StageResult::seconds), then its
+// seconds' parts. The rest of those is copying the state a chunk may be undone to, and putting it
+// back after a rollback.
+struct LevelSeconds {
+  double enter = 0.0;   // the level's set-up: prolongation, the forces' preparation, the upload
+  double steps = 0.0;   // the steps, undone ones included, and bringing their state to the host
+  double checks = 0.0;  // the stability and shape guards' checks after each chunk
+  int rollbacks = 0;    // chunks undone and run again with a smaller step
+};
+
 struct StageResult {
   std::string name;
   double seconds = 0.0;        // wall time the stage took (for levels: simulation time)
   std::vector<double> assdMm;  // per structure; NaN without ground truth
+  std::optional<LevelSeconds> level;  // levels only
 };
 
 // Where two structures overlap, measured by rasterising both meshes on a 0.5 mm grid
@@ -195,6 +206,7 @@ private:
   RunOptions options_;
   std::unique_ptr<Loaded> loaded_;
   ShapeGuard shapeGuard_;  // each structure at the start of the simulation
+  LevelSeconds levelSeconds_;  // the current level's, filled by run() and the guards
 };
 
 // A one-line description of the CPU, e.g. "AMD EPYC (2 threads)".
