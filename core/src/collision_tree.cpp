@@ -2,8 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <functional>
-#include <numeric>
 
 namespace sinew {
 
@@ -11,35 +9,61 @@ using collision::Box;
 using collision::Node;
 
 namespace {
+// A vertex's position beside its index: the splits read and move contiguous memory instead of
+// gathering positions through `order`.
+struct Key {
+  float p[3];
+  int index;
+};
+
+// The vertices of a node with `count` of them: split on a multiple of kLeafVertices, so that every
+// leaf but the last of a structure holds four.
+int leftCount(int count) {
+  return std::max(1, count / (2 * collision::kLeafVertices)) * collision::kLeafVertices;
+}
+
 // Median splits of one structure's vertices (in `order`, global indices) down to leaves of at most
-// kLeafVertices; nodes in pre-order, so children follow their parent.
+// kLeafVertices; nodes in pre-order, so children follow their parent. The nodes depend only on the
+// vertex counts, so they are laid out first (shape); the splits then sort each node's range of keys
+// in place, the two halves of a large node side by side.
 struct Builder {
   CollisionTree& tree;
-  std::span<const Vec3> x;
+  std::vector<Key>& keys;
+  const Executor& executor;
 
-  int build(int begin, int end, int parent) {
+  int shape(int begin, int end, int parent) {
     const int id = static_cast<int>(tree.nodes.size());
     tree.nodes.push_back({-1, -1, parent, begin, end - begin});
     if (end - begin <= collision::kLeafVertices) {
       tree.leaves.push_back(id);
       return id;
     }
-    Eigen::AlignedBox3f bounds;
-    for (int i = begin; i < end; ++i) bounds.extend(x[tree.order[i]]);
-    int axis;
-    bounds.sizes().maxCoeff(&axis);
-    // Leaves of four: the split falls on a multiple of four. Ties broken by index: the same tree on
-    // every machine.
-    const int mid = begin + std::max(1, (end - begin) / (2 * collision::kLeafVertices)) * collision::kLeafVertices;
-    std::nth_element(tree.order.begin() + begin, tree.order.begin() + mid, tree.order.begin() + end, [&](int s, int t) {
-      return x[s][axis] != x[t][axis] ? x[s][axis] < x[t][axis] : s < t;
-    });
-    const int left = build(begin, mid, id);
-    const int right = build(mid, end, id);
+    const int mid = begin + leftCount(end - begin);
+    const int left = shape(begin, mid, id);
+    const int right = shape(mid, end, id);
     tree.nodes[id].left = left;
     tree.nodes[id].right = right;
     return id;
   }
+
+  void split(int id) const {
+    const collision::Node& n = tree.nodes[id];
+    if (n.left < 0) return;
+    const auto begin = keys.begin() + n.first, end = begin + n.count;
+    Eigen::AlignedBox3f bounds;
+    for (auto k = begin; k != end; ++k) bounds.extend(Eigen::Vector3f(k->p[0], k->p[1], k->p[2]));
+    int axis;
+    bounds.sizes().maxCoeff(&axis);
+    // Ties broken by index: the same tree on every machine.
+    std::nth_element(begin, begin + leftCount(n.count), end, [axis](const Key& s, const Key& t) {
+      return s.p[axis] != t.p[axis] ? s.p[axis] < t.p[axis] : s.index < t.index;
+    });
+    const auto left = [&] { split(n.left); };
+    const auto right = [&] { split(n.right); };
+    if (n.count >= kSideBySide) executor.invoke(left, right);
+    else left(), right();
+  }
+  static constexpr int kSideBySide = 8192;
 };
 }  // namespace
 
@@ -47,22 +71,32 @@ CollisionTree CollisionTree::build(MeshStore& store) {
   CollisionTree tree;
   const auto offsets = store.cellOffsets();
   const auto cellVertices = store.cellVertices();
-  // Vertex v's three triangles: one per cell it belongs to, v then its successor in that cell.
-  tree.tris.assign(3 * size_t(store.vertexCount()), {-1, -1, -1});
-  std::vector<int> filled(store.vertexCount(), 0);
-  for (Index c = 0; c < store.cellCount(); ++c)
-    for (Index i = offsets[c]; i < offsets[c + 1]; ++i) {
-      const Index next = i + 1 == offsets[c + 1] ? offsets[c] : i + 1;
-      const Index a = cellVertices[i];
-      if (filled[a] >= 3) throw InputError("collision tree: a vertex in more than three cells");
-      tree.tris[3 * size_t(a) + filled[a]++] = {int(a), int(cellVertices[next]), int(c)};
+  // Vertex v's three triangles: one per cell it belongs to (in the order of the cells' indices),
+  // v then its successor in that cell.
+  const auto vertexCells = store.vertexCells();
+  tree.tris.resize(3 * size_t(store.vertexCount()));
+  store.executor().forEach(store.vertexCount(), [&](Index a) {
+    auto cells = vertexCells[a];
+    std::sort(cells.begin(), cells.end());
+    for (int k = 0; k < 3; ++k) {
+      const Index c = cells[k];
+      Index at = offsets[c];
+      while (at < offsets[c + 1] && cellVertices[at] != a) ++at;
+      if (at == offsets[c + 1])
+        throw InputError("collision tree: vertex " + std::to_string(a) + " is not in its cell " + std::to_string(c));
+      const Index next = at + 1 == offsets[c + 1] ? offsets[c] : at + 1;
+      tree.tris[3 * size_t(a) + k] = {int(a), int(cellVertices[next]), int(c)};
     }
+  }, 4096);
   const auto x = store.positions();
-  tree.order.resize(store.vertexCount());
-  std::iota(tree.order.begin(), tree.order.end(), 0);
-  Builder b{tree, x};
+  std::vector<Key> keys(store.vertexCount());
+  store.executor().forEach(store.vertexCount(), [&](Index v) { keys[v] = {{x[v].x(), x[v].y(), x[v].z()}, int(v)}; }, 4096);
+  Builder b{tree, keys, store.executor()};
   for (Index m = 0; m < store.meshCount(); ++m)
-    tree.roots.push_back(b.build(int(store.range(m).vertexBegin), int(store.range(m).vertexEnd), -1));
+    tree.roots.push_back(b.shape(int(store.range(m).vertexBegin), int(store.range(m).vertexEnd), -1));
+  store.executor().forEach(Index(tree.roots.size()), [&](Index m) { b.split(tree.roots[m]); }, 1);
+  tree.order.resize(keys.size());
+  store.executor().forEach(Index(keys.size()), [&](Index i) { tree.order[i] = keys[i].index; }, 4096);
   tree.boxes.resize(tree.nodes.size());
   tree.refit(x, store.cellCentres(), store.executor());
   return tree;

@@ -378,6 +378,56 @@ private slots:
     QCOMPARE(links.linked, expected);
   }
 
+  // The hierarchy is the same on one thread or on many (from 8,192 vertices a node's two halves are
+  // split side by side), and every split is a split: a node's vertices are its children's, and each
+  // vertex of its first child lies at or below each of its second along one axis.
+  void treeIsTheSameOnOneThreadOrMany() {
+    auto treeOn = [](int threads) {
+      Simulation sim(forceRegistry(), threads);
+      for (const auto& [name, centre] : {std::pair{"a", Vec3(0, 0, 0)}, std::pair{"b", Vec3(15, 0, 0)}}) {
+        StructureSpec s = sphereStructure(name, 5, 10.0f, centre);  // 20,480 vertices
+        s.referencePositions = s.initialPositions;
+        sim.addStructure(std::move(s));
+      }
+      sim.addForce("collision");
+      sim.setIntegrator("damped_verlet");
+      sim.initialize();
+      return std::pair{CollisionTree::build(sim.store()), std::vector<Vec3>(sim.store().positions().begin(), sim.store().positions().end())};
+    };
+    const auto [one, x] = treeOn(1);
+    const auto [many, unused] = treeOn(4);
+    QCOMPARE(one.nodes.size(), many.nodes.size());
+    for (size_t i = 0; i < one.nodes.size(); ++i) {
+      const collision::Node &p = one.nodes[i], &q = many.nodes[i];
+      QVERIFY2(p.left == q.left && p.right == q.right && p.parent == q.parent && p.first == q.first && p.count == q.count,
+               qPrintable(QString("node %1").arg(i)));
+      const collision::Box &a = one.boxes[i], &b = many.boxes[i];
+      QVERIFY(a.lo.x == b.lo.x && a.lo.y == b.lo.y && a.lo.z == b.lo.z && a.hi.x == b.hi.x && a.hi.y == b.hi.y && a.hi.z == b.hi.z);
+    }
+    QVERIFY(one.order == many.order && one.leaves == many.leaves && one.roots == many.roots);
+    QCOMPARE(one.tris.size(), many.tris.size());
+    for (size_t i = 0; i < one.tris.size(); ++i)
+      QVERIFY(one.tris[i].a == many.tris[i].a && one.tris[i].b == many.tris[i].b && one.tris[i].cell == many.tris[i].cell);
+    QCOMPARE(one.roots.size(), size_t(2));
+    QCOMPARE(one.leaves.size(), size_t(2 * 20480 / collision::kLeafVertices));
+    for (const collision::Node& n : one.nodes) {
+      if (n.left < 0) {
+        QVERIFY(n.count <= collision::kLeafVertices);
+        continue;
+      }
+      const collision::Node &l = one.nodes[n.left], &r = one.nodes[n.right];
+      QVERIFY(l.first == n.first && r.first == l.first + l.count && l.count + r.count == n.count);
+      bool separated = false;
+      for (int axis = 0; axis < 3 && !separated; ++axis) {
+        float leftMost = -3e38f, rightLeast = 3e38f;
+        for (int i = l.first; i < l.first + l.count; ++i) leftMost = std::max(leftMost, x[one.order[i]][axis]);
+        for (int i = r.first; i < r.first + r.count; ++i) rightLeast = std::min(rightLeast, x[one.order[i]][axis]);
+        separated = leftMost <= rightLeast;
+      }
+      QVERIFY2(separated, qPrintable(QString("node of %1 vertices from %2").arg(n.count).arg(n.first)));
+    }
+  }
+
   // The contact regions a view shows: the vertices inside the other sphere (or within the margin)
   // and no others; none once the spheres are apart.
   void contactMaskMarksTheOverlap() {

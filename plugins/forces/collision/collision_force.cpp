@@ -19,31 +19,19 @@ public:
     return {.attributes = {Attribute::PreviousPosition, Attribute::CellCentre, Attribute::Mass, Attribute::Normal}};
   }
 
-  // The tree is built for the level's topology; a scene with one structure allocates nothing.
-  void prepare(ForceContext& ctx) override {
+  // The level's state is set up at its first step here (setUp): where a GPU backend runs the
+  // steps, the host builds no tree it would not use (130 ms at 325,632 vertices on 16 threads).
+  void prepare(ForceContext&) override {
     tree_ = {};
+    builtFor_ = -1;
     stiffness_.clear();
-    depth_.assign(ctx.store.vertexCount(), collision::kUnknownDepth);
-    hint_.assign(ctx.store.vertexCount(), -1);
-    slack_.assign(ctx.store.vertexCount(), 0.0f);
-    plane_.assign(ctx.store.vertexCount(), collision::ContactPlane{});
-    moved_.assign(ctx.store.vertexCount(), 0.0f);
-    const auto x = ctx.store.positions();
-    last_.assign(x.begin(), x.end());
-    step_ = 0;
-    levelStep_ = 0;
-    builtFor_ = ctx.store.vertexCount();
-    checked_ = false;
-    if (ctx.store.meshCount() >= 2 && ctx.params.anyPositive(0)) {
-      tree_ = CollisionTree::build(ctx.store);
-      tree_.setShares(ctx.store, ctx.params);
-    }
+    hold_.clear();
   }
 
   void accumulate(ForceContext& ctx, std::span<Vec3> forces) override {
     MeshStore& s = ctx.store;
     if (s.meshCount() < 2) return;
-    if (tree_.roots.empty() || builtFor_ != s.vertexCount()) prepare(ctx);
+    if (tree_.roots.empty() || builtFor_ != s.vertexCount()) setUp(ctx);
     const float margin = ctx.params.getf(0, ctx.params.indexOf("margin_mm"));
     // Once per level: a structure inside another stops the run with the reason.
     if (!checked_) {
@@ -105,6 +93,24 @@ public:
   }
 
 private:
+  // The level's tree and per-vertex state, at its first step (or after a change of topology).
+  void setUp(ForceContext& ctx) {
+    const Index n = ctx.store.vertexCount();
+    depth_.assign(n, collision::kUnknownDepth);
+    hint_.assign(n, -1);
+    slack_.assign(n, 0.0f);
+    plane_.assign(n, collision::ContactPlane{});
+    moved_.assign(n, 0.0f);
+    const auto x = ctx.store.positions();
+    last_.assign(x.begin(), x.end());
+    step_ = 0;
+    levelStep_ = 0;
+    builtFor_ = n;
+    checked_ = false;
+    tree_ = CollisionTree::build(ctx.store);
+    tree_.setShares(ctx.store, ctx.params);
+  }
+
   // Each vertex's distance from where the last full search saw it (moved_), and the largest: the
   // motion that the clearance of every vertex pays for (collision::clearOfContacts).
   float trackMotion(std::span<const Vec3> x, const Executor& executor) {

@@ -7,6 +7,7 @@
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_invoke.h>
 #include <tbb/parallel_reduce.h>
 #include <tbb/info.h>
 #include <tbb/task_arena.h>
@@ -45,6 +46,18 @@ public:
           for (Index i = b; i < e; ++i) body(i);
         },
         grain);
+  }
+
+  // a() and b(), side by side where there are threads for it (recursive splits: each half's work
+  // writes only its own outputs).
+  template <class A, class B>
+  void invoke(A&& a, B&& b) const {
+    if (threads() == 1) {
+      a();
+      b();
+      return;
+    }
+    arena_->execute([&] { tbb::parallel_invoke(a, b); });
   }
 
   // Reduction over [begin, end): combine must be associative and commutative for the result to be
