@@ -4,12 +4,17 @@
 
 namespace sinew {
 
-void Prolongation::apply(std::span<const Vec3> coarse, std::span<Vec3> fine) const {
-  for (Index i = 0; i < fineCount(); ++i) {
+void Prolongation::apply(std::span<const Vec3> coarse, std::span<Vec3> fine, const Executor& executor) const {
+  executor.forEach(fineCount(), [&](Index i) {
     Vec3 sum = Vec3::Zero();
     for (Index k = rowOffsets[i]; k < rowOffsets[i + 1]; ++k) sum += weight[k] * coarse[coarseIndex[k]];
     fine[i] = sum;
-  }
+  }, 4096);
+}
+
+void Prolongation::apply(std::span<const Vec3> coarse, std::span<Vec3> fine) const {
+  static const Executor serial(1);
+  apply(coarse, fine, serial);
 }
 
 std::vector<Vec3> Prolongation::apply(std::span<const Vec3> coarse) const {

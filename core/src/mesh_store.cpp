@@ -27,6 +27,14 @@ const char* attributeName(Attribute a) {
 }
 
 MeshStore::MeshStore(std::span<const SimplexTopology* const> topologies) {
+  size_t vertices = 0, cells = 0, corners = 0;
+  for (const SimplexTopology* t : topologies)
+    vertices += t->vertexCount(), cells += t->cellCount(), corners += t->cellVertices.size();
+  meshOfVertex_.reserve(vertices);
+  neighbours_.reserve(vertices);
+  vertexCells_.reserve(vertices);
+  cellOffsets_.reserve(cells + 1);
+  cellVertices_.reserve(corners);
   Index vBase = 0, cBase = 0;
   for (const SimplexTopology* t : topologies) {
     MeshRange r{vBase, vBase + t->vertexCount(), cBase, cBase + t->cellCount()};
@@ -322,7 +330,7 @@ MeshStore MeshStore::refined(std::span<const SimplexTopology* const> fineTopolog
       const MeshRange& rc = ranges_[m];
       const MeshRange& rf = fine.ranges_[m];
       prolongations[m]->apply(std::span<const Vec3>(vec3_[idx(a)]).subspan(rc.vertexBegin, rc.vertexCount()),
-                              std::span<Vec3>(fine.vec3_[idx(a)]).subspan(rf.vertexBegin, rf.vertexCount()));
+                              std::span<Vec3>(fine.vec3_[idx(a)]).subspan(rf.vertexBegin, rf.vertexCount()), executor());
     }
   }
   return fine;

@@ -265,7 +265,7 @@ struct CudaEngine::Impl {
       for (auto* a : {&implicitVel, &implicitRhs, &implicitR, &implicitZ, &implicitP, &implicitAp}) a->resize(s.vertexCount());
       implicitScalars.resize(kImplicitScalars);
     }
-    if (s.has(Attribute::ReferenceParams)) uploadReference(reference, s.referenceParams(), stream);
+    if (s.has(Attribute::ReferenceParams)) uploadReference(reference, s.referenceParams(), s.executor(), stream);
     for (const ForceSlot& f : forces) {
       if (f.kind == Kind::Profile) {
         const Image3D& im = sim.scene().targetImage();

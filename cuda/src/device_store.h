@@ -119,9 +119,12 @@ struct DeviceTopology {
 };
 
 // The reference parameters as the shape prior's kernels read them: (eps1, eps2, sin phi, cos phi).
-inline void uploadReference(DeviceArray<float4>& dst, std::span<const SimplexParams> rp, cudaStream_t stream) {
+inline void uploadReference(DeviceArray<float4>& dst, std::span<const SimplexParams> rp, const Executor& executor,
+                            cudaStream_t stream) {
   std::vector<float4> r(rp.size());
-  for (size_t v = 0; v < rp.size(); ++v) r[v] = make_float4(rp[v].eps1, rp[v].eps2, std::sin(rp[v].phi), std::cos(rp[v].phi));
+  executor.forEach(Index(rp.size()), [&](Index v) {
+    r[v] = make_float4(rp[v].eps1, rp[v].eps2, std::sin(rp[v].phi), std::cos(rp[v].phi));
+  }, 4096);
   dst.upload(r, stream);
 }
 
@@ -159,7 +162,7 @@ struct CoarseLevel {
     c->elevation.resize(n);
     c->area.resize(n);
     c->centre.resize(cs.cellCount());
-    uploadReference(c->reference, cs.referenceParams(), stream);
+    uploadReference(c->reference, cs.referenceParams(), cs.executor(), stream);
     const GlobalProlongation up = globalProlongation(sim, l, meshBegins(sim, l));
     c->upRows.upload(up.rows, stream);
     c->upIndex.upload(up.index, stream);
