@@ -72,26 +72,26 @@ CollisionTree CollisionTree::build(MeshStore& store) {
   const auto offsets = store.cellOffsets();
   const auto cellVertices = store.cellVertices();
   // Vertex v's three triangles: one per cell it belongs to (in the order of the cells' indices),
-  // v then its successor in that cell.
+  // v then its successor in that cell; cell by cell, each vertex's place from its own cells.
   const auto vertexCells = store.vertexCells();
   tree.tris.resize(3 * size_t(store.vertexCount()));
-  store.executor().forEach(store.vertexCount(), [&](Index a) {
-    auto cells = vertexCells[a];
-    std::sort(cells.begin(), cells.end());
-    for (int k = 0; k < 3; ++k) {
-      const Index c = cells[k];
-      Index at = offsets[c];
-      while (at < offsets[c + 1] && cellVertices[at] != a) ++at;
-      if (at == offsets[c + 1])
-        throw InputError("collision tree: vertex " + std::to_string(a) + " is not in its cell " + std::to_string(c));
-      const Index next = at + 1 == offsets[c + 1] ? offsets[c] : at + 1;
+  store.executor().forEach(store.cellCount(), [&](Index c) {
+    for (Index i = offsets[c]; i < offsets[c + 1]; ++i) {
+      const Index a = cellVertices[i];
+      const auto& cells = vertexCells[a];
+      if (cells[0] != c && cells[1] != c && cells[2] != c)
+        throw InputError("collision tree: vertex " + std::to_string(a) + " is in cell " + std::to_string(c) + ", not one of its own");
+      const int k = (cells[0] < c) + (cells[1] < c) + (cells[2] < c);
+      const Index next = i + 1 == offsets[c + 1] ? offsets[c] : i + 1;
       tree.tris[3 * size_t(a) + k] = {int(a), int(cellVertices[next]), int(c)};
     }
-  }, 4096);
+  }, 1024);
   const auto x = store.positions();
   std::vector<Key> keys(store.vertexCount());
   store.executor().forEach(store.vertexCount(), [&](Index v) { keys[v] = {{x[v].x(), x[v].y(), x[v].z()}, int(v)}; }, 4096);
   Builder b{tree, keys, store.executor()};
+  tree.nodes.reserve(size_t(store.vertexCount()) / 2 + 2 * size_t(store.meshCount()));
+  tree.leaves.reserve(size_t(store.vertexCount()) / 4 + 2 * size_t(store.meshCount()));
   for (Index m = 0; m < store.meshCount(); ++m)
     tree.roots.push_back(b.shape(int(store.range(m).vertexBegin), int(store.range(m).vertexEnd), -1));
   store.executor().forEach(Index(tree.roots.size()), [&](Index m) { b.split(tree.roots[m]); }, 1);
@@ -107,8 +107,13 @@ void CollisionTree::refit(std::span<const Vec3> positions, std::span<const Vec3>
   const collision::P3* x = asP3(positions);
   const collision::P3* c = asP3(centres);
   executor.forEach(Index(leaves.size()), [&](Index l) { boxes[leaves[l]] = collision::leafBox(v, nodes[leaves[l]], x, c); });
-  for (int id = int(nodes.size()) - 1; id >= 0; --id)
-    if (nodes[id].left >= 0) boxes[id] = collision::merge(boxes[nodes[id].left], boxes[nodes[id].right]);
+  // Each structure's nodes follow its root, children after parents: the structures side by side,
+  // each from its last node up.
+  executor.forEach(Index(roots.size()), [&](Index m) {
+    const int end = m + 1 < Index(roots.size()) ? roots[m + 1] : int(nodes.size());
+    for (int id = end - 1; id >= roots[m]; --id)
+      if (nodes[id].left >= 0) boxes[id] = collision::merge(boxes[nodes[id].left], boxes[nodes[id].right]);
+  }, 1);
 }
 
 std::string CollisionTree::Enclosure::message(const SceneData& scene, float margin) const {
