@@ -35,6 +35,8 @@ public:
   // Forces that train on the training image along the reference shape sample it through this.
   void setTrainingMap(const SpatialMap& targetToTraining) { trainingMap_ = targetToTraining; }
   Vec3 toTraining(const Vec3& targetPoint) const { return trainingMap_.apply(targetPoint); }
+  // Whether that map is affine (straight lines stay straight and evenly sampled).
+  bool trainingMapIsAffine() const { return !trainingMap_.hasSpline(); }
 
   // World-space gradient of the target image smoothed with sigmaMm; built on first request.
   const VectorVolume& targetGradient(float sigmaMm);
