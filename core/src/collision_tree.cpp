@@ -74,7 +74,7 @@ CollisionTree CollisionTree::build(MeshStore& store) {
   // Vertex v's three triangles: one per cell it belongs to (in the order of the cells' indices),
   // v then its successor in that cell; cell by cell, each vertex's place from its own cells.
   const auto vertexCells = store.vertexCells();
-  tree.tris.resize(3 * size_t(store.vertexCount()));
+  tree.tris.assign(3 * size_t(store.vertexCount()), {-1, -1, -1});
   store.executor().forEach(store.cellCount(), [&](Index c) {
     for (Index i = offsets[c]; i < offsets[c + 1]; ++i) {
       const Index a = cellVertices[i];

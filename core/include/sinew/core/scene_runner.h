@@ -65,7 +65,7 @@ struct LevelSeconds {
   double enter = 0.0;   // the level's set-up: prolongation, the forces' preparation, the upload
   double steps = 0.0;   // the steps, undone ones included, and bringing their state to the host
   double checks = 0.0;  // the stability and shape guards' checks after each chunk
-  int rollbacks = 0;    // chunks undone and run again with a smaller step
+  int rollbacks = 0;    // the stability guard's recoveries (chunks, or on the CPU single steps, undone)
 };
 
 struct StageResult {
