@@ -12,11 +12,6 @@ void Prolongation::apply(std::span<const Vec3> coarse, std::span<Vec3> fine, con
   }, 4096);
 }
 
-void Prolongation::apply(std::span<const Vec3> coarse, std::span<Vec3> fine) const {
-  static const Executor serial(1);
-  apply(coarse, fine, serial);
-}
-
 std::vector<Vec3> Prolongation::apply(std::span<const Vec3> coarse) const {
   std::vector<Vec3> fine(fineCount());
   apply(coarse, fine);

@@ -11,11 +11,6 @@ constexpr int idx(Attribute a) { return static_cast<int>(a); }
 float triangleArea(const Vec3& a, const Vec3& b, const Vec3& c) {
   return 0.5f * (b - a).cross(c - a).norm();
 }
-
-const Executor& serialExecutor() {
-  static const Executor serial(1);
-  return serial;
-}
 }  // namespace
 
 const char* attributeName(Attribute a) {

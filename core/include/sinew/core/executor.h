@@ -80,4 +80,10 @@ private:
   std::unique_ptr<tbb::task_arena> arena_;
 };
 
+// One thread, for work that has no executor of its own (a store without one, model building).
+inline const Executor& serialExecutor() {
+  static const Executor serial(1);
+  return serial;
+}
+
 }  // namespace sinew

@@ -19,8 +19,7 @@ struct Prolongation {
 
   Index fineCount() const { return static_cast<Index>(rowOffsets.size()) - 1; }
   // fine[i] = sum_k weight[k] * coarse[coarseIndex[k]]; fine must have fineCount() elements.
-  void apply(std::span<const Vec3> coarse, std::span<Vec3> fine, const Executor& executor) const;
-  void apply(std::span<const Vec3> coarse, std::span<Vec3> fine) const;
+  void apply(std::span<const Vec3> coarse, std::span<Vec3> fine, const Executor& executor = serialExecutor()) const;
   std::vector<Vec3> apply(std::span<const Vec3> coarse) const;
 };
 
