@@ -350,6 +350,7 @@ __global__ void __launch_bounds__(kThreads, kWarpLeaves ? kRespondBlocks : 0)
   ContactSum sum;
   HoldPlane plane;
   HoldPlane* const holdPlane = hold && settings.hold >= 0.0f ? &plane : nullptr;
+  const float spacing = search && holdPlane ? sqrtf(m.area[i]) : 1.0f;  // how far the hold may move it (respondTo)
   const unsigned mask = 0xffffffffu;
   const int leader = (threadIdx.x % 32) - g;
   constexpr unsigned groupLanes = kGroup >= 32 ? 0xffffffffu : (1u << kGroup) - 1u;
@@ -378,7 +379,8 @@ __global__ void __launch_bounds__(kThreads, kWarpLeaves ? kRespondBlocks : 0)
         c.leaf = __shfl_sync(mask, h.leaf, src);
         c.tri = __shfl_sync(mask, h.tri, src);
         if (pending && g == 0)
-          addContact(c, point, previous, ownNormal, alpha, settings, sum, holdPlane, shareOf(v, own, base + src - leader));
+          addContact(c, point, previous, ownNormal, alpha, settings, sum, holdPlane, shareOf(v, own, base + src - leader),
+                     spacing);
         pending &= pending - 1;
       }
     }

@@ -246,6 +246,53 @@ private slots:
     QVERIFY(heldOverlap < 0.5 * withoutOverlap);
   }
 
+  // hold_step: the hold moves a vertex at most hold_step times its spacing (the square root of its
+  // area) in one step, so that a deep contact is left over several steps (at 1.3 M vertices the
+  // jumps folded surfaces into themselves; docs/collisions.md, "The hold's step").
+  void holdStepLimitsEachStepsHold() {
+    // The plane and the hold themselves: 1 mm inside, held to 0.1 mm outside, 0.2 of a spacing of 0.5.
+    collision::ContactSettings s;
+    s.margin = 0.15f;
+    s.hold = 0.1f;
+    const collision::Hit inside{1.0f, {0, 0, 0}, {1, 0, 0}, -1.0f, -1, -1};
+    const collision::P3 p{-1, 0, 0}, ownNormal{-1, 0, 0};
+    const auto heldTo = [&](float holdStep) {
+      s.holdStep = holdStep;
+      float deepest = 0.0f;
+      collision::P3 force{0, 0, 0}, x = p, previous = p;
+      collision::HoldPlane plane;
+      collision::respondTo(inside, p, p, ownNormal, 1.0f, s, deepest, force, &plane, 1.0f, 0.5f);
+      collision::holdOut(plane, x, previous);
+      return x.x;
+    };
+    QCOMPARE(heldTo(3.0e38f), 0.1f);  // no limit: onto the plane at once
+    QCOMPARE(heldTo(0.2f), -0.9f);    // 0.2 x 0.5 mm
+    // In a step of two spheres 5 mm into each other: each vertex ends at most 0.05 of its spacing
+    // from where the same step without the hold leaves it, and some at that limit; without the
+    // limit the hold moves vertices over ten times as far.
+    const auto stepWith = [](double hold, double holdStep) {
+      auto sim = collidingSpheres(15.0f, 0.5f);
+      sim->forceParams("collision").setAll("hold_mm", hold);
+      sim->forceParams("collision").setAll("hold_step", holdStep);
+      sim->step();
+      return sim;
+    };
+    auto start = collidingSpheres(15.0f, 0.5f);
+    const std::vector<float> area(start->store().areas().begin(), start->store().areas().end());
+    auto free = stepWith(-1.0, 0.0), limited = stepWith(0.0, 0.05), unlimited = stepWith(0.0, 0.0);
+    double limitedMost = 0.0, unlimitedMost = 0.0;
+    for (Index v = 0; v < free->store().vertexCount(); ++v) {
+      const double spacing = std::sqrt(double(area[v]));
+      const Vec3 x = free->store().positions()[v];
+      limitedMost = std::max(limitedMost, double((limited->store().positions()[v] - x).norm()) / spacing);
+      unlimitedMost = std::max(unlimitedMost, double((unlimited->store().positions()[v] - x).norm()) / spacing);
+    }
+    qInfo("the hold's largest move in a step, in spacings: %.4f with hold_step 0.05, %.3f without", limitedMost, unlimitedMost);
+    QVERIFY(limitedMost <= 0.05 * (1.0 + 1e-3));
+    QVERIFY(limitedMost > 0.045);
+    QVERIFY(unlimitedMost > 0.5);
+  }
+
   // size_share: a sphere of radius 5 mm overlapping one of 10 mm by 1 mm. With the default (2) the
   // small one takes min(1, 2 / (1 + 16)) of each contact's correction and the large one all of it,
   // so the large one gives way more; with 0 both take all, and the small one moves more. How far

@@ -108,7 +108,13 @@ private slots:
     const QJsonObject fine = readJson(path("fine.json"))["forces"].toObject()["collision"].toObject();
     QCOMPARE(fine["full_search_every"].toInt(), 16);
     QCOMPARE(fine["full_search_first"].toInt(), 8);
+    QVERIFY(!fine.contains("hold_step"));
     QVERIFY(!scene["forces"].toObject()["collision"].toObject().contains("full_search_first"));
+    // Of 6 levels, the hold moves a vertex by at most 0.05 of its spacing a step.
+    r = runTool(SINEW_MAKE_SCENE, {"--model", model_, "--target", subject_ + "/image.nii.gz", "--structures",
+                                   "Hippocampus_L,Amygdala_L", "--iterations", "5,5,5,5,5,5", "-o", path("finest.json")});
+    QVERIFY2(r.code == 0, qPrintable(r.err));
+    QCOMPARE(readJson(path("finest.json"))["forces"].toObject()["collision"].toObject()["hold_step"].toDouble(), 0.05);
     run_ = path("run");
     r = runTool(SINEW_RUN, {scene_, "-o", run_, "-q", "--backend", "cpu"});
     QVERIFY2(r.code == 0, qPrintable(r.err));

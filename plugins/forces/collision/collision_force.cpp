@@ -8,6 +8,7 @@
 #include "sinew/core/registry.h"
 
 #include <algorithm>
+#include <cmath>
 #include <vector>
 
 namespace sinew {
@@ -16,7 +17,7 @@ namespace {
 class CollisionForce final : public Force {
 public:
   Requirements requirements() const override {
-    return {.attributes = {Attribute::PreviousPosition, Attribute::CellCentre, Attribute::Mass, Attribute::Normal}};
+    return {.attributes = {Attribute::PreviousPosition, Attribute::CellCentre, Attribute::Area, Attribute::Mass, Attribute::Normal}};
   }
 
   // The level's state is set up at its first step here (setUp): where a GPU backend runs the
@@ -49,6 +50,7 @@ public:
     const auto previous = s.previousPositions();
     const auto meshOf = s.meshOfVertex();
     const auto mass = s.masses();
+    const auto area = s.areas();
     const auto normals = s.normals();
     const float motion = full ? trackMotion(s.positions(), ctx.executor) : 0.0f;  // paid at full searches
     stiffness_.assign(s.vertexCount(), 0.0f);
@@ -58,7 +60,8 @@ public:
       collision::P3 f{0, 0, 0};
       stiffness_[v] = collision::contactResponse(view, int(meshOf[v]), x[v], asP3(previous[v]), asP3(normals[v]),
                                                  alpha * mass[v], settings, full, every, moved_[v], motion, depth_[v],
-                                                 hint_[v], slack_[v], plane_[v], x, centres, f, holding ? &hold_[v] : nullptr);
+                                                 hint_[v], slack_[v], plane_[v], x, centres, f, holding ? &hold_[v] : nullptr,
+                                                 std::sqrt(area[v]));
       forces[v] += asVec3(f);
     });
   }
@@ -153,6 +156,7 @@ void registerCollisionForce(Registry& registry) {
                       {"reach_mm", 0.25, 0.05, 5.0, "mm", "how far beyond its last penetration a vertex looks for contacts each step (on top of twice its last step)", false},
                       {"retreat_mm", 0.25, 0.0, 5.0, "mm", "a vertex that has gone past the middle of another structure (its nearest surface there faces the way its own does) is pushed back into its own structure, as if pulled toward a point this far behind it along its normal, instead of on through", false},
                       {"hold_mm", 0.1, -1.0, 5.0, "mm", "after each step, a vertex pulled by a contact is moved out to at least this far outside the plane of that contact; negative: no hold", false},
+                      {"hold_step", 0.0, 0.0, 10.0, "", "the most the hold moves a vertex in one step, as a fraction of the vertex's spacing (the square root of its area); 0: no limit (sinew-make-scene writes 0.05 for schedules of 6 levels)", false},
                       {"size_share", 2.0, 0.0, 8.0, "", "how two structures in contact share the correction: a vertex takes min(1, 2 a^p / (a^p + b^p)) of it, a its structure's surface area, b the other's, p this; the larger gives way more; against a structure weighted 0 a vertex takes all; 0: both take all of it", false},
                       {"full_search_every", 1, 1, 16, "steps", "a full contact search every this many steps; in between, each vertex meets only the plane of the deepest contact the last full search found, moved with that surface (sinew-make-scene writes 16)", false},
                       {"full_search_first", 0, 0, 1000, "steps", "with full_search_every above 1: a full search at each of a level's first this many steps as well, where the structures move the most (sinew-make-scene writes 8 for schedules of 5 levels or more)", false},

@@ -229,6 +229,7 @@ struct ContactSettings {
   float retreat = 0.0f;  // a vertex past another structure's middle is pushed back as if pulled this far
   float hold = -1.0f;    // how far outside its contact's plane a pulled vertex is held after the step; < 0: no hold
   float ahead = 3.0e38f; // how far past twice its own last step a full search looks for what comes before the next
+  float holdStep = 3.0e38f;  // the most the hold moves a vertex in one step, in its spacings (respondTo)
 };
 
 // The pull of one contact found by the search (h within the search radius) into force, deepest
@@ -255,15 +256,20 @@ struct HoldPlane {
   float offset = 0.0f;   // x is held to dot(normal, x) >= offset
   float side = 3.0e38f;  // the vertex's side of the contact when found; 3e38: no plane
   float weight = 0.0f;   // the share of the way back to the plane that the hold moves x
+  float limit = 3.0e38f; // the most the hold moves x in one step (ContactSettings::holdStep x spacing)
 };
+// `spacing`: the vertex's spacing on its own surface (the square root of its area), which sets how
+// far the hold may move it in one step (ContactSettings::holdStep).
 SINEW_HD float respondTo(const Hit& h, P3 p, P3 previous, P3 ownNormal, float alpha, const ContactSettings& s,
-                         float& deepest, P3& force, HoldPlane* hold = nullptr, float share = 1.0f) {
+                         float& deepest, P3& force, HoldPlane* hold = nullptr, float share = 1.0f, float spacing = 1.0f) {
   if (h.side >= s.margin) return 0.0f;
   deepest = fmax3(deepest, s.margin - h.side);
   const float passed = fmin3(fmax3(dot3(h.normal, ownNormal) / kFacingBlend, 0.0f), 1.0f);
   alpha *= share;  // the pull, the retreat and (below) the hold alike
   const float pull = alpha * (1.0f - passed);
-  if (hold && pull > 0.0f && h.side < hold->side) *hold = {h.normal, dot3(h.normal, h.point) + s.hold, h.side, share * (1.0f - passed)};
+  if (hold && pull > 0.0f && h.side < hold->side)
+    *hold = {h.normal, dot3(h.normal, h.point) + s.hold, h.side, share * (1.0f - passed),
+             s.holdStep < 3.0e38f ? s.holdStep * spacing : 3.0e38f};
   if (pull > 0.0f) {
     const P3 target = add(h.point, scale(h.normal, s.margin));
     force = add(force, sub(scale(sub(target, p), pull), scale(sub(p, previous), pull * s.damping)));
@@ -280,7 +286,7 @@ SINEW_HD float respondTo(const Hit& h, P3 p, P3 previous, P3 ownNormal, float al
 // as velocity, and a small sphere half inside another trembled by 0.1 mm a step.
 SINEW_HD void holdOut(const HoldPlane& h, P3& x, P3& previous) {
   if (!(h.side < 3.0e38f)) return;
-  const float below = h.offset - dot3(h.normal, x);
+  const float below = fmin3(h.offset - dot3(h.normal, x), h.limit);
   if (!(below > 0.0f)) return;
   const float inward = fmin3(dot3(h.normal, sub(x, previous)), 0.0f);
   x = add(x, scale(h.normal, h.weight * below));
@@ -364,10 +370,10 @@ struct ContactSum {
   float deepestShare = -1.0f;
 };
 SINEW_HD void addContact(const Hit& h, P3 p, P3 previous, P3 ownNormal, float alpha, const ContactSettings& s,
-                         ContactSum& sum, HoldPlane* hold = nullptr, float share = 1.0f) {
+                         ContactSum& sum, HoldPlane* hold = nullptr, float share = 1.0f, float spacing = 1.0f) {
   if (h.d2 < sum.nearest) sum.nearest = h.d2, sum.nearestLeaf = h.leaf;
   if (h.side < sum.deepestHit.side) sum.deepestHit = h, sum.deepestShare = share;
-  sum.stiffness += respondTo(h, p, previous, ownNormal, alpha, s, sum.deepest, sum.force, hold, share);
+  sum.stiffness += respondTo(h, p, previous, ownNormal, alpha, s, sum.deepest, sum.force, hold, share, spacing);
 }
 
 // Clearance. A vertex that touched nothing at its last search knows how far every other surface
@@ -413,12 +419,12 @@ SINEW_HD float slackAfterSearch(float depth, float clearance2, float margin) {
 SINEW_HD float contactResponse(const BvhView& v, int own, P3 p, P3 previous, P3 ownNormal, float alpha,
                                const ContactSettings& s, bool full, int every, float ownMotion, float motion,
                                float& depth, int& hint, float& slack, ContactPlane& plane, const P3* x,
-                               const P3* centres, P3& force, HoldPlane* hold = nullptr) {
+                               const P3* centres, P3& force, HoldPlane* hold = nullptr, float spacing = 1.0f) {
   if (!full && depth < kUnknownDepth) {
     float deepest = 0.0f, stiffness = 0.0f;
     if (plane.share >= 0.0f)
       stiffness = respondTo(contactHit(plane, p, x, centres), p, previous, ownNormal, alpha, s, deepest, force, hold,
-                            plane.share);
+                            plane.share, spacing);
     depth = deepest;
     return stiffness;
   }
@@ -432,7 +438,7 @@ SINEW_HD float contactResponse(const BvhView& v, int own, P3 p, P3 previous, P3 
   for (int other = 0; other < v.meshes; ++other) {
     Hit h{};
     if (contactWith(v, own, other, p, s.margin, maxD2, hint, x, centres, h, sum.clearance2))
-      addContact(h, p, previous, ownNormal, alpha, s, sum, hold, shareOf(v, own, other));
+      addContact(h, p, previous, ownNormal, alpha, s, sum, hold, shareOf(v, own, other), spacing);
   }
   depth = sum.deepest;
   hint = sum.nearestLeaf;
