@@ -278,7 +278,8 @@ SINEW_HD float respondTo(const Hit& h, P3 p, P3 previous, P3 ownNormal, float al
   return pull;
 }
 
-// The hold itself: x moves out along the plane's normal onto it (the weight's share of the way).
+// The hold itself: x moves out along the plane's normal onto it (the weight's share of the way, of
+// at most the plane's limit a step).
 // The previous position moves by as much, less the step's motion into the plane (the normal part
 // of x - previous, when negative), in the same share: the hold takes the motion inward out of the
 // velocity and adds none outward (the new normal velocity is max(v.n, 0) at weight 1). With the
@@ -286,8 +287,9 @@ SINEW_HD float respondTo(const Hit& h, P3 p, P3 previous, P3 ownNormal, float al
 // as velocity, and a small sphere half inside another trembled by 0.1 mm a step.
 SINEW_HD void holdOut(const HoldPlane& h, P3& x, P3& previous) {
   if (!(h.side < 3.0e38f)) return;
-  const float below = fmin3(h.offset - dot3(h.normal, x), h.limit);
-  if (!(below > 0.0f)) return;
+  const float gap = h.offset - dot3(h.normal, x);
+  if (!(gap > 0.0f)) return;
+  const float below = fmin3(gap, h.limit);
   const float inward = fmin3(dot3(h.normal, sub(x, previous)), 0.0f);
   x = add(x, scale(h.normal, h.weight * below));
   previous = add(previous, scale(h.normal, h.weight * (below + inward)));
