@@ -115,6 +115,11 @@ private slots:
                                    "Hippocampus_L,Amygdala_L", "--iterations", "5,5,5,5,5,5", "-o", path("finest.json")});
     QVERIFY2(r.code == 0, qPrintable(r.err));
     QCOMPARE(readJson(path("finest.json"))["forces"].toObject()["collision"].toObject()["hold_step"].toDouble(), 0.05);
+    // Subject mode collides at the finest level only, at 6 levels too (demo mode: tst_sinew_run).
+    QString colliding;
+    for (const auto& level : readJson(path("finest.json"))["schedule"].toArray())
+      colliding += level.toObject()["forces"].toObject().contains("collision") ? "1" : "0";
+    QCOMPARE(colliding, QString("000001"));
     run_ = path("run");
     r = runTool(SINEW_RUN, {scene_, "-o", run_, "-q", "--backend", "cpu"});
     QVERIFY2(r.code == 0, qPrintable(r.err));

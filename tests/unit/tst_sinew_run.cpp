@@ -568,6 +568,39 @@ private slots:
     for (const Vec3& p : kept.points) QVERIFY(p.allFinite());
   }
 
+  // In demo mode the structures collide at every level but the coarsest (at least two levels); at
+  // 4-6 levels the two finest alone could not undo the overlaps the levels between them left
+  // (docs/collisions.md, "Collisions at every level but the coarsest"). Subject mode: tst_new_subject.
+  void demoScenesCollideAtEveryLevelButTheCoarsest_data() {
+    QTest::addColumn<QString>("iterations");
+    QTest::addColumn<QStringList>("options");
+    QTest::addColumn<QString>("colliding");  // per level, coarse to fine: 1 where the collision is on
+    QTest::newRow("1 level") << "30" << QStringList{} << "1";
+    QTest::newRow("2 levels") << "150,80" << QStringList{} << "11";
+    QTest::newRow("3 levels (the demo)") << "150,80,30" << QStringList{} << "011";
+    QTest::newRow("4 levels") << "150,80,30,60" << QStringList{} << "0111";
+    QTest::newRow("6 levels") << "5,5,5,5,5,5" << QStringList{} << "011111";
+    QTest::newRow("6 levels, 2 asked for") << "5,5,5,5,5,5" << QStringList{"--collision-levels", "2"} << "000011";
+  }
+  void demoScenesCollideAtEveryLevelButTheCoarsest() {
+    QFETCH(QString, iterations);
+    QFETCH(QStringList, options);
+    QFETCH(QString, colliding);
+    const QString t = "/usr/share/mricron/templates/";
+    if (!QFile::exists(t + "aal.nii.gz")) QSKIP("Debian package mricron-data is not installed");
+    const fs::path scene = path("levels.json");
+    const Result r = runTool(SINEW_MAKE_SCENE, QStringList{"--atlas", t + "aal.nii.gz", "--labels", t + "aal.nii.txt",
+                                                           "--training", t + "ch2better.nii.gz", "--target", t + "ch2.nii.gz",
+                                                           "--structures", "Hippocampus_L,Amygdala_L", "--iterations",
+                                                           iterations, "-o", QString::fromStdString(scene.string())} +
+                                                   options);
+    QVERIFY2(r.code == 0, qPrintable(r.err));
+    QString found;
+    for (const auto& level : readJson(scene)["schedule"].toArray())
+      found += level.toObject()["forces"].toObject().contains("collision") ? "1" : "0";
+    QCOMPARE(found, colliding);
+  }
+
 };
 
 QTEST_GUILESS_MAIN(TestSinewRun)
