@@ -86,8 +86,8 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(0.0, 5.0))->capture_default_str();
   cli.add_option("--collision-search-every", collisionSearchEvery,
                  "a full contact search every this many steps, contact planes in between (default 16; schedules of "
-                 "5 levels or more also search in full at each level's first 8 steps; of 6 levels, hold a vertex out "
-                 "by at most 0.05 of its spacing a step)")
+                 "5 levels or more also search in full at each level's first 8 steps and hold a vertex out by at "
+                 "most 0.05 of its spacing a step)")
       ->check(CLI::Range(1, 16));
   cli.add_option("--contact-weight", contactWeight,
                  "weight of the deforming contacts (springs keeping the initialised model's relative placement of "
@@ -197,11 +197,13 @@ int main(int argc, char** argv) {
     if (collisions) {
       scene["forces"]["collision"] = {{"weight", 0.0}, {"margin_mm", collisionMargin}, {"full_search_every", collisionSearchEvery}};
       if (counts.size() > 4 && collisionSearchEvery > 1) scene["forces"]["collision"]["full_search_first"] = 8;
-      // At 6 levels (about 1.3 M vertices, spacings of 0.15-0.2 mm) the hold's jumps out of the
-      // overlaps the coarser levels left folded the finest surfaces into themselves until the shape
-      // guard stopped the run (8 of 10 demo seeds at 150,80,30,20,20,60 iterations); a hold of at
-      // most 0.05 of a vertex's spacing a step stopped 2 of 10, as accurate (docs/collisions.md).
-      if (counts.size() >= 6) scene["forces"]["collision"]["hold_step"] = 0.05;
+      // From 5 levels (spacings of 0.3 mm and less) the hold's jumps out of the overlaps the levels
+      // without collisions left fold the fine surfaces: at 6 levels the shape guard stopped 8 of 15
+      // demo runs, 1 with a hold of at most 0.05 of a vertex's spacing a step; at 5 levels in subject
+      // mode one jump cost Putamen_R 0.34 mm of ASSD, and over 14 subjects the limit took the
+      // collisions' cost from 0.0044 to 0.0015 mm. At 3 levels it only left more overlap
+      // (docs/collisions.md).
+      if (counts.size() >= 5) scene["forces"]["collision"]["hold_step"] = 0.05;
     }
     if (contactWeight < 0.0) contactWeight = subject ? kSubjectContactWeight : 0.0;
     const bool contacts = contactWeight > 0.0 && items.size() >= 2 && counts.size() >= 2;

@@ -108,9 +108,15 @@ private slots:
     const QJsonObject fine = readJson(path("fine.json"))["forces"].toObject()["collision"].toObject();
     QCOMPARE(fine["full_search_every"].toInt(), 16);
     QCOMPARE(fine["full_search_first"].toInt(), 8);
-    QVERIFY(!fine.contains("hold_step"));
+    // From 5 levels, the hold moves a vertex by at most 0.05 of its spacing a step; not at 3.
+    QCOMPARE(fine["hold_step"].toDouble(), 0.05);
+    QVERIFY(!scene["forces"].toObject()["collision"].toObject().contains("hold_step"));
     QVERIFY(!scene["forces"].toObject()["collision"].toObject().contains("full_search_first"));
-    // Of 6 levels, the hold moves a vertex by at most 0.05 of its spacing a step.
+    r = runTool(SINEW_MAKE_SCENE, {"--model", model_, "--target", subject_ + "/image.nii.gz", "--structures",
+                                   "Hippocampus_L,Amygdala_L", "--iterations", "5,5,5,5", "-o", path("four.json")});
+    QVERIFY2(r.code == 0, qPrintable(r.err));
+    const QJsonObject four = readJson(path("four.json"))["forces"].toObject()["collision"].toObject();
+    QVERIFY(!four.contains("hold_step") && !four.contains("full_search_first"));
     r = runTool(SINEW_MAKE_SCENE, {"--model", model_, "--target", subject_ + "/image.nii.gz", "--structures",
                                    "Hippocampus_L,Amygdala_L", "--iterations", "5,5,5,5,5,5", "-o", path("finest.json")});
     QVERIFY2(r.code == 0, qPrintable(r.err));
