@@ -11,6 +11,10 @@
 //   mixed     every n-th of a lane's samples from the corners (base and half differences, 16-byte
 //             load), the rest from the texture: the texture units and the load-store pipe side by
 //             side (faster alone; in the profile pass it was slower too: docs/benchmarks.md)
+//   layers    a layered 2D texture whose texel holds a voxel and its neighbour one slice up (one
+//             bilinear fetch, the slices blended in the SM), or single slices fetched twice; and
+//             the texture and the slice pairs with the profile pass's registers and shared memory
+//             (faster alone; in the pass it was slower: docs/benchmarks.md)
 // Only the fetches: in the profile pass itself the fastest accurate variant was slower (the
 // measurements are in docs/benchmarks.md).
 //   bench_profile_fetch [REPEATS (default 20)]
@@ -98,6 +102,26 @@ struct ViaTexture {
   cudaTextureObject_t image;
   __device__ float operator()(float3 p) const { return tex3D<float>(image, p.x + 0.5f, p.y + 0.5f, p.z + 0.5f); }
 };
+// A layered 2D texture, layer k holding slices k and k + 1 as a pair of 16-bit values: one bilinear
+// fetch gives both slices' bilinear values, blended along z in the SM (kPairs), or a layered
+// texture of single slices fetched twice (!kPairs).
+template <bool kPairs>
+struct ViaLayers {
+  cudaTextureObject_t layers;
+  __device__ float operator()(float3 p) const {
+    const float z = fminf(fmaxf(p.z, 0.0f), kSize - 1.0f);
+    const int layer = min(int(z), kSize - 2);
+    const float fz = z - float(layer);
+    if constexpr (kPairs) {
+      const float2 v = tex2DLayered<float2>(layers, p.x + 0.5f, p.y + 0.5f, layer);
+      return fmaf(fz, v.y - v.x, v.x);
+    } else {
+      const float a = tex2DLayered<float>(layers, p.x + 0.5f, p.y + 0.5f, layer);
+      const float b = tex2DLayered<float>(layers, p.x + 0.5f, p.y + 0.5f, layer + 1);
+      return fmaf(fz, b - a, a);
+    }
+  }
+};
 struct ViaCornerTexture {
   cudaTextureObject_t corners;
   __device__ float operator()(float3 p) const {
@@ -128,6 +152,25 @@ __global__ void sumSamples(const Vertex* vs, int n, Fetch fetch, float* out) {
   float sum = 0.0f;
 #pragma unroll
   for (int s = part; s < kSamples; s += kLanes) sum += fetch(position(vx, float(s)));
+  sum += __shfl_xor_sync(0xffffffffu, sum, 1);
+  if (part == 0) out[v] = sum;
+}
+
+// The same as the profile pass holds it: at most 80 registers (6 blocks of 128 an SM) and 18 KB of
+// shared memory a block (its lines and reference profiles), so that L1 keeps the rest for the texture.
+template <class Fetch>
+__global__ void __launch_bounds__(128, 6) sumSamplesAsInThePass(const Vertex* vs, int n, Fetch fetch, float* out) {
+  extern __shared__ float lines[];
+  const int t = blockIdx.x * blockDim.x + threadIdx.x, v = t / kLanes, part = t % kLanes;
+  if (v >= n) return;
+  const Vertex vx = vs[v];
+  float* line = lines + (threadIdx.x / kLanes) * 51 + part;
+#pragma unroll
+  for (int s = 0; s < kSamples / kLanes; ++s) line[kLanes * s] = fetch(position(vx, float(part + kLanes * s)));
+  __syncwarp();
+  float sum = 0.0f;
+#pragma unroll
+  for (int s = 0; s < kSamples / kLanes; ++s) sum += line[kLanes * s];
   sum += __shfl_xor_sync(0xffffffffu, sum, 1);
   if (part == 0) out[v] = sum;
 }
@@ -253,6 +296,32 @@ int main(int argc, char** argv) {
   };
   const cudaTextureObject_t imageTexture = texture3d(image.data(), cudaCreateChannelDesc<unsigned short>(), 2, true);
   const cudaTextureObject_t cornerTexture = texture3d(corners.data(), cudaCreateChannelDesc<uint4>(), 16, false);
+  const auto layered = [&](const void* data, cudaChannelFormatDesc format, std::size_t bytes) {
+    cudaArray_t array;
+    CHECK(cudaMalloc3DArray(&array, &format, extent, cudaArrayLayered));
+    cudaMemcpy3DParms copy{};
+    copy.srcPtr = make_cudaPitchedPtr(const_cast<void*>(data), kSize * bytes, kSize, kSize);
+    copy.dstArray = array;
+    copy.extent = extent;
+    copy.kind = cudaMemcpyHostToDevice;
+    CHECK(cudaMemcpy3D(&copy));
+    cudaResourceDesc resource{};
+    resource.resType = cudaResourceTypeArray;
+    resource.res.array.array = array;
+    cudaTextureDesc desc{};
+    for (auto& mode : desc.addressMode) mode = cudaAddressModeClamp;
+    desc.filterMode = cudaFilterModeLinear;
+    desc.readMode = cudaReadModeNormalizedFloat;
+    cudaTextureObject_t object;
+    CHECK(cudaCreateTextureObject(&object, &resource, &desc, nullptr));
+    return object;
+  };
+  std::vector<ushort2> slicePairs(voxels);
+  for (std::size_t k = 0; k < std::size_t(kSize); ++k)
+    for (std::size_t r = 0; r < std::size_t(kSize) * kSize; ++r)
+      slicePairs[k * kSize * kSize + r] = make_ushort2(image[k * kSize * kSize + r], image[std::min<std::size_t>(k + 1, kSize - 1) * kSize * kSize + r]);
+  const cudaTextureObject_t pairLayers = layered(slicePairs.data(), cudaCreateChannelDesc<ushort2>(), 4);
+  const cudaTextureObject_t sliceLayers = layered(image.data(), cudaCreateChannelDesc<unsigned short>(), 2);
   uint4 *cornersGlobal, *integersGlobal;
   CHECK(cudaMalloc(&cornersGlobal, voxels * sizeof(uint4)));
   CHECK(cudaMemcpy(cornersGlobal, corners.data(), voxels * sizeof(uint4), cudaMemcpyHostToDevice));
@@ -308,6 +377,17 @@ int main(int argc, char** argv) {
   };
   for (int round = 0; round < 2; ++round) {
     report("texture (trilinear filter)", microseconds([&] { sumSamples<<<blocks, threads>>>(vs, n, ViaTexture{imageTexture}, outTexture); }, repeats), outTexture);
+    report("layers of slice pairs (16-bit x 2), bilinear, z blended in the SM",
+           microseconds([&] { sumSamples<<<blocks, threads>>>(vs, n, ViaLayers<true>{pairLayers}, outOther); }, repeats), outOther);
+    report("layers of slices (16-bit), two bilinear fetches, z blended in the SM",
+           microseconds([&] { sumSamples<<<blocks, threads>>>(vs, n, ViaLayers<false>{sliceLayers}, outOther); }, repeats), outOther);
+    constexpr int kPassShared = 18 * 1024;
+    CHECK(cudaFuncSetAttribute(sumSamplesAsInThePass<ViaTexture>, cudaFuncAttributeMaxDynamicSharedMemorySize, kPassShared));
+    CHECK(cudaFuncSetAttribute(sumSamplesAsInThePass<ViaLayers<true>>, cudaFuncAttributeMaxDynamicSharedMemorySize, kPassShared));
+    report("as in the pass (80 registers, 18 KB shared): texture",
+           microseconds([&] { sumSamplesAsInThePass<<<blocks, threads, kPassShared>>>(vs, n, ViaTexture{imageTexture}, outOther); }, repeats), outOther);
+    report("as in the pass (80 registers, 18 KB shared): layers of slice pairs",
+           microseconds([&] { sumSamplesAsInThePass<<<blocks, threads, kPassShared>>>(vs, n, ViaLayers<true>{pairLayers}, outOther); }, repeats), outOther);
     report("corners as halves, unfiltered texture fetch, half blend",
            microseconds([&] { sumSamples<<<blocks, threads>>>(vs, n, ViaCornerTexture{cornerTexture}, outOther); }, repeats), outOther);
     report("corners as halves, 16-byte global load, half blend",
