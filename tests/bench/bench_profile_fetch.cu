@@ -12,8 +12,9 @@
 //             load), the rest from the texture: the texture units and the load-store pipe side by
 //             side (faster alone; in the profile pass it was slower too: docs/benchmarks.md)
 //   layers    a layered 2D texture whose texel holds a voxel and its neighbour one slice up (one
-//             bilinear fetch, the slices blended in the SM), or single slices fetched twice; and
-//             the texture and the slice pairs with the profile pass's registers and shared memory
+//             bilinear fetch, the slices blended in the SM), single slices fetched twice, or a 3D
+//             texture of the pairs fetched at its layers' centres; the texture and the slice pairs
+//             with the profile pass's registers and shared memory, and with the vertices shuffled
 //             (faster alone; in the pass it was slower: docs/benchmarks.md)
 // Only the fetches: in the profile pass itself the fastest accurate variant was slower (the
 // measurements are in docs/benchmarks.md).
@@ -120,6 +121,18 @@ struct ViaLayers {
       const float b = tex2DLayered<float>(layers, p.x + 0.5f, p.y + 0.5f, layer + 1);
       return fmaf(fz, b - a, a);
     }
+  }
+};
+// A 3D texture of the same slice pairs, fetched at the centre of its layer along z (the filter's z
+// weight 0): whether the texture units then filter at the bilinear rate, with 3D tiles' locality.
+struct ViaPairVolume {
+  cudaTextureObject_t pairs;
+  __device__ float operator()(float3 p) const {
+    const float z = fminf(fmaxf(p.z, 0.0f), kSize - 1.0f);
+    const int layer = min(int(z), kSize - 2);
+    const float fz = z - float(layer);
+    const float2 v = tex3D<float2>(pairs, p.x + 0.5f, p.y + 0.5f, float(layer) + 0.5f);
+    return fmaf(fz, v.y - v.x, v.x);
   }
 };
 struct ViaCornerTexture {
@@ -322,6 +335,7 @@ int main(int argc, char** argv) {
       slicePairs[k * kSize * kSize + r] = make_ushort2(image[k * kSize * kSize + r], image[std::min<std::size_t>(k + 1, kSize - 1) * kSize * kSize + r]);
   const cudaTextureObject_t pairLayers = layered(slicePairs.data(), cudaCreateChannelDesc<ushort2>(), 4);
   const cudaTextureObject_t sliceLayers = layered(image.data(), cudaCreateChannelDesc<unsigned short>(), 2);
+  const cudaTextureObject_t pairVolume = texture3d(slicePairs.data(), cudaCreateChannelDesc<ushort2>(), 4, true);
   uint4 *cornersGlobal, *integersGlobal;
   CHECK(cudaMalloc(&cornersGlobal, voxels * sizeof(uint4)));
   CHECK(cudaMemcpy(cornersGlobal, corners.data(), voxels * sizeof(uint4), cudaMemcpyHostToDevice));
@@ -340,6 +354,18 @@ int main(int argc, char** argv) {
   CHECK(cudaMalloc(&outOther, n * sizeof(float)));
   CHECK(cudaMemcpy(vs, vertices.data(), n * sizeof(Vertex), cudaMemcpyHostToDevice));
   const int threads = 128, blocks = (n * kLanes + threads - 1) / threads;
+  // The same vertices in an order without locality (a fixed shuffle), as a mesh's numbering far
+  // from its surface's neighbourhoods would give the warps.
+  std::vector<Vertex> mixed = vertices;
+  for (std::size_t i = mixed.size() - 1; i > 0; --i) {
+    state = state * 1664525u + 1013904223u;
+    std::swap(mixed[i], mixed[state % (i + 1)]);
+  }
+  Vertex* shuffled;
+  float* outShuffled;
+  CHECK(cudaMalloc(&shuffled, n * sizeof(Vertex)));
+  CHECK(cudaMalloc(&outShuffled, n * sizeof(float)));
+  CHECK(cudaMemcpy(shuffled, mixed.data(), n * sizeof(Vertex), cudaMemcpyHostToDevice));
 
   std::printf("device: %s; %d vertices, %d samples each, %d lanes a vertex; us per launch (%d launches)\n\n", prop.name, n,
               kSamples, kLanes, repeats);
@@ -370,15 +396,19 @@ int main(int argc, char** argv) {
   std::printf("| fetch | us | G samples/s | largest error of a vertex's sum of 50 samples (values in [0, 1]) |\n| --- | ---: | ---: | ---: |\n");
   std::vector<float> got(n);
   const auto report = [&](const char* name, double us, float* out) {
-    CHECK(cudaMemcpy(got.data(), out, n * sizeof(float), cudaMemcpyDeviceToHost));
     double worst = 0;
-    for (int v = 0, e = 0; v < n; v += 97, ++e) worst = std::max(worst, std::abs(double(got[v]) - exact[e]));
+    if (out) {  // else the shuffled vertices: their sums are not checked
+      CHECK(cudaMemcpy(got.data(), out, n * sizeof(float), cudaMemcpyDeviceToHost));
+      for (int v = 0, e = 0; v < n; v += 97, ++e) worst = std::max(worst, std::abs(double(got[v]) - exact[e]));
+    }
     std::printf("| %s | %.1f | %.1f | %.2e |\n", name, us, double(n) * kSamples / us / 1e3, worst);
   };
   for (int round = 0; round < 2; ++round) {
     report("texture (trilinear filter)", microseconds([&] { sumSamples<<<blocks, threads>>>(vs, n, ViaTexture{imageTexture}, outTexture); }, repeats), outTexture);
     report("layers of slice pairs (16-bit x 2), bilinear, z blended in the SM",
            microseconds([&] { sumSamples<<<blocks, threads>>>(vs, n, ViaLayers<true>{pairLayers}, outOther); }, repeats), outOther);
+    report("3D texture of slice pairs at its layers' centres, z blended in the SM",
+           microseconds([&] { sumSamples<<<blocks, threads>>>(vs, n, ViaPairVolume{pairVolume}, outOther); }, repeats), outOther);
     report("layers of slices (16-bit), two bilinear fetches, z blended in the SM",
            microseconds([&] { sumSamples<<<blocks, threads>>>(vs, n, ViaLayers<false>{sliceLayers}, outOther); }, repeats), outOther);
     constexpr int kPassShared = 18 * 1024;
@@ -388,6 +418,12 @@ int main(int argc, char** argv) {
            microseconds([&] { sumSamplesAsInThePass<<<blocks, threads, kPassShared>>>(vs, n, ViaTexture{imageTexture}, outOther); }, repeats), outOther);
     report("as in the pass (80 registers, 18 KB shared): layers of slice pairs",
            microseconds([&] { sumSamplesAsInThePass<<<blocks, threads, kPassShared>>>(vs, n, ViaLayers<true>{pairLayers}, outOther); }, repeats), outOther);
+    report("vertices shuffled: texture",
+           microseconds([&] { sumSamplesAsInThePass<<<blocks, threads, kPassShared>>>(shuffled, n, ViaTexture{imageTexture}, outShuffled); }, repeats), nullptr);
+    report("vertices shuffled: layers of slice pairs",
+           microseconds([&] { sumSamplesAsInThePass<<<blocks, threads, kPassShared>>>(shuffled, n, ViaLayers<true>{pairLayers}, outShuffled); }, repeats), nullptr);
+    report("vertices shuffled: 3D texture of slice pairs",
+           microseconds([&] { sumSamplesAsInThePass<<<blocks, threads, kPassShared>>>(shuffled, n, ViaPairVolume{pairVolume}, outShuffled); }, repeats), nullptr);
     report("corners as halves, unfiltered texture fetch, half blend",
            microseconds([&] { sumSamples<<<blocks, threads>>>(vs, n, ViaCornerTexture{cornerTexture}, outOther); }, repeats), outOther);
     report("corners as halves, 16-byte global load, half blend",
