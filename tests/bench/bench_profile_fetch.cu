@@ -14,7 +14,8 @@
 //   layers    a layered 2D texture whose texel holds a voxel and its neighbour one slice up (one
 //             bilinear fetch, the slices blended in the SM), single slices fetched twice, or a 3D
 //             texture of the pairs fetched at its layers' centres; the texture and the slice pairs
-//             with the profile pass's registers and shared memory, and with the vertices shuffled
+//             with the profile pass's registers and shared memory, in batches of fetches, and with
+//             the vertices shuffled
 //             (faster alone; in the pass it was slower: docs/benchmarks.md)
 // Only the fetches: in the profile pass itself the fastest accurate variant was slower (the
 // measurements are in docs/benchmarks.md).
@@ -184,6 +185,31 @@ __global__ void __launch_bounds__(128, 6) sumSamplesAsInThePass(const Vertex* vs
   float sum = 0.0f;
 #pragma unroll
   for (int s = 0; s < kSamples / kLanes; ++s) sum += line[kLanes * s];
+  sum += __shfl_xor_sync(0xffffffffu, sum, 1);
+  if (part == 0) out[v] = sum;
+}
+
+// The same in kBatches batches of a lane's samples, each stored before the next is fetched (a
+// barrier between them), so that fewer fetches are in flight at once: the registers a pair's
+// fetches take in the pass.
+template <int kBatches, class Fetch>
+__global__ void __launch_bounds__(128, 6) sumSamplesInBatches(const Vertex* vs, int n, Fetch fetch, float* out) {
+  extern __shared__ float lines[];
+  const int t = blockIdx.x * blockDim.x + threadIdx.x, v = t / kLanes, part = t % kLanes;
+  if (v >= n) return;
+  const Vertex vx = vs[v];
+  float* line = lines + (threadIdx.x / kLanes) * 51 + part;
+  constexpr int kPerLane = kSamples / kLanes, kPerBatch = (kPerLane + kBatches - 1) / kBatches;
+#pragma unroll
+  for (int b = 0; b < kBatches; ++b) {
+#pragma unroll
+    for (int s = b * kPerBatch; s < (b + 1) * kPerBatch && s < kPerLane; ++s)
+      line[kLanes * s] = fetch(position(vx, float(part + kLanes * s)));
+    __syncwarp();
+  }
+  float sum = 0.0f;
+#pragma unroll
+  for (int s = 0; s < kPerLane; ++s) sum += line[kLanes * s];
   sum += __shfl_xor_sync(0xffffffffu, sum, 1);
   if (part == 0) out[v] = sum;
 }
@@ -418,6 +444,15 @@ int main(int argc, char** argv) {
            microseconds([&] { sumSamplesAsInThePass<<<blocks, threads, kPassShared>>>(vs, n, ViaTexture{imageTexture}, outOther); }, repeats), outOther);
     report("as in the pass (80 registers, 18 KB shared): layers of slice pairs",
            microseconds([&] { sumSamplesAsInThePass<<<blocks, threads, kPassShared>>>(vs, n, ViaLayers<true>{pairLayers}, outOther); }, repeats), outOther);
+    CHECK(cudaFuncSetAttribute(sumSamplesInBatches<2, ViaLayers<true>>, cudaFuncAttributeMaxDynamicSharedMemorySize, kPassShared));
+    CHECK(cudaFuncSetAttribute(sumSamplesInBatches<3, ViaLayers<true>>, cudaFuncAttributeMaxDynamicSharedMemorySize, kPassShared));
+    CHECK(cudaFuncSetAttribute(sumSamplesInBatches<2, ViaTexture>, cudaFuncAttributeMaxDynamicSharedMemorySize, kPassShared));
+    report("as in the pass, in 2 batches: texture",
+           microseconds([&] { sumSamplesInBatches<2><<<blocks, threads, kPassShared>>>(vs, n, ViaTexture{imageTexture}, outOther); }, repeats), outOther);
+    report("as in the pass, in 2 batches: layers of slice pairs",
+           microseconds([&] { sumSamplesInBatches<2><<<blocks, threads, kPassShared>>>(vs, n, ViaLayers<true>{pairLayers}, outOther); }, repeats), outOther);
+    report("as in the pass, in 3 batches: layers of slice pairs",
+           microseconds([&] { sumSamplesInBatches<3><<<blocks, threads, kPassShared>>>(vs, n, ViaLayers<true>{pairLayers}, outOther); }, repeats), outOther);
     report("vertices shuffled: texture",
            microseconds([&] { sumSamplesAsInThePass<<<blocks, threads, kPassShared>>>(shuffled, n, ViaTexture{imageTexture}, outShuffled); }, repeats), nullptr);
     report("vertices shuffled: layers of slice pairs",
