@@ -87,13 +87,20 @@ private slots:
     const QJsonObject scene = readJson(scene_);
     QVERIFY(scene["initialise"].toObject()["registration"].toString() == "affine");
     QVERIFY(!scene["structures"].toArray()[0].toObject().contains("initial"));  // no random perturbation
-    // Deforming contacts between every pair of structures, released at the finest level
-    // (docs/collisions.md: they hold the registered model's relative placement at the coarser ones).
+    // Deforming contacts between every pair of structures, kept at a third of their weight at the
+    // finest level (docs/collisions.md: they hold the registered model's relative placement at the
+    // coarser ones; released at the finest, 23 subjects ended 0.0034 mm worse on average).
     QCOMPARE(scene["contact_pairs"].toArray().size(), 6);
     QCOMPARE(scene["forces"].toObject()["contacts"].toObject()["weight"].toDouble(), 0.3);
     const QJsonArray levels = scene["schedule"].toArray();
-    QCOMPARE(levels.last().toObject()["forces"].toObject()["contacts"].toObject()["weight"].toDouble(), 0.0);
+    QCOMPARE(levels.last().toObject()["forces"].toObject()["contacts"].toObject()["weight"].toDouble(), 0.1);
     QVERIFY(!levels.first().toObject()["forces"].toObject().contains("contacts"));
+    r = runTool(SINEW_MAKE_SCENE, {"--model", model_, "--target", subject_ + "/image.nii.gz", "--structures",
+                                   "Hippocampus_L,Amygdala_L", "--contact-weight", "0.6", "-o", path("contacts06.json")});
+    QVERIFY2(r.code == 0, qPrintable(r.err));
+    const QJsonObject heavier = readJson(path("contacts06.json"));
+    QCOMPARE(heavier["forces"].toObject()["contacts"].toObject()["weight"].toDouble(), 0.6);
+    QCOMPARE(heavier["schedule"].toArray().last().toObject()["forces"].toObject()["contacts"].toObject()["weight"].toDouble(), 0.2);
     r = runTool(SINEW_MAKE_SCENE, {"--model", model_, "--target", subject_ + "/image.nii.gz", "--structures",
                                    "Hippocampus_L,Amygdala_L", "--contact-weight", "0", "-o", path("nocontacts.json")});
     QVERIFY2(r.code == 0, qPrintable(r.err));

@@ -4,6 +4,8 @@
 // f_i = alpha m_i (x_j + o_ij - x_i), scaled by the mass like a collision contact, so that every
 // vertex moves alike. The paper applies them at the coarse levels and releases them at the finest,
 // where collisions let surfaces slide: set the weight to 0 in the last level of the schedule.
+// sinew-make-scene's subject scenes keep a third of the weight there instead, which new subjects
+// segmented better (docs/collisions.md, "The deforming contacts kept at the finest level").
 #include "sinew/core/contact_links.h"
 #include "sinew/core/registry.h"
 
@@ -52,7 +54,7 @@ private:
 void registerContactsForce(Registry& registry) {
   registry.addForce({"contacts",
                      "deforming contacts: springs that keep the reference proximity of the scene's contact_pairs "
-                     "(usually on at the coarse levels, released at the finest)",
+                     "(on at the coarse levels; released, or weaker, at the finest)",
                      {{"distance_mm", 2.0, 0.1, 20.0, "mm",
                        "vertex pairs of two paired structures closer than this in the reference shape are linked", false}},
                      [] { return std::make_unique<ContactsForce>(); }});
