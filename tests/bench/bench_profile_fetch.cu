@@ -104,6 +104,13 @@ struct ViaTexture {
   cudaTextureObject_t image;
   __device__ float operator()(float3 p) const { return tex3D<float>(image, p.x + 0.5f, p.y + 0.5f, p.z + 0.5f); }
 };
+// The slice below z (clamped to the image, as the texture clamps) and z's fraction past it.
+__device__ __forceinline__ int sliceOf(float z, float& fraction) {
+  z = fminf(fmaxf(z, 0.0f), kSize - 1.0f);
+  const int slice = min(int(z), kSize - 2);
+  fraction = z - float(slice);
+  return slice;
+}
 // A layered 2D texture, layer k holding slices k and k + 1 as a pair of 16-bit values: one bilinear
 // fetch gives both slices' bilinear values, blended along z in the SM (kPairs), or a layered
 // texture of single slices fetched twice (!kPairs).
@@ -111,9 +118,8 @@ template <bool kPairs>
 struct ViaLayers {
   cudaTextureObject_t layers;
   __device__ float operator()(float3 p) const {
-    const float z = fminf(fmaxf(p.z, 0.0f), kSize - 1.0f);
-    const int layer = min(int(z), kSize - 2);
-    const float fz = z - float(layer);
+    float fz;
+    const int layer = sliceOf(p.z, fz);
     if constexpr (kPairs) {
       const float2 v = tex2DLayered<float2>(layers, p.x + 0.5f, p.y + 0.5f, layer);
       return fmaf(fz, v.y - v.x, v.x);
@@ -129,9 +135,8 @@ struct ViaLayers {
 struct ViaPairVolume {
   cudaTextureObject_t pairs;
   __device__ float operator()(float3 p) const {
-    const float z = fminf(fmaxf(p.z, 0.0f), kSize - 1.0f);
-    const int layer = min(int(z), kSize - 2);
-    const float fz = z - float(layer);
+    float fz;
+    const int layer = sliceOf(p.z, fz);
     const float2 v = tex3D<float2>(pairs, p.x + 0.5f, p.y + 0.5f, float(layer) + 0.5f);
     return fmaf(fz, v.y - v.x, v.x);
   }
@@ -171,27 +176,10 @@ __global__ void sumSamples(const Vertex* vs, int n, Fetch fetch, float* out) {
 }
 
 // The same as the profile pass holds it: at most 80 registers (6 blocks of 128 an SM) and 18 KB of
-// shared memory a block (its lines and reference profiles), so that L1 keeps the rest for the texture.
-template <class Fetch>
-__global__ void __launch_bounds__(128, 6) sumSamplesAsInThePass(const Vertex* vs, int n, Fetch fetch, float* out) {
-  extern __shared__ float lines[];
-  const int t = blockIdx.x * blockDim.x + threadIdx.x, v = t / kLanes, part = t % kLanes;
-  if (v >= n) return;
-  const Vertex vx = vs[v];
-  float* line = lines + (threadIdx.x / kLanes) * 51 + part;
-#pragma unroll
-  for (int s = 0; s < kSamples / kLanes; ++s) line[kLanes * s] = fetch(position(vx, float(part + kLanes * s)));
-  __syncwarp();
-  float sum = 0.0f;
-#pragma unroll
-  for (int s = 0; s < kSamples / kLanes; ++s) sum += line[kLanes * s];
-  sum += __shfl_xor_sync(0xffffffffu, sum, 1);
-  if (part == 0) out[v] = sum;
-}
-
-// The same in kBatches batches of a lane's samples, each stored before the next is fetched (a
-// barrier between them), so that fewer fetches are in flight at once: the registers a pair's
-// fetches take in the pass.
+// shared memory a block (its lines and reference profiles), so that L1 keeps the rest for the
+// texture; the samples stored to shared memory in kBatches batches, each before the next is
+// fetched (a barrier between them): above 1, fewer fetches in flight at once, the registers a
+// pair's fetches take in the pass.
 template <int kBatches, class Fetch>
 __global__ void __launch_bounds__(128, 6) sumSamplesInBatches(const Vertex* vs, int n, Fetch fetch, float* out) {
   extern __shared__ float lines[];
@@ -313,9 +301,10 @@ int main(int argc, char** argv) {
       }
 
   const cudaExtent extent = make_cudaExtent(kSize, kSize, kSize);
-  const auto texture3d = [&](const void* data, cudaChannelFormatDesc format, std::size_t bytes, bool linear) {
+  // A 3D texture, or with `flags` cudaArrayLayered a layered 2D one (the third extent its layers).
+  const auto texture3d = [&](const void* data, cudaChannelFormatDesc format, std::size_t bytes, bool linear, unsigned flags = 0) {
     cudaArray_t array;
-    CHECK(cudaMalloc3DArray(&array, &format, extent));
+    CHECK(cudaMalloc3DArray(&array, &format, extent, flags));
     cudaMemcpy3DParms copy{};
     copy.srcPtr = make_cudaPitchedPtr(const_cast<void*>(data), kSize * bytes, kSize, kSize);
     copy.dstArray = array;
@@ -335,32 +324,12 @@ int main(int argc, char** argv) {
   };
   const cudaTextureObject_t imageTexture = texture3d(image.data(), cudaCreateChannelDesc<unsigned short>(), 2, true);
   const cudaTextureObject_t cornerTexture = texture3d(corners.data(), cudaCreateChannelDesc<uint4>(), 16, false);
-  const auto layered = [&](const void* data, cudaChannelFormatDesc format, std::size_t bytes) {
-    cudaArray_t array;
-    CHECK(cudaMalloc3DArray(&array, &format, extent, cudaArrayLayered));
-    cudaMemcpy3DParms copy{};
-    copy.srcPtr = make_cudaPitchedPtr(const_cast<void*>(data), kSize * bytes, kSize, kSize);
-    copy.dstArray = array;
-    copy.extent = extent;
-    copy.kind = cudaMemcpyHostToDevice;
-    CHECK(cudaMemcpy3D(&copy));
-    cudaResourceDesc resource{};
-    resource.resType = cudaResourceTypeArray;
-    resource.res.array.array = array;
-    cudaTextureDesc desc{};
-    for (auto& mode : desc.addressMode) mode = cudaAddressModeClamp;
-    desc.filterMode = cudaFilterModeLinear;
-    desc.readMode = cudaReadModeNormalizedFloat;
-    cudaTextureObject_t object;
-    CHECK(cudaCreateTextureObject(&object, &resource, &desc, nullptr));
-    return object;
-  };
   std::vector<ushort2> slicePairs(voxels);
   for (std::size_t k = 0; k < std::size_t(kSize); ++k)
     for (std::size_t r = 0; r < std::size_t(kSize) * kSize; ++r)
       slicePairs[k * kSize * kSize + r] = make_ushort2(image[k * kSize * kSize + r], image[std::min<std::size_t>(k + 1, kSize - 1) * kSize * kSize + r]);
-  const cudaTextureObject_t pairLayers = layered(slicePairs.data(), cudaCreateChannelDesc<ushort2>(), 4);
-  const cudaTextureObject_t sliceLayers = layered(image.data(), cudaCreateChannelDesc<unsigned short>(), 2);
+  const cudaTextureObject_t pairLayers = texture3d(slicePairs.data(), cudaCreateChannelDesc<ushort2>(), 4, true, cudaArrayLayered);
+  const cudaTextureObject_t sliceLayers = texture3d(image.data(), cudaCreateChannelDesc<unsigned short>(), 2, true, cudaArrayLayered);
   const cudaTextureObject_t pairVolume = texture3d(slicePairs.data(), cudaCreateChannelDesc<ushort2>(), 4, true);
   uint4 *cornersGlobal, *integersGlobal;
   CHECK(cudaMalloc(&cornersGlobal, voxels * sizeof(uint4)));
@@ -438,12 +407,12 @@ int main(int argc, char** argv) {
     report("layers of slices (16-bit), two bilinear fetches, z blended in the SM",
            microseconds([&] { sumSamples<<<blocks, threads>>>(vs, n, ViaLayers<false>{sliceLayers}, outOther); }, repeats), outOther);
     constexpr int kPassShared = 18 * 1024;
-    CHECK(cudaFuncSetAttribute(sumSamplesAsInThePass<ViaTexture>, cudaFuncAttributeMaxDynamicSharedMemorySize, kPassShared));
-    CHECK(cudaFuncSetAttribute(sumSamplesAsInThePass<ViaLayers<true>>, cudaFuncAttributeMaxDynamicSharedMemorySize, kPassShared));
+    CHECK(cudaFuncSetAttribute(sumSamplesInBatches<1, ViaTexture>, cudaFuncAttributeMaxDynamicSharedMemorySize, kPassShared));
+    CHECK(cudaFuncSetAttribute(sumSamplesInBatches<1, ViaLayers<true>>, cudaFuncAttributeMaxDynamicSharedMemorySize, kPassShared));
     report("as in the pass (80 registers, 18 KB shared): texture",
-           microseconds([&] { sumSamplesAsInThePass<<<blocks, threads, kPassShared>>>(vs, n, ViaTexture{imageTexture}, outOther); }, repeats), outOther);
+           microseconds([&] { sumSamplesInBatches<1><<<blocks, threads, kPassShared>>>(vs, n, ViaTexture{imageTexture}, outOther); }, repeats), outOther);
     report("as in the pass (80 registers, 18 KB shared): layers of slice pairs",
-           microseconds([&] { sumSamplesAsInThePass<<<blocks, threads, kPassShared>>>(vs, n, ViaLayers<true>{pairLayers}, outOther); }, repeats), outOther);
+           microseconds([&] { sumSamplesInBatches<1><<<blocks, threads, kPassShared>>>(vs, n, ViaLayers<true>{pairLayers}, outOther); }, repeats), outOther);
     CHECK(cudaFuncSetAttribute(sumSamplesInBatches<2, ViaLayers<true>>, cudaFuncAttributeMaxDynamicSharedMemorySize, kPassShared));
     CHECK(cudaFuncSetAttribute(sumSamplesInBatches<3, ViaLayers<true>>, cudaFuncAttributeMaxDynamicSharedMemorySize, kPassShared));
     CHECK(cudaFuncSetAttribute(sumSamplesInBatches<2, ViaTexture>, cudaFuncAttributeMaxDynamicSharedMemorySize, kPassShared));
@@ -454,11 +423,11 @@ int main(int argc, char** argv) {
     report("as in the pass, in 3 batches: layers of slice pairs",
            microseconds([&] { sumSamplesInBatches<3><<<blocks, threads, kPassShared>>>(vs, n, ViaLayers<true>{pairLayers}, outOther); }, repeats), outOther);
     report("vertices shuffled: texture",
-           microseconds([&] { sumSamplesAsInThePass<<<blocks, threads, kPassShared>>>(shuffled, n, ViaTexture{imageTexture}, outShuffled); }, repeats), nullptr);
+           microseconds([&] { sumSamplesInBatches<1><<<blocks, threads, kPassShared>>>(shuffled, n, ViaTexture{imageTexture}, outShuffled); }, repeats), nullptr);
     report("vertices shuffled: layers of slice pairs",
-           microseconds([&] { sumSamplesAsInThePass<<<blocks, threads, kPassShared>>>(shuffled, n, ViaLayers<true>{pairLayers}, outShuffled); }, repeats), nullptr);
+           microseconds([&] { sumSamplesInBatches<1><<<blocks, threads, kPassShared>>>(shuffled, n, ViaLayers<true>{pairLayers}, outShuffled); }, repeats), nullptr);
     report("vertices shuffled: 3D texture of slice pairs",
-           microseconds([&] { sumSamplesAsInThePass<<<blocks, threads, kPassShared>>>(shuffled, n, ViaPairVolume{pairVolume}, outShuffled); }, repeats), nullptr);
+           microseconds([&] { sumSamplesInBatches<1><<<blocks, threads, kPassShared>>>(shuffled, n, ViaPairVolume{pairVolume}, outShuffled); }, repeats), nullptr);
     report("corners as halves, unfiltered texture fetch, half blend",
            microseconds([&] { sumSamples<<<blocks, threads>>>(vs, n, ViaCornerTexture{cornerTexture}, outOther); }, repeats), outOther);
     report("corners as halves, 16-byte global load, half blend",
