@@ -202,14 +202,14 @@ int main(int argc, char** argv) {
     if (collisionSearchEvery == 0) collisionSearchEvery = 16;
     if (collisions) {
       scene["forces"]["collision"] = {{"weight", 0.0}, {"margin_mm", collisionMargin}, {"full_search_every", collisionSearchEvery}};
-      if (counts.size() > 4 && collisionSearchEvery > 1) scene["forces"]["collision"]["full_search_first"] = 8;
-      // From 5 levels (finest spacings of about 0.25 mm and less) the hold's jumps out of the
-      // overlaps the levels without collisions left fold the fine surfaces: at 6 levels the shape
-      // guard stopped 8 of 15 demo runs, 1 with a hold of at most 0.05 of a vertex's spacing a
-      // step; at 5 levels in subject mode one jump cost Putamen_R 0.34 mm of ASSD, and over 14
-      // subjects the limit took the collisions' cost from 0.0044 to 0.0015 mm. At 3 levels it only
-      // left more overlap (docs/collisions.md).
-      if (counts.size() >= 5) scene["forces"]["collision"]["hold_step"] = 0.05;
+      const bool fineSchedule = counts.size() >= 5;  // finest spacings of about 0.25 mm and less
+      if (fineSchedule && collisionSearchEvery > 1) scene["forces"]["collision"]["full_search_first"] = 8;
+      // From 5 levels the hold's jumps out of the overlaps the levels without collisions left fold
+      // the fine surfaces: at 6 levels the shape guard stopped 8 of 15 demo runs, 1 with a hold of
+      // at most 0.05 of a vertex's spacing a step; at 5 levels in subject mode one jump cost
+      // Putamen_R 0.34 mm of ASSD, and over 14 subjects the limit took the collisions' cost from
+      // 0.0044 to 0.0015 mm. At 3 levels it only left more overlap (docs/collisions.md).
+      if (fineSchedule) scene["forces"]["collision"]["hold_step"] = 0.05;
     }
     if (contactWeight < 0.0) contactWeight = subject ? kSubjectContactWeight : 0.0;
     const bool contacts = contactWeight > 0.0 && items.size() >= 2 && counts.size() >= 2;

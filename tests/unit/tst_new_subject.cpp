@@ -94,6 +94,11 @@ private slots:
     QCOMPARE(scene["forces"].toObject()["contacts"].toObject()["weight"].toDouble(), 0.3);
     const QJsonArray levels = scene["schedule"].toArray();
     QCOMPARE(levels.last().toObject()["forces"].toObject()["contacts"].toObject()["weight"].toDouble(), 0.1);
+    {  // written as a user reads it (QCOMPARE on doubles alone would pass 0.09999999999999999)
+      QFile text(scene_);
+      QVERIFY(text.open(QIODevice::ReadOnly));
+      QVERIFY(!text.readAll().contains("0.0999999"));
+    }
     QVERIFY(!levels.first().toObject()["forces"].toObject().contains("contacts"));
     r = runTool(SINEW_MAKE_SCENE, {"--model", model_, "--target", subject_ + "/image.nii.gz", "--structures",
                                    "Hippocampus_L,Amygdala_L", "--contact-weight", "0.6", "-o", path("contacts06.json")});
