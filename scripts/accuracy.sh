@@ -3,7 +3,8 @@
 # (aal.nii.gz on ch2better.nii.gz), new subjects made from ch2.nii.gz by sinew-make-subject (seeded
 # warp, affine, bias, contrast, noise), each segmented as a user would (sinew-make-scene --model,
 # initialised by registration) and scored against its own moved labels.
-# Usage: bash scripts/accuracy.sh [BUILD_DIR] [OUT_DIR] [BACKEND] [SEEDS...]
+# Usage: [INIT=bspline|affine|rigid] bash scripts/accuracy.sh [BUILD_DIR] [OUT_DIR] [BACKEND] [SEEDS...]
+# INIT: sinew-make-scene's --initialise (default: its own, "bspline"); its runs go to run-BACKEND-INIT.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 build="${1:-build/release}"
@@ -21,7 +22,7 @@ for seed in "${seeds[@]}"; do
   s="$out/subject-$seed"
   [ -f "$s/image.nii.gz" ] || "$app/sinew-make-subject" --image "$t/ch2.nii.gz" --labels "$t/aal.nii.gz" --seed "$seed" -o "$s"
   "$app/sinew-make-scene" --model "$out/model" --target "$s/image.nii.gz" --ground-truth "$s/labels.nii.gz" \
-    -o "$s/scene.json" 2>/dev/null
-  "$app/sinew-run" "$s/scene.json" -o "$s/run-$backend" -q --backend "$backend"
+    ${INIT:+--initialise "$INIT"} -o "$s/scene${INIT:+-$INIT}.json" 2>/dev/null
+  "$app/sinew-run" "$s/scene${INIT:+-$INIT}.json" -o "$s/run-$backend${INIT:+-$INIT}" -q --backend "$backend"
 done
-python3 scripts/accuracy_table.py "$out" "$backend" "${seeds[@]}"
+python3 scripts/accuracy_table.py "$out" "$backend${INIT:+-$INIT}" "${seeds[@]}"

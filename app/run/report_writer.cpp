@@ -57,7 +57,8 @@ void writeReportJson(const std::filesystem::path& path, const RunReport& r, cons
     Json init{{"method", in.method}, {"seconds", in.seconds}};
     Json stages = Json::array();
     for (const RegistrationStage& st : in.registration)
-      stages.push_back({{"name", st.name}, {"mattes_mi", st.metric}, {"iterations", st.iterations}, {"seconds", st.seconds}});
+      stages.push_back({{"name", st.name}, {"mattes_mi", st.metric}, {"iterations", st.iterations}, {"seconds", st.seconds},
+                        {"kept", st.kept}});
     if (!in.registration.empty()) init["registration"] = stages;
     if (in.hasAffine) {
       Json m = Json::array();

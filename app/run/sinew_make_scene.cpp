@@ -50,7 +50,7 @@ int main(int argc, char** argv) {
   CLI::App cli{"sinew-make-scene: write a segmentation scene from an atlas label map or a model."};
   std::string atlas, labelList, training, target, groundTruth, output = "scene.json", model, transform;
   std::string structures = kDefaultStructures;
-  std::string iterations, initialise = "affine";  // iterations: kDemoIterations or kSubjectIterations
+  std::string iterations, initialise = "bspline";  // iterations: kDemoIterations or kSubjectIterations
   bool subject = false;
   unsigned seed = 1;
   double maxRotation = 8.0, maxTranslation = 3.0, scaleMin = 0.9, scaleMax = 1.1, coarseSpacing = 4.0;
@@ -62,7 +62,7 @@ int main(int argc, char** argv) {
   cli.add_flag("--subject", subject, "subject mode: no random perturbation, the model initialised by registration, "
                                      "a ground truth only from --ground-truth");
   cli.add_option("--initialise", initialise, "subject mode: registration of the atlas image to the target")
-      ->check(CLI::IsMember({"affine", "rigid", "none"}))->capture_default_str();
+      ->check(CLI::IsMember({"bspline", "affine", "rigid", "none"}))->capture_default_str();
   cli.add_option("--transform", transform, "subject mode: an ITK transform file (target to model) instead of registering");
   auto* structuresOption = cli.add_option("--structures", structures,
                                           "comma-separated label names or values (default with --model: all of its structures)")

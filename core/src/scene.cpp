@@ -193,15 +193,23 @@ StructureDesc readStructureRest(const Node& n, StructureDesc& s) {
 }
 
 InitialiseDesc readInitialise(const Node& n) {
-  n.expectObject({"registration", "iterations", "levels", "samples", "moving_image", "transform", "landmarks", "landmark_fit"});
+  n.expectObject({"registration", "iterations", "levels", "samples", "bspline_cells", "moving_image", "transform", "landmarks",
+                  "landmark_fit"});
   InitialiseDesc d;
   const int methods = int(n.has("registration")) + int(n.has("transform")) + int(n.has("landmarks"));
   if (methods != 1) n.fail("give exactly one of 'registration', 'transform' or 'landmarks'");
   if (n.has("registration")) {
     d.method = InitialiseDesc::Method::Registration;
     const std::string kind = n.at("registration").string();
-    if (kind != "rigid" && kind != "affine") n.at("registration").fail("expected \"rigid\" or \"affine\"");
-    d.affine = kind == "affine";
+    if (kind != "rigid" && kind != "affine" && kind != "bspline")
+      n.at("registration").fail("expected \"rigid\", \"affine\" or \"bspline\"");
+    d.affine = kind != "rigid";
+    if (kind == "bspline") d.bsplineCells = kDefaultBSplineCells;
+    if (n.has("bspline_cells")) {
+      if (kind != "bspline") n.at("bspline_cells").fail("goes with \"registration\": \"bspline\"");
+      d.bsplineCells = n.at("bspline_cells").integer();
+      if (d.bsplineCells < 1 || d.bsplineCells > 16) n.at("bspline_cells").fail("must be in [1, 16]");
+    }
     if (n.has("iterations")) d.iterations = n.at("iterations").integer();
     if (d.iterations < 1 || d.iterations > 10000) n.at("iterations").fail("must be in [1, 10000]");
     if (n.has("levels")) d.levels = n.at("levels").integer();
@@ -210,7 +218,7 @@ InitialiseDesc readInitialise(const Node& n) {
     if (d.samples < 1000 || d.samples > 100000000) n.at("samples").fail("must be in [1000, 100000000]");
     if (n.has("moving_image")) d.movingImage = n.at("moving_image").path();
   } else {
-    for (const char* k : {"iterations", "levels", "samples", "moving_image"})
+    for (const char* k : {"iterations", "levels", "samples", "bspline_cells", "moving_image"})
       if (n.has(k)) n.at(k).fail("goes with 'registration'");
   }
   if (n.has("transform")) {
@@ -514,8 +522,9 @@ std::string sceneToJson(const SceneDesc& s) {
   switch (init.method) {
     case InitialiseDesc::Method::None: break;
     case InitialiseDesc::Method::Registration:
-      j["initialise"] = {{"registration", init.affine ? "affine" : "rigid"}, {"levels", init.levels},
-                         {"iterations", init.iterations}, {"samples", init.samples}};
+      j["initialise"] = {{"registration", init.bsplineCells > 0 ? "bspline" : init.affine ? "affine" : "rigid"},
+                         {"levels", init.levels}, {"iterations", init.iterations}, {"samples", init.samples}};
+      if (init.bsplineCells > 0) j["initialise"]["bspline_cells"] = init.bsplineCells;
       if (init.movingImage) j["initialise"]["moving_image"] = fs::absolute(*init.movingImage).string();
       break;
     case InitialiseDesc::Method::Transform:

@@ -28,11 +28,13 @@ void SceneRunner::Loaded::startRegistration(const Registry& registry, const Scen
     sceneError(scene, "/initialise/registration", e.what());
   }
   if (policy == std::launch::async && reading != std::launch::async) return;  // one thread: in initialise()
-  log("registering " + moving->filename().string() + " to the target (" + (d.affine ? "rigid, then affine" : "rigid") +
+  log("registering " + moving->filename().string() + " to the target (" +
+      (d.bsplineCells > 0 ? "rigid, affine, then B-spline" : d.affine ? "rigid, then affine" : "rigid") +
       (policy == std::launch::async ? "), beside the loading" : ")"));
   Pending<Image3D> target = startImage(registry, scene.targetImage), atlas = startImage(registry, *moving);
   RegistrationOptions o;
   o.affine = d.affine;
+  o.bsplineCells = d.bsplineCells;
   o.levels = d.levels;
   o.iterations = d.iterations;
   o.samplesPerLevel = d.samples;
@@ -52,6 +54,30 @@ void SceneRunner::Loaded::startRegistration(const Registry& registry, const Scen
   });
 }
 
+namespace {
+// A registration's spline maps are sampled on grids over the structures' shapes grown by a margin:
+// in the model for the map (every 2 mm), in the target for the training map (every 3 mm: it only
+// places the atlas image's samples), whose points reach out along the reference normals by the
+// profiles' length and search.
+constexpr double kMapGridMm = 2.0, kTrainingGridMm = 3.0, kMapBoxMarginMm = 5.0, kTrainingBoxMarginMm = 25.0;
+
+std::pair<Eigen::Vector3d, Eigen::Vector3d> boxOf(const std::vector<StructureSpec>& specs, double marginMm) {
+  Eigen::Vector3d lo = Eigen::Vector3d::Constant(1e300), hi = -lo;
+  const auto extend = [&](std::span<const Vec3> points) {
+    for (const Vec3& p : points) {
+      lo = lo.cwiseMin(p.cast<double>());
+      hi = hi.cwiseMax(p.cast<double>());
+    }
+  };
+  for (const StructureSpec& s : specs) {
+    extend(s.referencePositions);
+    for (const auto& level : s.finerReferences) extend(level);
+    extend(s.initialPositions);
+  }
+  return {lo.array() - marginMm, hi.array() + marginMm};
+}
+}  // namespace
+
 // The map of the "initialise" stage, applied to every structure's reference shapes (all levels) and
 // initial positions: the model moves into the target as a whole. Initial meshes given as files
 // are in the target already and stay.
@@ -62,6 +88,7 @@ void SceneRunner::initialise(std::vector<StructureSpec>& specs, const std::funct
   for (const auto& s : specs) L.modelPositions.push_back(s.initialPositions);
   InitialisationResult& r = L.init;
   SpatialMap map, inverse;
+  bool sampleInverseAfterMapping = false;
   const auto t0 = Clock::now();
   switch (d.method) {
     case InitialiseDesc::Method::None: break;
@@ -87,12 +114,24 @@ void SceneRunner::initialise(std::vector<StructureSpec>& specs, const std::funct
         L.backgroundSeconds.emplace_back("registration", L.registration.seconds);
       }
       L.clock.lap("registration");
-      r.method = std::string("registration (") + (d.affine ? "affine" : "rigid") + ")";
+      r.method = std::string("registration (") + (!reg.deformation.empty() ? "affine, then B-spline" : d.affine ? "affine" : "rigid") + ")";
       r.registration = reg.stages;
       r.hasAffine = true;
-      r.targetToModel = reg.targetToModel;
+      r.targetToModel = reg.targetToModel;  // the affine part (transform files hold an affine)
       map = SpatialMap::affine(reg.targetToModel.inverse());
       inverse = SpatialMap::affine(reg.targetToModel);
+      if (!reg.deformation.empty()) {
+        // The B-spline's map sampled on a grid, a thin-plate spline through it each way: the
+        // inverse one stands in for the B-spline's inverse, as for landmarks. Each is evaluated
+        // from its own values on a grid over where it is used (SpatialMap::sampledOn).
+        std::vector<LandmarkPair> swapped;
+        for (const auto& p : reg.deformation) swapped.push_back({p.target, p.model});
+        map = SpatialMap::fitThinPlateSpline(reg.deformation);
+        inverse = SpatialMap::fitThinPlateSpline(swapped);
+        const auto [lo, hi] = boxOf(specs, kMapBoxMarginMm);
+        map = map.sampledOn(lo, hi, kMapGridMm);
+        sampleInverseAfterMapping = true;
+      }
       break;
     }
     case InitialiseDesc::Method::Transform: {
@@ -132,6 +171,10 @@ void SceneRunner::initialise(std::vector<StructureSpec>& specs, const std::funct
     for (const Vec3& p : s.initialPositions)
       if (!p.allFinite())
         sceneError(scene_, "/initialise", "the initialisation maps structure '" + s.name + "' to non-finite positions");
+  }
+  if (sampleInverseAfterMapping) {  // over the mapped shapes and their profiles' reach, in the target
+    const auto [lo, hi] = boxOf(specs, kTrainingBoxMarginMm);
+    inverse = inverse.sampledOn(lo, hi, kTrainingGridMm);
   }
   L.trainingMap = inverse;
   r.seconds = since(t0);

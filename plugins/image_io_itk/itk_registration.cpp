@@ -5,10 +5,13 @@
 #include <mutex>
 
 #include <itkAffineTransform.h>
+#include <itkBSplineTransform.h>
+#include <itkBSplineTransformInitializer.h>
 #include <itkBinShrinkImageFilter.h>
 #include <itkCenteredTransformInitializer.h>
 #include <itkGradientRecursiveGaussianImageFilter.h>
 #include <itkImageRegistrationMethodv4.h>
+#include <itkLBFGSBOptimizerv4.h>
 #include <itkMultiThreaderBase.h>
 #include <itkMattesMutualInformationImageToImageMetricv4.h>
 #include <itkMatrixOffsetTransformBase.h>
@@ -31,6 +34,7 @@ namespace fs = std::filesystem;
 using ImageType = itk::Image<float, 3>;
 using RigidType = itk::VersorRigid3DTransform<double>;
 using AffineType = itk::AffineTransform<double, 3>;
+using BSplineType = itk::BSplineTransform<double, 3, 3>;
 using MetricType = itk::MattesMutualInformationImageToImageMetricv4<ImageType, ImageType>;
 using OptimizerType = itk::RegularStepGradientDescentOptimizerv4<double>;
 using Clock = std::chrono::steady_clock;
@@ -131,34 +135,28 @@ double metricValue(MetricType* metric, itk::Transform<double, 3, 3>* transform, 
   return metric->GetValue();
 }
 
-// One stage (rigid or affine) over the pyramid; the transform is optimised in place. Each level
-// is a one-level ImageRegistrationMethodv4 on that level's images, with one metric and one
+// One stage (rigid, affine or B-spline) over the pyramid; the transform is optimised in place. Each
+// level is a one-level ImageRegistrationMethodv4 on that level's images, with one metric and one
 // optimizer for the stage, as a multi-level method would run them; its sampling seeds are the
 // ones a multi-level method would take at that level (two per level: the points and their jitter).
-template <class TransformType>
+// movingInitial (may be null): a transform applied after the optimised one (the affine under the
+// B-spline).
+template <class TransformType, class Optimizer>
 RegistrationStage runStage(const char* name, TransformType* transform, const std::vector<PyramidLevel>& pyramid,
-                           const RegistrationOptions& o, double initialStepMm) {
+                           const RegistrationOptions& o, Optimizer* optimizer, MetricType* metric,
+                           itk::Transform<double, 3, 3>* movingInitial = nullptr) {
   const auto t0 = Clock::now();
   using RegistrationType = itk::ImageRegistrationMethodv4<ImageType, ImageType, TransformType>;
-  auto metric = MetricType::New();
-  metric->SetNumberOfHistogramBins(o.histogramBins);
-  auto optimizer = OptimizerType::New();
-  auto scales = itk::RegistrationParameterScalesFromPhysicalShift<MetricType>::New();
-  scales->SetMetric(metric);
-  optimizer->SetScalesEstimator(scales);
-  optimizer->SetLearningRate(initialStepMm);
-  optimizer->SetMinimumStepLength(0.01);
-  optimizer->SetRelaxationFactor(0.5);
-  optimizer->SetNumberOfIterations(o.iterations);
-  optimizer->SetReturnBestParametersAndValue(true);
   // A cancelled registration stops at the optimiser's next iteration (about 10 ms on the 2-core
   // machine with the default samples), not at the stage's end. Asked at every iteration, so that
-  // an iteration after the stop would show (tst_registration).
+  // an iteration after the stop would show (tst_registration). L-BFGS-B cannot be stopped: it is
+  // asked between levels.
   bool stopped = false;
-  if (o.cancelled)
-    optimizer->AddObserver(itk::IterationEvent(), [&](const itk::EventObject&) {
-      if (o.cancelled()) stopped = true, optimizer->StopOptimization();
-    });
+  if constexpr (requires { optimizer->StopOptimization(); })
+    if (o.cancelled)
+      optimizer->AddObserver(itk::IterationEvent(), [&](const itk::EventObject&) {
+        if (o.cancelled()) stopped = true, optimizer->StopOptimization();
+      });
 
   const double voxels = double(pyramid.back().fixed->GetLargestPossibleRegion().GetNumberOfPixels());
   RegistrationStage stage;
@@ -175,6 +173,7 @@ RegistrationStage runStage(const char* name, TransformType* transform, const std
     registration->SetMetric(metric);
     registration->SetOptimizer(optimizer);
     registration->SetInitialTransform(transform);
+    if (movingInitial) registration->SetMovingInitialTransform(movingInitial);
     registration->InPlaceOn();
     typename RegistrationType::ShrinkFactorsArrayType shrink(1);
     typename RegistrationType::SmoothingSigmasArrayType sigmas(1);
@@ -197,7 +196,7 @@ RegistrationStage runStage(const char* name, TransformType* transform, const std
       throw InputError(std::string("registration, ") + name + " stage: " + d +
                        " (do the target and the model's atlas image overlap?)");
     }
-    if (stopped) throw RegistrationCancelled();
+    if (stopped || (o.cancelled && o.cancelled())) throw RegistrationCancelled();
   }
   stage.metric = optimizer->GetValue();
   stage.iterations = int(optimizer->GetCurrentIteration());
@@ -206,6 +205,118 @@ RegistrationStage runStage(const char* name, TransformType* transform, const std
     o.log(std::string("registration: ") + name + " stage, Mattes MI " + fmt(stage.metric) + " after " +
           std::to_string(stage.iterations) + " iterations (" + fmt(stage.seconds) + " s)");
   return stage;
+}
+
+// A rigid or affine stage: regular steps, scaled by the parameters' physical shifts.
+template <class TransformType>
+RegistrationStage runLinearStage(const char* name, TransformType* transform, const std::vector<PyramidLevel>& pyramid,
+                                 const RegistrationOptions& o, double initialStepMm) {
+  auto metric = MetricType::New();
+  metric->SetNumberOfHistogramBins(o.histogramBins);
+  auto optimizer = OptimizerType::New();
+  auto scales = itk::RegistrationParameterScalesFromPhysicalShift<MetricType>::New();
+  scales->SetMetric(metric);
+  optimizer->SetScalesEstimator(scales);
+  optimizer->SetLearningRate(initialStepMm);
+  optimizer->SetMinimumStepLength(0.01);
+  optimizer->SetRelaxationFactor(0.5);
+  optimizer->SetNumberOfIterations(o.iterations);
+  optimizer->SetReturnBestParametersAndValue(true);
+  return runStage(name, transform, pyramid, o, optimizer.GetPointer(), metric.GetPointer());
+}
+
+// The smallest determinant of the B-spline's Jacobian (I + the warp's gradient) accepted at the
+// sampled points: below it the warp squeezes a region to a fifth of its volume or folds it, which
+// a coarse mesh of an anatomy's smooth differences does not need.
+constexpr double kLeastWarpDeterminant = 0.2;
+constexpr double kDifferenceMm = 0.5;  // the step of the Jacobian's central differences
+constexpr double kBSplineBoundMm = 8.0; // the most a control point is displaced
+
+// A cubic B-spline over the target's domain, optimised on top of the affine (Mattes MI on the
+// stages' pyramid, L-BFGS-B), kept only when it improves the metric and folds nothing. Its
+// result leaves as point pairs: the composite map (affine after B-spline, target -> model)
+// sampled on a grid of 2 cells + 1 points per axis over the target, through which the
+// initialisation fits a thin-plate spline each way (SpatialMap), as it does for landmarks.
+void refineByBSpline(AffineType& affine, ImageType* fixed, const std::vector<PyramidLevel>& pyramid,
+                     const RegistrationOptions& o, RegistrationResult& result) {
+  auto bspline = BSplineType::New();
+  auto init = itk::BSplineTransformInitializer<BSplineType, ImageType>::New();
+  init->SetTransform(bspline);
+  init->SetImage(fixed);
+  BSplineType::MeshSizeType mesh;
+  mesh.Fill(unsigned(o.bsplineCells));
+  init->SetTransformDomainMeshSize(mesh);
+  init->InitializeTransform();
+  bspline->SetIdentity();
+  // L-BFGS-B with every control point's displacement bounded: Mattes MI alone has no term against
+  // folding, and bounded coefficients on a coarse mesh keep the warp smooth (kBSplineBoundMm).
+  auto metric = MetricType::New();
+  metric->SetNumberOfHistogramBins(o.histogramBins);
+  auto optimizer = itk::LBFGSBOptimizerv4::New();
+  const unsigned parameters = bspline->GetNumberOfParameters();
+  itk::LBFGSBOptimizerv4::BoundSelectionType select(parameters);
+  itk::LBFGSBOptimizerv4::BoundValueType lower(parameters), upper(parameters);
+  select.Fill(itk::LBFGSBOptimizerv4::BOTHBOUNDED);
+  lower.Fill(-kBSplineBoundMm);
+  upper.Fill(kBSplineBoundMm);
+  optimizer->SetBoundSelection(select);
+  optimizer->SetLowerBound(lower);
+  optimizer->SetUpperBound(upper);
+  optimizer->SetNumberOfIterations(o.bsplineIterations);
+  optimizer->SetMaximumNumberOfFunctionEvaluations(2 * o.bsplineIterations);
+  optimizer->SetMaximumNumberOfCorrections(5);
+  optimizer->SetCostFunctionConvergenceFactor(1e7);
+  optimizer->SetGradientConvergenceTolerance(1e-6);
+  optimizer->SetTrace(false);
+  // On the coarsest level alone: a mesh of cells of about 45 mm needs no finer images, and the
+  // metric's derivative costs the whole B-spline's parameters at each sample (ITK 5.2 treats it as
+  // a global transform), on one thread (SerialItk).
+  RegistrationOptions coarse = o;
+  coarse.samplesPerLevel = o.bsplineSamples;
+  const std::vector<PyramidLevel> used(pyramid.begin(), pyramid.begin() + 1);
+  RegistrationStage stage = runStage("bspline", bspline.GetPointer(), used, coarse, optimizer.GetPointer(),
+                                     metric.GetPointer(), &affine);
+  const double affineMetric = result.stages.back().metric;
+  const int n = 2 * o.bsplineCells + 1;
+  const auto size = fixed->GetLargestPossibleRegion().GetSize();
+  std::vector<LandmarkPair> pairs;
+  double least = 1e300;
+  for (int k = 0; k < n; ++k)
+    for (int j = 0; j < n; ++j)
+      for (int i = 0; i < n; ++i) {
+        itk::ContinuousIndex<double, 3> index;
+        const int ijk[3] = {i, j, k};
+        // Voxel centres one voxel in from the edges: the differences below stay inside the
+        // transform's domain, outside which it is the identity.
+        for (int a = 0; a < 3; ++a) index[a] = 1.0 + double(size[a] - 3) * double(ijk[a]) / double(n - 1);
+        ImageType::PointType x;
+        fixed->TransformContinuousIndexToPhysicalPoint(index, x);
+        // ITK 5.2's BSplineTransform has no Jacobian with respect to position: central differences.
+        Eigen::Matrix3d jac;
+        for (int a = 0; a < 3; ++a) {
+          ImageType::PointType lo = x, hi = x;
+          lo[a] -= kDifferenceMm;
+          hi[a] += kDifferenceMm;
+          const auto d = bspline->TransformPoint(hi) - bspline->TransformPoint(lo);
+          for (int r = 0; r < 3; ++r) jac(r, a) = d[r] / (2.0 * kDifferenceMm);
+        }
+        least = std::min(least, jac.determinant());
+        const ImageType::PointType y = affine.TransformPoint(bspline->TransformPoint(x));
+        pairs.push_back({{y[0], y[1], y[2]}, {x[0], x[1], x[2]}});
+      }
+  const bool better = std::isfinite(stage.metric) && stage.metric < affineMetric;
+  const bool folds = !(least > kLeastWarpDeterminant);
+  for (const LandmarkPair& p : pairs)
+    for (int a = 0; a < 3; ++a)
+      if (!std::isfinite(p.model[a])) return;
+  if (o.log && (!better || folds))
+    o.log(std::string("registration: B-spline stage not kept (") +
+          (folds ? "the warp squeezes or folds a region: least Jacobian determinant " + fmt(least)
+                 : "Mattes MI " + fmt(stage.metric) + ", the affine's " + fmt(affineMetric)) +
+          "); the affine alone places the model");
+  stage.kept = better && !folds;
+  result.stages.push_back(stage);
+  if (stage.kept) result.deformation = std::move(pairs);
 }
 }  // namespace
 
@@ -303,17 +414,18 @@ RegistrationResult registerImagesItk(const Image3D& target, const Image3D& model
                        "): do the target and the model's atlas image overlap, and does the target hold an image?");
     }
   }
-  result.stages.push_back(runStage("rigid", rigid.GetPointer(), pyramid, o, 2.0));
+  result.stages.push_back(runLinearStage("rigid", rigid.GetPointer(), pyramid, o, 2.0));
   Eigen::Matrix4d m = toMatrix(*rigid);
   if (o.affine) {
     auto affine = AffineType::New();
     affine->SetCenter(rigid->GetCenter());
     affine->SetMatrix(rigid->GetMatrix());
     affine->SetTranslation(rigid->GetTranslation());
-    result.stages.push_back(runStage("affine", affine.GetPointer(), pyramid, o, 1.0));
+    result.stages.push_back(runLinearStage("affine", affine.GetPointer(), pyramid, o, 1.0));
     m = toMatrix(*affine);
+    if (o.bsplineCells > 0) refineByBSpline(*affine, fixed, pyramid, o, result);
   }
-  const RegistrationStage& last = result.stages.back();
+  const RegistrationStage& last = result.stages[o.affine ? 1 : 0];  // the affine's checks: the B-spline's are its own
   // Mattes MI is negative; near 0 means the images share no information where they overlap.
   if (!std::isfinite(last.metric) || !m.allFinite() || last.metric > before + 1e-4 || last.metric > -0.02)
     throw InputError("registration, " + last.name + " stage: the metric diverged (Mattes MI " + fmt(last.metric) +

@@ -92,6 +92,31 @@ private slots:
     QVERIFY((spline.apply(Eigen::Vector3d(0, 0, 0)) - bend(Eigen::Vector3d(0, 0, 0))).norm() < 2.0);
   }
 
+  // A spline map sampled on a grid (what a registration's B-spline map becomes) is its spline to
+  // within the grid's interpolation error inside the grid, and the spline itself outside it.
+  void sampledMapFollowsItsSpline() {
+    const auto warp = [](const Eigen::Vector3d& p) {
+      return Eigen::Vector3d(p + 4.0 * std::exp(-p.squaredNorm() / (2.0 * 25.0 * 25.0)) * Eigen::Vector3d(1.0, -0.5, 0.3));
+    };
+    const SpatialMap spline = SpatialMap::fitThinPlateSpline(pairsUnder(warp, 300, 7));
+    const SpatialMap sampled = spline.sampledOn(Eigen::Vector3d::Constant(-30.0), Eigen::Vector3d::Constant(30.0), 2.0);
+    QVERIFY(sampled.hasSpline());
+    QVERIFY(sampled.describe().find("sampled every 2 mm") != std::string::npos);
+    std::mt19937 rng(8);
+    std::uniform_real_distribution<double> u(-30.0, 30.0);
+    double largest = 0.0, moved = 0.0;
+    for (int i = 0; i < 2000; ++i) {
+      const Eigen::Vector3d p(u(rng), u(rng), u(rng));
+      largest = std::max(largest, (sampled.apply(p) - spline.apply(p)).norm());
+      moved = std::max(moved, (spline.apply(p) - p).norm());
+    }
+    qInfo("largest difference inside the grid %.4f mm, largest displacement %.2f mm", largest, moved);
+    QVERIFY2(moved > 3.0, "the spline must move points for the comparison to mean anything");
+    QVERIFY2(largest < 0.02, qPrintable(QString::number(largest)));
+    const Eigen::Vector3d outside(45.0, -40.0, 35.0);
+    QCOMPARE(sampled.apply(outside), spline.apply(outside));
+  }
+
   void badLandmarksAreRefused() {
     auto id = [](const Eigen::Vector3d& p) { return p; };
     auto three = pairsUnder(id, 3, 4);
@@ -128,6 +153,20 @@ private slots:
                 "/initialise/levels: goes with 'registration'");
     expectError([&] { parseScene(base + R"("initialise": {"registration": "affine", "samples": 100}})", "s.json"); },
                 "/initialise/samples: must be in [1000, 100000000]");
+    // "bspline": rigid, affine, then a B-spline of 4 cells unless "bspline_cells" says; written back so.
+    const SceneDesc b = parseScene(base + R"("initialise": {"registration": "bspline"}})", "/d/s.json");
+    QVERIFY(b.initialise.affine);
+    QCOMPARE(b.initialise.bsplineCells, kDefaultBSplineCells);
+    const SceneDesc b3 = parseScene(base + R"("initialise": {"registration": "bspline", "bspline_cells": 3}})", "/d/s.json");
+    QCOMPARE(b3.initialise.bsplineCells, 3);
+    QCOMPARE(parseScene(sceneToJson(b3), "/d/s.json").initialise.bsplineCells, 3);
+    QCOMPARE(parseScene(sceneToJson(s), "/d/s.json").initialise.bsplineCells, 0);
+    expectError([&] { parseScene(base + R"("initialise": {"registration": "affine", "bspline_cells": 3}})", "s.json"); },
+                "/initialise/bspline_cells: goes with \"registration\": \"bspline\"");
+    expectError([&] { parseScene(base + R"("initialise": {"registration": "bspline", "bspline_cells": 0}})", "s.json"); },
+                "/initialise/bspline_cells: must be in [1, 16]");
+    expectError([&] { parseScene(base + R"("initialise": {"registration": "elastic"}})", "s.json"); },
+                "expected \"rigid\", \"affine\" or \"bspline\"");
     std::string noModel = base;
     noModel.replace(noModel.find(R"("model": "m/", )"), 15, "");
     expectError([&] { parseScene(noModel + R"("report": {}})", "s.json"); }, "missing required key 'reference'");

@@ -80,9 +80,11 @@ private slots:
 
   void segmentsANewSubject() {
     scene_ = path("scene.json");
+    // The affine registration here (the transform file it writes places the model again exactly:
+    // reusesTheTransform); the default adds a B-spline stage (bsplineRefinesTheRegistration).
     Result r = runTool(SINEW_MAKE_SCENE, {"--model", model_, "--target", subject_ + "/image.nii.gz", "--ground-truth",
                                           subject_ + "/labels.nii.gz", "--structures",
-                                          "Hippocampus_L,Amygdala_L,Putamen_R,Thalamus_R", "-o", scene_});
+                                          "Hippocampus_L,Amygdala_L,Putamen_R,Thalamus_R", "--initialise", "affine", "-o", scene_});
     QVERIFY2(r.code == 0, qPrintable(r.err));
     const QJsonObject scene = readJson(scene_);
     QVERIFY(scene["initialise"].toObject()["registration"].toString() == "affine");
@@ -200,6 +202,48 @@ private slots:
       QVERIFY(a.open(QIODevice::ReadOnly) && b.open(QIODevice::ReadOnly));
       QVERIFY2(a.readAll() == b.readAll(), qPrintable(file));
     }
+  }
+
+  // sinew-make-scene's default registration: rigid, affine, then a B-spline over the target
+  // (docs/accuracy.md, "A B-spline after the affine"). Its affine stages are the affine
+  // registration's (the same transform file, byte for byte); the B-spline moves the placement on.
+  void bsplineRefinesTheRegistration() {
+    Result r = runTool(SINEW_MAKE_SCENE, {"--model", model_, "--target", subject_ + "/image.nii.gz", "--ground-truth",
+                                          subject_ + "/labels.nii.gz", "--structures",
+                                          "Hippocampus_L,Amygdala_L,Putamen_R,Thalamus_R", "-o", path("bspline.json")});
+    QVERIFY2(r.code == 0, qPrintable(r.err));
+    QCOMPARE(readJson(path("bspline.json"))["initialise"].toObject()["registration"].toString(), QString("bspline"));
+    r = runTool(SINEW_RUN, {path("bspline.json"), "-o", path("bspline"), "-q", "--backend", "cpu"});
+    QVERIFY2(r.code == 0, qPrintable(r.err));
+    const QJsonObject report = readJson(path("bspline/report.json")), affine = readJson(run_ + "/report.json");
+    const QJsonObject init = report["initialisation"].toObject();
+    QCOMPARE(init["method"].toString(), QString("registration (affine, then B-spline)"));
+    const QJsonArray reg = init["registration"].toArray();
+    QCOMPARE(reg.size(), 3);
+    QCOMPARE(reg[2].toObject()["name"].toString(), QString("bspline"));
+    QVERIFY(reg[2].toObject()["kept"].toBool());
+    QVERIFY(reg[2].toObject()["mattes_mi"].toDouble() < reg[1].toObject()["mattes_mi"].toDouble());
+    QFile a(run_ + "/subject-to-atlas.tfm"), b(path("bspline/subject-to-atlas.tfm"));
+    QVERIFY(a.open(QIODevice::ReadOnly) && b.open(QIODevice::ReadOnly));
+    QVERIFY2(a.readAll() == b.readAll(), "the transform file holds the affine stage, the same as the affine registration's");
+    const double byAffine = stageMean(affine, "initialisation"), byBSpline = stageMean(report, "initialisation");
+    const double finalAffine = stageMean(affine, "level 2"), finalBSpline = stageMean(report, "level 2");
+    qInfo("mean ASSD after the initialisation %.3f -> %.3f mm, final %.3f -> %.3f mm (affine -> B-spline)", byAffine,
+          byBSpline, finalAffine, finalBSpline);
+    QVERIFY2(std::abs(byBSpline - byAffine) > 1e-3, "the B-spline's map did not move the model");
+    QVERIFY2(byBSpline < byAffine + 0.05, "regression bound; docs/accuracy.md has the measured values");
+    QVERIFY2(finalBSpline < 0.7, "regression bound");
+    // It repeats exactly too: the B-spline's metric on one thread, its map's grids computed point by point.
+    QJsonObject again = readJson(path("bspline.json"));
+    withoutIterations(again);
+    writeJson(path("bspline-short.json"), again);
+    for (const char* out : {"short-1", "short-2"}) {
+      r = runTool(SINEW_RUN, {path("bspline-short.json"), "-o", path(out), "-q", "--backend", "cpu"});
+      QVERIFY2(r.code == 0, qPrintable(r.err));
+    }
+    QFile c(path("short-1/Thalamus_R.vtp")), d(path("short-2/Thalamus_R.vtp"));
+    QVERIFY(c.open(QIODevice::ReadOnly) && d.open(QIODevice::ReadOnly));
+    QVERIFY2(c.readAll() == d.readAll(), "two runs of the same B-spline scene differ");
   }
 
   // The written transform is an input too: the same placement without registering again.

@@ -6,6 +6,8 @@
 // (mricron-data) moved by a known rotation and shift, and requires the same matrix.
 #include "synthetic.h"
 #include "../../plugins/image_io_itk/itk_convert.h"
+#include "sinew/core/scene.h"
+#include "sinew/core/spatial_map.h"
 
 #include <QtTest>
 
@@ -145,6 +147,59 @@ private slots:
     // Not a trivial agreement: the registration undid most of the move.
     const Eigen::Matrix3d undone = plugin.targetToModel.topLeftCorner<3, 3>() * turn;
     QVERIFY2((undone - Eigen::Matrix3d::Identity()).norm() < 0.05, "the rotation is not undone");
+  }
+
+  // The B-spline stage on top of the affine: Colin27 (ch2) pushed by a smooth bump of 6 mm at the
+  // brain's centre is the target, ch2better the model. Around the centre, the thin-plate spline
+  // through the stage's pairs (what the initialisation maps the model with) must place model points
+  // far closer to where the bump put them than the affine alone can.
+  void bsplineStageFollowsASmoothWarp() {
+    if (!std::filesystem::exists(kTemplates / "ch2.nii.gz")) QSKIP("mricron-data is not installed");
+    const ImageIODescriptor& io = builtinRegistry().imageIOFor("ch2.nii.gz");
+    const Image3D original = io.readImage(kTemplates / "ch2.nii.gz");
+    const Image3D model = io.readImage(kTemplates / "ch2better.nii.gz");
+    const ImageGeometry& g = original.geometry();
+    const Vec3 centre = original.indexToWorld(Vec3(g.size[0] / 2.0f, g.size[1] / 2.0f, g.size[2] / 2.0f));
+    const Eigen::Vector3d direction = Eigen::Vector3d(1.0, -0.6, 0.4).normalized();
+    // The target's point x shows the original's point x + bump(x).
+    const auto bump = [&](const Eigen::Vector3d& x) {
+      return Eigen::Vector3d(6.0 * std::exp(-(x - centre.cast<double>()).squaredNorm() / (2.0 * 30.0 * 30.0)) * direction);
+    };
+    Image3D target(g);
+    for (int k = 0; k < g.size[2]; ++k)
+      for (int j = 0; j < g.size[1]; ++j)
+        for (int i = 0; i < g.size[0]; ++i) {
+          const Eigen::Vector3d x = original.indexToWorld(Vec3(i, j, k)).cast<double>();
+          target.voxels()[target.offset(i, j, k)] = original.sample((x + bump(x)).cast<float>());
+        }
+    RegistrationOptions options;
+    options.bsplineCells = kDefaultBSplineCells;
+    const RegistrationResult r = io.registerImages(target, model, options);
+    QCOMPARE(int(r.stages.size()), 3);
+    QCOMPARE(QString::fromStdString(r.stages[2].name), QString("bspline"));
+    QVERIFY2(r.stages[2].kept, "the B-spline stage was not kept");
+    QVERIFY(r.stages[2].metric < r.stages[1].metric);
+    QCOMPARE(int(r.deformation.size()), (2 * kDefaultBSplineCells + 1) * (2 * kDefaultBSplineCells + 1) * (2 * kDefaultBSplineCells + 1));
+    const SpatialMap affine = SpatialMap::affine(r.targetToModel.inverse());
+    const SpatialMap spline = SpatialMap::fitThinPlateSpline(r.deformation);
+    double affineError = 0.0, splineError = 0.0;
+    int n = 0;
+    for (int a = -2; a <= 2; ++a)
+      for (int b = -2; b <= 2; ++b)
+        for (int c = -2; c <= 2; ++c) {
+          const Eigen::Vector3d y = centre.cast<double>() + 8.0 * Eigen::Vector3d(a, b, c);  // a model point
+          Eigen::Vector3d x = y;  // where the target shows it: x + bump(x) = y
+          for (int it = 0; it < 50; ++it) x = y - bump(x);
+          affineError += (affine.apply(y) - x).norm();
+          splineError += (spline.apply(y) - x).norm();
+          ++n;
+        }
+    affineError /= n;
+    splineError /= n;
+    qInfo("mean error within 16 mm of the bump's centre: affine %.3f mm, with the B-spline %.3f mm (%.2f s)",
+          affineError, splineError, r.stages[2].seconds);
+    QVERIFY2(affineError > 1.5, "the bump must be beyond an affine map for the test to mean anything");
+    QVERIFY2(splineError < 0.5 * affineError, qPrintable(QString("%1 against %2").arg(splineError).arg(affineError)));
   }
 
   // A run whose loading fails cancels its registration (scene_runner_loaded.h): it must stop at the

@@ -25,6 +25,9 @@ inline constexpr std::size_t kMaxImageVoxels = std::size_t(1) << 31;
 // stage). Provided by an image plugin (ITK's v4 framework); core only declares it.
 struct RegistrationOptions {
   bool affine = true;             // rigid, then affine; false: rigid only
+  int bsplineCells = 0;           // > 0 (with affine): then a cubic B-spline, this many cells per axis over the target
+  int bsplineIterations = 20;     // the B-spline's L-BFGS-B iterations at most (on the coarsest level only)
+  int bsplineSamples = 4000;      // the B-spline stage's random voxels
   int levels = 2;                 // multi-resolution levels on images binned to about 2 mm (4, 2 mm)
   int iterations = 100;           // per level and stage at most
   int histogramBins = 32;
@@ -43,16 +46,20 @@ public:
 };
 
 struct RegistrationStage {
-  std::string name;       // "rigid", "affine"
+  std::string name;       // "rigid", "affine", "bspline"
   double metric = 0.0;    // final Mattes mutual information (negative: lower is better)
   int iterations = 0;     // at the finest level
   double seconds = 0.0;
+  bool kept = true;       // false: a B-spline stage that did not improve the metric, or folded
 };
 
 struct RegistrationResult {
   // ITK's convention: maps a point of the fixed (target) image to the moving (model) image.
-  Eigen::Matrix4d targetToModel = Eigen::Matrix4d::Identity();
+  Eigen::Matrix4d targetToModel = Eigen::Matrix4d::Identity();  // the rigid or affine stage's
   std::vector<RegistrationStage> stages;
+  // After a kept B-spline stage: the whole map sampled as (model, target) point pairs on a grid over
+  // the target, for a thin-plate spline each way (scene_runner_initialise.cpp). Empty otherwise.
+  std::vector<LandmarkPair> deformation;
 };
 
 struct ImageIODescriptor {

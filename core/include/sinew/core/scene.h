@@ -71,10 +71,13 @@ struct LevelDesc {
 
 // The global initialisation before the first level: the model's structures are mapped into the
 // target by one map (the reference shapes with them, so the shape prior keeps the mapped shape).
+// "registration": "bspline" without "bspline_cells" (docs/scene-format.md).
+constexpr int kDefaultBSplineCells = 4;
 struct InitialiseDesc {
   enum class Method { None, Registration, Transform, Landmarks };
   Method method = Method::None;
   bool affine = true;           // registration: rigid then affine; false: rigid only
+  int bsplineCells = 0;         // registration "bspline": after the affine, a cubic B-spline of this many cells per axis
   int levels = 2;               // registration pyramid levels
   int iterations = 100;         // registration iterations per level and stage
   int samples = 10000;          // registration: the metric's random voxels per level

@@ -31,6 +31,12 @@ public:
   // part; the same checks as fitAffine.
   static SpatialMap fitThinPlateSpline(std::span<const LandmarkPair> pairs);
 
+  // The same map, evaluated inside the box [lo, hi] by trilinear interpolation of its values on a
+  // grid of `spacingMm` (computed here, on every thread), exactly outside it. For a spline through
+  // hundreds of pairs (a registration's B-spline sampled on a grid), whose exact evaluation costs a
+  // distance per pair at every point.
+  SpatialMap sampledOn(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, double spacingMm) const;
+
   Eigen::Vector3d apply(const Eigen::Vector3d& modelPoint) const;
   Vec3 apply(const Vec3& modelPoint) const {
     const Eigen::Vector3d p = modelPoint.cast<double>();
@@ -47,6 +53,13 @@ private:
   Eigen::Matrix4d affine_ = Eigen::Matrix4d::Identity();
   std::vector<Eigen::Vector3d> centres_;  // model landmarks
   std::vector<Eigen::Vector3d> weights_;  // spline weights, one per centre
+  // sampledOn: the map's values on a grid (x fastest), empty when not sampled.
+  Eigen::Vector3d gridOrigin_ = Eigen::Vector3d::Zero();
+  double gridSpacing_ = 0.0;
+  std::array<int, 3> gridSize_{};
+  std::vector<Eigen::Vector3d> gridValues_;
+  Eigen::Vector3d exact(const Eigen::Vector3d& p) const;
+  std::string spacingText() const;
 };
 
 // Checks that landmark pairs can determine a map; throws InputError naming the problem (with the
