@@ -10,8 +10,12 @@
 #include <itkBinShrinkImageFilter.h>
 #include <itkCenteredTransformInitializer.h>
 #include <itkGradientRecursiveGaussianImageFilter.h>
+#include <itkImageRegistrationMethod.h>
 #include <itkImageRegistrationMethodv4.h>
-#include <itkLBFGSBOptimizerv4.h>
+#include <itkLBFGSBOptimizer.h>
+#include <itkLinearInterpolateImageFunction.h>
+#include <itkMattesMutualInformationImageToImageMetric.h>
+#include <itkResampleImageFilter.h>
 #include <itkMultiThreaderBase.h>
 #include <itkMattesMutualInformationImageToImageMetricv4.h>
 #include <itkMatrixOffsetTransformBase.h>
@@ -135,28 +139,23 @@ double metricValue(MetricType* metric, itk::Transform<double, 3, 3>* transform, 
   return metric->GetValue();
 }
 
-// One stage (rigid, affine or B-spline) over the pyramid; the transform is optimised in place. Each
-// level is a one-level ImageRegistrationMethodv4 on that level's images, with one metric and one
+// One stage (rigid or affine) over the pyramid; the transform is optimised in place. Each level
+// is a one-level ImageRegistrationMethodv4 on that level's images, with one metric and one
 // optimizer for the stage, as a multi-level method would run them; its sampling seeds are the
 // ones a multi-level method would take at that level (two per level: the points and their jitter).
-// movingInitial (may be null): a transform applied after the optimised one (the affine under the
-// B-spline).
-template <class TransformType, class Optimizer>
+template <class TransformType>
 RegistrationStage runStage(const char* name, TransformType* transform, const std::vector<PyramidLevel>& pyramid,
-                           const RegistrationOptions& o, Optimizer* optimizer, MetricType* metric,
-                           itk::Transform<double, 3, 3>* movingInitial = nullptr) {
+                           const RegistrationOptions& o, OptimizerType* optimizer, MetricType* metric) {
   const auto t0 = Clock::now();
   using RegistrationType = itk::ImageRegistrationMethodv4<ImageType, ImageType, TransformType>;
   // A cancelled registration stops at the optimiser's next iteration (about 10 ms on the 2-core
   // machine with the default samples), not at the stage's end. Asked at every iteration, so that
-  // an iteration after the stop would show (tst_registration). L-BFGS-B cannot be stopped: it is
-  // asked between levels.
+  // an iteration after the stop would show (tst_registration).
   bool stopped = false;
-  if constexpr (requires { optimizer->StopOptimization(); })
-    if (o.cancelled)
-      optimizer->AddObserver(itk::IterationEvent(), [&](const itk::EventObject&) {
-        if (o.cancelled()) stopped = true, optimizer->StopOptimization();
-      });
+  if (o.cancelled)
+    optimizer->AddObserver(itk::IterationEvent(), [&](const itk::EventObject&) {
+      if (o.cancelled()) stopped = true, optimizer->StopOptimization();
+    });
 
   const double voxels = double(pyramid.back().fixed->GetLargestPossibleRegion().GetNumberOfPixels());
   RegistrationStage stage;
@@ -173,7 +172,6 @@ RegistrationStage runStage(const char* name, TransformType* transform, const std
     registration->SetMetric(metric);
     registration->SetOptimizer(optimizer);
     registration->SetInitialTransform(transform);
-    if (movingInitial) registration->SetMovingInitialTransform(movingInitial);
     registration->InPlaceOn();
     typename RegistrationType::ShrinkFactorsArrayType shrink(1);
     typename RegistrationType::SmoothingSigmasArrayType sigmas(1);
@@ -196,7 +194,7 @@ RegistrationStage runStage(const char* name, TransformType* transform, const std
       throw InputError(std::string("registration, ") + name + " stage: " + d +
                        " (do the target and the model's atlas image overlap?)");
     }
-    if (stopped || (o.cancelled && o.cancelled())) throw RegistrationCancelled();
+    if (stopped) throw RegistrationCancelled();
   }
   stage.metric = optimizer->GetValue();
   stage.iterations = int(optimizer->GetCurrentIteration());
@@ -232,8 +230,83 @@ constexpr double kLeastWarpDeterminant = 0.2;
 constexpr double kDifferenceMm = 0.5;  // the step of the Jacobian's central differences
 constexpr double kBSplineBoundMm = 8.0; // the most a control point is displaced
 
-// A cubic B-spline over the target's domain, optimised on top of the affine (Mattes MI on the
-// stages' pyramid, L-BFGS-B), kept only when it improves the metric and folds nothing. Its
+// The B-spline stage, with ITK's classic (v3) registration: its Mattes metric evaluates a cubic
+// B-spline from the 64 control points around each sample (the v4 metric takes a B-spline for a
+// global transform, every parameter at every sample: 20 us a sample with 4 cells, ten times the
+// whole affine stage). The atlas image is resampled through the affine onto the target's grid
+// first, so that the B-spline is optimised alone and the map is the affine after it. L-BFGS-B with
+// every control point's displacement bounded (kBSplineBoundMm): Mattes MI has no term against
+// folding, and bounded coefficients on a coarse mesh keep the warp smooth. On the coarsest level
+// (4 mm): a mesh of cells of about 45 mm needs no finer images. One thread (SerialItk), a fixed
+// random sample (the options' seed): runs repeat exactly.
+RegistrationStage runBSplineStage(BSplineType* bspline, AffineType& affine, const PyramidLevel& level,
+                                  const RegistrationOptions& o) {
+  const auto t0 = Clock::now();
+  auto resample = itk::ResampleImageFilter<ImageType, ImageType>::New();
+  resample->SetInput(level.moving);
+  resample->SetTransform(&affine);
+  resample->SetReferenceImage(level.fixed);
+  resample->UseReferenceImageOn();
+  resample->SetDefaultPixelValue(0.0f);
+  resample->Update();
+  using Metric3 = itk::MattesMutualInformationImageToImageMetric<ImageType, ImageType>;
+  auto metric = Metric3::New();
+  metric->SetNumberOfHistogramBins(o.histogramBins);
+  metric->SetNumberOfSpatialSamples(itk::SizeValueType(o.bsplineSamples));
+  metric->ReinitializeSeed(int(o.seed));
+  metric->SetNumberOfWorkUnits(1);
+  auto optimizer = itk::LBFGSBOptimizer::New();
+  const unsigned parameters = bspline->GetNumberOfParameters();
+  itk::LBFGSBOptimizer::BoundSelectionType select(parameters);
+  itk::LBFGSBOptimizer::BoundValueType lower(parameters), upper(parameters);
+  select.Fill(2);  // both bounds
+  lower.Fill(-kBSplineBoundMm);
+  upper.Fill(kBSplineBoundMm);
+  optimizer->SetBoundSelection(select);
+  optimizer->SetLowerBound(lower);
+  optimizer->SetUpperBound(upper);
+  optimizer->SetMaximumNumberOfIterations(unsigned(o.bsplineIterations));
+  optimizer->SetMaximumNumberOfEvaluations(unsigned(2 * o.bsplineIterations));
+  optimizer->SetMaximumNumberOfCorrections(5);
+  optimizer->SetCostFunctionConvergenceFactor(1e7);
+  optimizer->SetProjectedGradientTolerance(1e-6);
+  optimizer->SetTrace(false);
+  auto registration = itk::ImageRegistrationMethod<ImageType, ImageType>::New();
+  registration->SetMetric(metric);
+  registration->SetOptimizer(optimizer);
+  registration->SetTransform(bspline);
+  registration->SetInterpolator(itk::LinearInterpolateImageFunction<ImageType, double>::New());
+  registration->SetFixedImage(level.fixed);
+  registration->SetMovingImage(resample->GetOutput());
+  registration->SetFixedImageRegion(level.fixed->GetBufferedRegion());
+  const BSplineType::ParametersType identity = bspline->GetParameters();
+  registration->SetInitialTransformParameters(identity);
+  RegistrationStage stage;
+  stage.name = "bspline";
+  try {
+    registration->Initialize();
+    stage.startMetric = metric->GetValue(identity);
+    registration->Update();
+    // By value: the transform would otherwise keep a reference to the method's array (and the
+    // metric's GetValue sets the parameters it is given).
+    const BSplineType::ParametersType found = registration->GetLastTransformParameters();
+    stage.metric = metric->GetValue(found);
+    bspline->SetParametersByValue(found);
+  } catch (const itk::ExceptionObject& e) {
+    std::string d = e.GetDescription();
+    while (!d.empty() && (d.back() == '\n' || d.back() == ' ')) d.pop_back();
+    throw InputError("registration, bspline stage: " + d);
+  }
+  if (o.cancelled && o.cancelled()) throw RegistrationCancelled();
+  stage.iterations = int(optimizer->GetCurrentIteration());
+  stage.seconds = std::chrono::duration<double>(Clock::now() - t0).count();
+  if (o.log)
+    o.log("registration: bspline stage, Mattes MI " + fmt(stage.metric) + " (" + fmt(stage.startMetric) +
+          " with the affine alone) after " + std::to_string(stage.iterations) + " iterations (" + fmt(stage.seconds) + " s)");
+  return stage;
+}
+
+// A cubic B-spline over the target's domain, optimised on top of the affine (runBSplineStage), kept only when it improves the metric and folds nothing. Its
 // result leaves as point pairs: the composite map (affine after B-spline, target -> model)
 // sampled on a grid of 2 cells + 1 points per axis over the target, through which the
 // initialisation fits a thin-plate spline each way (SpatialMap), as it does for landmarks.
@@ -248,35 +321,7 @@ void refineByBSpline(AffineType& affine, ImageType* fixed, const std::vector<Pyr
   init->SetTransformDomainMeshSize(mesh);
   init->InitializeTransform();
   bspline->SetIdentity();
-  // L-BFGS-B with every control point's displacement bounded: Mattes MI alone has no term against
-  // folding, and bounded coefficients on a coarse mesh keep the warp smooth (kBSplineBoundMm).
-  auto metric = MetricType::New();
-  metric->SetNumberOfHistogramBins(o.histogramBins);
-  auto optimizer = itk::LBFGSBOptimizerv4::New();
-  const unsigned parameters = bspline->GetNumberOfParameters();
-  itk::LBFGSBOptimizerv4::BoundSelectionType select(parameters);
-  itk::LBFGSBOptimizerv4::BoundValueType lower(parameters), upper(parameters);
-  select.Fill(itk::LBFGSBOptimizerv4::BOTHBOUNDED);
-  lower.Fill(-kBSplineBoundMm);
-  upper.Fill(kBSplineBoundMm);
-  optimizer->SetBoundSelection(select);
-  optimizer->SetLowerBound(lower);
-  optimizer->SetUpperBound(upper);
-  optimizer->SetNumberOfIterations(o.bsplineIterations);
-  optimizer->SetMaximumNumberOfFunctionEvaluations(2 * o.bsplineIterations);
-  optimizer->SetMaximumNumberOfCorrections(5);
-  optimizer->SetCostFunctionConvergenceFactor(1e7);
-  optimizer->SetGradientConvergenceTolerance(1e-6);
-  optimizer->SetTrace(false);
-  // On the coarsest level alone: a mesh of cells of about 45 mm needs no finer images, and the
-  // metric's derivative costs the whole B-spline's parameters at each sample (ITK 5.2 treats it as
-  // a global transform), on one thread (SerialItk).
-  RegistrationOptions coarse = o;
-  coarse.samplesPerLevel = o.bsplineSamples;
-  const std::vector<PyramidLevel> used(pyramid.begin(), pyramid.begin() + 1);
-  RegistrationStage stage = runStage("bspline", bspline.GetPointer(), used, coarse, optimizer.GetPointer(),
-                                     metric.GetPointer(), &affine);
-  const double affineMetric = result.stages.back().metric;
+  RegistrationStage stage = runBSplineStage(bspline.GetPointer(), affine, pyramid.front(), o);
   const int n = 2 * o.bsplineCells + 1;
   const auto size = fixed->GetLargestPossibleRegion().GetSize();
   std::vector<LandmarkPair> pairs;
@@ -304,7 +349,7 @@ void refineByBSpline(AffineType& affine, ImageType* fixed, const std::vector<Pyr
         const ImageType::PointType y = affine.TransformPoint(bspline->TransformPoint(x));
         pairs.push_back({{y[0], y[1], y[2]}, {x[0], x[1], x[2]}});
       }
-  const bool better = std::isfinite(stage.metric) && stage.metric < affineMetric;
+  const bool better = std::isfinite(stage.metric) && stage.metric < stage.startMetric;
   const bool folds = !(least > kLeastWarpDeterminant);
   for (const LandmarkPair& p : pairs)
     for (int a = 0; a < 3; ++a)
@@ -312,7 +357,7 @@ void refineByBSpline(AffineType& affine, ImageType* fixed, const std::vector<Pyr
   if (o.log && (!better || folds))
     o.log(std::string("registration: B-spline stage not kept (") +
           (folds ? "the warp squeezes or folds a region: least Jacobian determinant " + fmt(least)
-                 : "Mattes MI " + fmt(stage.metric) + ", the affine's " + fmt(affineMetric)) +
+                 : "Mattes MI " + fmt(stage.metric) + ", " + fmt(stage.startMetric) + " before it") +
           "); the affine alone places the model");
   stage.kept = better && !folds;
   result.stages.push_back(stage);

@@ -178,7 +178,7 @@ private slots:
     QCOMPARE(int(r.stages.size()), 3);
     QCOMPARE(QString::fromStdString(r.stages[2].name), QString("bspline"));
     QVERIFY2(r.stages[2].kept, "the B-spline stage was not kept");
-    QVERIFY(r.stages[2].metric < r.stages[1].metric);
+    QVERIFY(r.stages[2].metric < r.stages[2].startMetric);
     QCOMPARE(int(r.deformation.size()), (2 * kDefaultBSplineCells + 1) * (2 * kDefaultBSplineCells + 1) * (2 * kDefaultBSplineCells + 1));
     const SpatialMap affine = SpatialMap::affine(r.targetToModel.inverse());
     const SpatialMap spline = SpatialMap::fitThinPlateSpline(r.deformation);

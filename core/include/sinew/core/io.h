@@ -26,8 +26,8 @@ inline constexpr std::size_t kMaxImageVoxels = std::size_t(1) << 31;
 struct RegistrationOptions {
   bool affine = true;             // rigid, then affine; false: rigid only
   int bsplineCells = 0;           // > 0 (with affine): then a cubic B-spline, this many cells per axis over the target
-  int bsplineIterations = 20;     // the B-spline's L-BFGS-B iterations at most (on the coarsest level only)
-  int bsplineSamples = 4000;      // the B-spline stage's random voxels
+  int bsplineIterations = 30;     // the B-spline's L-BFGS-B iterations at most (on the coarsest level only)
+  int bsplineSamples = 10000;     // the B-spline stage's random voxels
   int levels = 2;                 // multi-resolution levels on images binned to about 2 mm (4, 2 mm)
   int iterations = 100;           // per level and stage at most
   int histogramBins = 32;
@@ -51,6 +51,7 @@ struct RegistrationStage {
   int iterations = 0;     // at the finest level
   double seconds = 0.0;
   bool kept = true;       // false: a B-spline stage that did not improve the metric, or folded
+  double startMetric = 0.0;  // the B-spline stage's own metric before it (the affine alone)
 };
 
 struct RegistrationResult {

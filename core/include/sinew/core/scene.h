@@ -72,7 +72,7 @@ struct LevelDesc {
 // The global initialisation before the first level: the model's structures are mapped into the
 // target by one map (the reference shapes with them, so the shape prior keeps the mapped shape).
 // "registration": "bspline" without "bspline_cells" (docs/scene-format.md).
-constexpr int kDefaultBSplineCells = 4;
+constexpr int kDefaultBSplineCells = 5;
 struct InitialiseDesc {
   enum class Method { None, Registration, Transform, Landmarks };
   Method method = Method::None;
