@@ -15,12 +15,12 @@
 #include <itkLBFGSBOptimizer.h>
 #include <itkLinearInterpolateImageFunction.h>
 #include <itkMattesMutualInformationImageToImageMetric.h>
-#include <itkResampleImageFilter.h>
-#include <itkMultiThreaderBase.h>
 #include <itkMattesMutualInformationImageToImageMetricv4.h>
 #include <itkMatrixOffsetTransformBase.h>
+#include <itkMultiThreaderBase.h>
 #include <itkRegistrationParameterScalesFromPhysicalShift.h>
 #include <itkRegularStepGradientDescentOptimizerv4.h>
+#include <itkResampleImageFilter.h>
 #include <itkSmoothingRecursiveGaussianImageFilter.h>
 #include <itkTransformFactory.h>
 #include <itkTransformFileReader.h>
@@ -231,14 +231,15 @@ constexpr double kDifferenceMm = 0.5;  // the step of the Jacobian's central dif
 constexpr double kBSplineBoundMm = 8.0; // the most a control point is displaced
 
 // The B-spline stage, with ITK's classic (v3) registration: its Mattes metric evaluates a cubic
-// B-spline from the 64 control points around each sample (the v4 metric takes a B-spline for a
-// global transform, every parameter at every sample: 20 us a sample with 4 cells, ten times the
-// whole affine stage). The atlas image is resampled through the affine onto the target's grid
-// first, so that the B-spline is optimised alone and the map is the affine after it. L-BFGS-B with
-// every control point's displacement bounded (kBSplineBoundMm): Mattes MI has no term against
-// folding, and bounded coefficients on a coarse mesh keep the warp smooth. On the coarsest level
-// (4 mm): a mesh of cells of about 45 mm needs no finer images. One thread (SerialItk), a fixed
-// random sample (the options' seed): runs repeat exactly.
+// B-spline from the 64 control points around each sample. The v4 metric takes a B-spline for a
+// global transform, every parameter at every sample: with 4 cells its stage took 2.2-2.4 s on the
+// 2-core machine, this one 0.2 s (docs/accuracy.md). The atlas image is resampled through the
+// affine onto the target's grid first, so that the B-spline is optimised alone and the map is the
+// affine after it. L-BFGS-B with every control point's displacement bounded (kBSplineBoundMm):
+// Mattes MI has no term against folding, and bounded coefficients on a coarse mesh keep the warp
+// smooth. On the coarsest level (4 mm): cells of 30-45 mm need no finer images. One thread
+// (SerialItk), a fixed random sample (the options' seed): runs repeat exactly. A cancellation is
+// asked after the stage (0.2-0.7 s on the 2-core machine): v3's optimiser has no stop.
 RegistrationStage runBSplineStage(BSplineType* bspline, AffineType& affine, const PyramidLevel& level,
                                   const RegistrationOptions& o) {
   const auto t0 = Clock::now();
@@ -306,7 +307,8 @@ RegistrationStage runBSplineStage(BSplineType* bspline, AffineType& affine, cons
   return stage;
 }
 
-// A cubic B-spline over the target's domain, optimised on top of the affine (runBSplineStage), kept only when it improves the metric and folds nothing. Its
+// A cubic B-spline over the target's domain, optimised on top of the affine (runBSplineStage),
+// kept only when it improves its metric, squeezes no region and maps every point somewhere. Its
 // result leaves as point pairs: the composite map (affine after B-spline, target -> model)
 // sampled on a grid of 2 cells + 1 points per axis over the target, through which the
 // initialisation fits a thin-plate spline each way (SpatialMap), as it does for landmarks.
@@ -350,16 +352,17 @@ void refineByBSpline(AffineType& affine, ImageType* fixed, const std::vector<Pyr
         pairs.push_back({{y[0], y[1], y[2]}, {x[0], x[1], x[2]}});
       }
   const bool better = std::isfinite(stage.metric) && stage.metric < stage.startMetric;
-  const bool folds = !(least > kLeastWarpDeterminant);
+  const bool folds = !(least > kLeastWarpDeterminant);  // a NaN anywhere in the Jacobians too
+  bool finite = true;
   for (const LandmarkPair& p : pairs)
-    for (int a = 0; a < 3; ++a)
-      if (!std::isfinite(p.model[a])) return;
-  if (o.log && (!better || folds))
+    for (int a = 0; a < 3; ++a) finite = finite && std::isfinite(p.model[a]);
+  if (o.log && (!better || folds || !finite))
     o.log(std::string("registration: B-spline stage not kept (") +
-          (folds ? "the warp squeezes or folds a region: least Jacobian determinant " + fmt(least)
-                 : "Mattes MI " + fmt(stage.metric) + ", " + fmt(stage.startMetric) + " before it") +
+          (!finite ? std::string("it maps some points to non-finite positions")
+           : folds ? "the warp squeezes or folds a region: least Jacobian determinant " + fmt(least)
+                   : "Mattes MI " + fmt(stage.metric) + ", " + fmt(stage.startMetric) + " before it") +
           "); the affine alone places the model");
-  stage.kept = better && !folds;
+  stage.kept = better && !folds && finite;
   result.stages.push_back(stage);
   if (stage.kept) result.deformation = std::move(pairs);
 }
