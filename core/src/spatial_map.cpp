@@ -87,7 +87,8 @@ SpatialMap SpatialMap::fitThinPlateSpline(std::span<const LandmarkPair> pairs) {
   }
   L.block(n, 0, 4, n) = L.block(0, n, n, 4).transpose();
   // Full pivoting for the few pairs a user places; a registration's grid of hundreds of pairs (well
-  // apart by construction) takes partial pivoting, about ten times faster at 729 pairs.
+  // apart by construction) takes partial pivoting: with 729 pairs the initialisation's two fits and
+  // its mapping took 0.12 s instead of 0.38 on the 2-core machine.
   const Eigen::MatrixXd x = n <= kFullPivotingUpTo ? Eigen::MatrixXd(L.fullPivLu().solve(rhs))
                                                    : Eigen::MatrixXd(L.partialPivLu().solve(rhs));
   if (!x.allFinite()) throw InputError("landmarks: the thin-plate spline system is singular");

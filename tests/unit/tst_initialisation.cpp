@@ -153,7 +153,8 @@ private slots:
                 "/initialise/levels: goes with 'registration'");
     expectError([&] { parseScene(base + R"("initialise": {"registration": "affine", "samples": 100}})", "s.json"); },
                 "/initialise/samples: must be in [1000, 100000000]");
-    // "bspline": rigid, affine, then a B-spline of 4 cells unless "bspline_cells" says; written back so.
+    // "bspline": rigid, affine, then a B-spline of kDefaultBSplineCells unless "bspline_cells" says;
+    // written back so.
     const SceneDesc b = parseScene(base + R"("initialise": {"registration": "bspline"}})", "/d/s.json");
     QVERIFY(b.initialise.affine);
     QCOMPARE(b.initialise.bsplineCells, kDefaultBSplineCells);

@@ -222,7 +222,6 @@ private slots:
     QCOMPARE(reg.size(), 3);
     QCOMPARE(reg[2].toObject()["name"].toString(), QString("bspline"));
     QVERIFY(reg[2].toObject()["kept"].toBool());
-    QVERIFY(reg[2].toObject()["mattes_mi"].toDouble() < reg[1].toObject()["mattes_mi"].toDouble());
     QFile a(run_ + "/subject-to-atlas.tfm"), b(path("bspline/subject-to-atlas.tfm"));
     QVERIFY(a.open(QIODevice::ReadOnly) && b.open(QIODevice::ReadOnly));
     QVERIFY2(a.readAll() == b.readAll(), "the transform file holds the affine stage, the same as the affine registration's");
