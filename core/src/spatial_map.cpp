@@ -112,7 +112,7 @@ SpatialMap SpatialMap::sampledOn(const Eigen::Vector3d& lo, const Eigen::Vector3
   m.gridOrigin_ = lo;
   m.gridSpacing_ = spacingMm;
   for (int a = 0; a < 3; ++a) m.gridSize_[a] = std::max(2, int(std::ceil((hi[a] - lo[a]) / spacingMm)) + 1);
-  const auto [nx, ny, nz] = m.gridSize_;
+  const int nx = m.gridSize_[0], ny = m.gridSize_[1], nz = m.gridSize_[2];  // not a binding: clang's lambdas cannot take one
   m.gridValues_.resize(size_t(nx) * size_t(ny) * size_t(nz));
   tbb::parallel_for(0, nz, [&](int k) {
     for (int j = 0; j < ny; ++j)
