@@ -237,7 +237,8 @@ constexpr double kBSplineBoundMm = 8.0; // the most a control point is displaced
 // affine onto the target's grid first, so that the B-spline is optimised alone and the map is the
 // affine after it. L-BFGS-B with every control point's displacement bounded (kBSplineBoundMm):
 // Mattes MI has no term against folding, and bounded coefficients on a coarse mesh keep the warp
-// smooth. On the coarsest level (4 mm): cells of 30-45 mm need no finer images. One thread
+// smooth. On the pyramid's first level's images (the 2 mm grid smoothed by 2 mm with the default
+// two levels): cells of 30-45 mm need no finer detail. One thread
 // (SerialItk), a fixed random sample (the options' seed): runs repeat exactly. A cancellation is
 // asked after the stage (0.2-0.7 s on the 2-core machine): v3's optimiser has no stop.
 RegistrationStage runBSplineStage(BSplineType* bspline, AffineType& affine, const PyramidLevel& level,
@@ -285,12 +286,16 @@ RegistrationStage runBSplineStage(BSplineType* bspline, AffineType& affine, cons
   RegistrationStage stage;
   stage.name = "bspline";
   try {
+    // Initialised once before the update as well: each initialisation draws the next random
+    // sample (the seed counts up), and the measured settings (docs/accuracy.md) optimised on the
+    // second.
     registration->Initialize();
-    stage.startMetric = metric->GetValue(identity);
     registration->Update();
-    // By value: the transform would otherwise keep a reference to the method's array (and the
-    // metric's GetValue sets the parameters it is given).
+    // Before and after on the same sample, the one optimised on. By value: the transform would
+    // otherwise keep a reference to the method's array (the metric's GetValue sets the parameters
+    // it is given, the identity's last).
     const BSplineType::ParametersType found = registration->GetLastTransformParameters();
+    stage.startMetric = metric->GetValue(identity);
     stage.metric = metric->GetValue(found);
     bspline->SetParametersByValue(found);
   } catch (const itk::ExceptionObject& e) {

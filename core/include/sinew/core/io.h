@@ -26,7 +26,7 @@ inline constexpr std::size_t kMaxImageVoxels = std::size_t(1) << 31;
 struct RegistrationOptions {
   bool affine = true;             // rigid, then affine; false: rigid only
   int bsplineCells = 0;           // > 0 (with affine): then a cubic B-spline, this many cells per axis over the target
-  int bsplineIterations = 30;     // the B-spline's L-BFGS-B iterations at most (on the coarsest level only)
+  int bsplineIterations = 30;     // the B-spline's L-BFGS-B iterations at most (on the pyramid's first level only)
   int bsplineSamples = 10000;     // the B-spline stage's random voxels
   int levels = 2;                 // multi-resolution levels on images binned to about 2 mm (4, 2 mm)
   int iterations = 100;           // per level and stage at most
