@@ -55,10 +55,10 @@ void SceneRunner::Loaded::startRegistration(const Registry& registry, const Scen
 }
 
 namespace {
-// A registration's spline maps are sampled on grids over the structures' shapes grown by a margin:
-// in the model for the map (every 2 mm), in the target for the training map (every 3 mm: it only
-// places the atlas image's samples), whose points reach out along the reference normals by the
-// profiles' length and search.
+// A registration's B-spline maps are sampled on grids over the structures' shapes grown by a
+// margin: in the model for the map (every 2 mm; each value there is a Newton solve), in the target
+// for the training map (every 3 mm: it only places the atlas image's samples), whose points reach
+// out along the reference normals by the profiles' length and search.
 constexpr double kMapGridMm = 2.0, kTrainingGridMm = 3.0, kMapBoxMarginMm = 5.0, kTrainingBoxMarginMm = 25.0;
 
 std::pair<Eigen::Vector3d, Eigen::Vector3d> boxOf(const std::vector<StructureSpec>& specs, double marginMm) {
@@ -121,13 +121,15 @@ void SceneRunner::initialise(std::vector<StructureSpec>& specs, const std::funct
       map = SpatialMap::affine(reg.targetToModel.inverse());
       inverse = SpatialMap::affine(reg.targetToModel);
       if (!reg.deformation.empty()) {
-        // The B-spline's map sampled on a grid, a thin-plate spline through it each way: the
-        // inverse one stands in for the B-spline's inverse, as for landmarks. Each is evaluated
-        // from its own values on a grid over where it is used (SpatialMap::sampledOn).
-        std::vector<LandmarkPair> swapped;
-        for (const auto& p : reg.deformation) swapped.push_back({p.target, p.model});
-        map = SpatialMap::fitThinPlateSpline(reg.deformation);
-        inverse = SpatialMap::fitThinPlateSpline(swapped);
+        // The B-spline then the affine takes the target to the model; the model is placed by its
+        // inverse. Each is evaluated from its own values on a grid over where it is used
+        // (SpatialMap::sampledOn).
+        try {
+          inverse = SpatialMap::warpThenAffine(reg.deformation, reg.targetToModel);
+        } catch (const InputError& e) {
+          sceneError(scene_, "/initialise/registration", e.what());
+        }
+        map = inverse.inverse();
         const auto [lo, hi] = boxOf(specs, kMapBoxMarginMm);
         map = map.sampledOn(lo, hi, kMapGridMm);
         sampleInverseAfterMapping = true;

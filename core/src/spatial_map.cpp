@@ -5,6 +5,8 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <limits>
+#include <stdexcept>
 
 namespace sinew {
 
@@ -101,7 +103,61 @@ SpatialMap SpatialMap::fitThinPlateSpline(std::span<const LandmarkPair> pairs) {
   return m;
 }
 
+SpatialMap SpatialMap::warpThenAffine(const BSplineWarp& warp, const Eigen::Matrix4d& affine) {
+  if (!warp.valid()) throw InputError("registration: the B-spline's control grid is malformed or not finite");
+  SpatialMap m;
+  m.affine_ = affine;
+  m.warp_ = std::make_shared<const BSplineWarp>(warp);
+  return m;
+}
+
+SpatialMap SpatialMap::inverse() const {
+  if (!centres_.empty()) throw std::logic_error("SpatialMap::inverse: a thin-plate spline has no closed-form inverse");
+  SpatialMap m;
+  m.warp_ = warp_;
+  m.warpInverted_ = warp_ && !warpInverted_;
+  // An inverted warp map keeps the forward affine (its Newton solve uses it); an affine's inverse is
+  // the inverse matrix.
+  m.affine_ = warp_ ? affine_ : Eigen::Matrix4d(affine_.inverse());
+  return m;
+}
+
+namespace {
+// The point x with affine (x + d(x)) = y. Newton's method from the affine's inverse, each step
+// halved until the residual shrinks: the warp's Jacobian stays near the identity (the plugin keeps
+// only warps whose determinant stays above a fifth), so a few steps reach 1e-9 mm.
+Eigen::Vector3d invertWarp(const BSplineWarp& warp, const Eigen::Matrix4d& affine, const Eigen::Vector3d& y) {
+  const Eigen::Matrix3d a = affine.topLeftCorner<3, 3>();
+  const Eigen::Vector3d t = affine.topRightCorner<3, 1>();
+  const auto residual = [&](const Eigen::Vector3d& x, Eigen::Matrix3d* jac) {
+    return Eigen::Vector3d(a * (x + warp.displacement(x, jac)) + t - y);
+  };
+  Eigen::Vector3d x = a.inverse() * (y - t);
+  Eigen::Matrix3d jac;
+  Eigen::Vector3d r = residual(x, &jac);
+  for (int it = 0; it < 50 && r.norm() > 1e-9; ++it) {
+    const Eigen::Vector3d step = (a * (Eigen::Matrix3d::Identity() + jac)).partialPivLu().solve(r);
+    double scale = 1.0;
+    Eigen::Vector3d next = x - step, rNext = residual(next, nullptr);
+    for (int halving = 0; halving < 20 && !(rNext.norm() < r.norm()); ++halving) {
+      scale *= 0.5;
+      next = x - scale * step;
+      rNext = residual(next, nullptr);
+    }
+    if (!(rNext.norm() < r.norm())) break;
+    x = next;
+    r = residual(x, &jac);
+  }
+  return r.norm() <= 1e-4 ? x : Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
+}
+}  // namespace
+
 Eigen::Vector3d SpatialMap::exact(const Eigen::Vector3d& p) const {
+  if (warp_) {
+    if (warpInverted_) return invertWarp(*warp_, affine_, p);
+    const Eigen::Vector3d q = p + warp_->displacement(p);
+    return affine_.topLeftCorner<3, 3>() * q + affine_.topRightCorner<3, 1>();
+  }
   Eigen::Vector3d y = affine_.topLeftCorner<3, 3>() * p + affine_.topRightCorner<3, 1>();
   for (size_t i = 0; i < centres_.size(); ++i) y += weights_[i] * (p - centres_[i]).norm();
   return y;
@@ -155,9 +211,15 @@ std::string SpatialMap::spacingText() const {
 }
 
 std::string SpatialMap::describe() const {
-  if (hasSpline())
-    return "thin-plate spline (" + std::to_string(centres_.size()) + " landmarks" +
-           (gridValues_.empty() ? "" : ", sampled every " + spacingText() + " mm") + ")";
+  const std::string sampled = gridValues_.empty() ? "" : ", sampled every " + spacingText() + " mm";
+  if (warp_) {
+    const auto& n = warp_->size;
+    const std::string b = "B-spline (" + std::to_string(n[0]) + "x" + std::to_string(n[1]) + "x" + std::to_string(n[2]) +
+                          " control points), then affine";
+    return (warpInverted_ ? "inverse of " + b : b) + sampled;
+  }
+  if (!centres_.empty())
+    return "thin-plate spline (" + std::to_string(centres_.size()) + " landmarks" + sampled + ")";
   return affine_.isIdentity(0.0) ? "identity" : "affine";
 }
 

@@ -1,5 +1,6 @@
 #include "itk_registration.h"
 
+#include "itk_bspline_warp.h"
 #include "itk_convert.h"
 
 #include <mutex>
@@ -46,6 +47,23 @@ using Clock = std::chrono::steady_clock;
 // Registration runs on images of about this voxel size (mm): bin-averaged once, so the v4
 // pyramid never smooths a full-resolution atlas (a 0.5 mm brain has 57 M voxels).
 constexpr double kWorkingSpacingMm = 2.0;
+
+// ITK's global default number of threads for a scope, restored to what it was after. Objects take
+// the global default when they are made (and so do the filters a filter makes for itself, whatever
+// its own work units: GradientRecursiveGaussianImageFilter's smoothing and derivative filters).
+class ItkDefaultThreads {
+public:
+  explicit ItkDefaultThreads(itk::ThreadIdType threads) : before_(itk::MultiThreaderBase::GetGlobalDefaultNumberOfThreads()) {
+    itk::MultiThreaderBase::SetGlobalDefaultNumberOfThreads(threads);
+  }
+  ~ItkDefaultThreads() { itk::MultiThreaderBase::SetGlobalDefaultNumberOfThreads(before_); }
+  itk::ThreadIdType before() const { return before_; }
+  ItkDefaultThreads(const ItkDefaultThreads&) = delete;
+  ItkDefaultThreads& operator=(const ItkDefaultThreads&) = delete;
+
+private:
+  itk::ThreadIdType before_;
+};
 
 std::string fmt(double v) {
   char b[32];
@@ -227,8 +245,13 @@ RegistrationStage runLinearStage(const char* name, TransformType* transform, con
 // sampled points: below it the warp squeezes a region to a fifth of its volume or folds it, which
 // a coarse mesh of an anatomy's smooth differences does not need.
 constexpr double kLeastWarpDeterminant = 0.2;
-constexpr double kDifferenceMm = 0.5;  // the step of the Jacobian's central differences
 constexpr double kBSplineBoundMm = 8.0; // the most a control point is displaced
+
+// The B-spline stage's metric in this many parts, whatever the machine: ITK's v3 Mattes metric
+// gives each part its own histograms and derivative and adds them up in the parts' order, so the
+// result repeats exactly and is the same on every machine. On the H200's 16-thread host 8 parts
+// took the stage from 0.74 s to 0.18 s (docs/accuracy.md).
+constexpr itk::ThreadIdType kBSplineWorkUnits = 8;
 
 // The B-spline stage, with ITK's classic (v3) registration: its Mattes metric evaluates a cubic
 // B-spline from the 64 control points around each sample. The v4 metric takes a B-spline for a
@@ -238,12 +261,16 @@ constexpr double kBSplineBoundMm = 8.0; // the most a control point is displaced
 // affine after it. L-BFGS-B with every control point's displacement bounded (kBSplineBoundMm):
 // Mattes MI has no term against folding, and bounded coefficients on a coarse mesh keep the warp
 // smooth. On the pyramid's first level's images (the 2 mm grid smoothed by 2 mm with the default
-// two levels): cells of 30-45 mm need no finer detail. One thread
-// (SerialItk), a fixed random sample (the options' seed): runs repeat exactly. A cancellation is
-// asked after the stage (0.2-0.7 s on the 2-core machine): v3's optimiser has no stop.
+// two levels): cells of 30-45 mm need no finer detail. On every thread (`threads`, what ITK had
+// before SerialItk) in kBSplineWorkUnits parts, with a fixed random sample (the options' seed):
+// runs repeat exactly. The metric's derivatives are implicit: explicit ones keep a histogram's
+// derivative per part (bins^2 x parameters, 30 MB with 5 cells), whose clearing and summing set the
+// time with more than one part. A cancellation is asked after the stage (0.2-1.0 s on the 2-core
+// machine): v3's optimiser has no stop.
 RegistrationStage runBSplineStage(BSplineType* bspline, AffineType& affine, const PyramidLevel& level,
-                                  const RegistrationOptions& o) {
+                                  const RegistrationOptions& o, itk::ThreadIdType threads) {
   const auto t0 = Clock::now();
+  const ItkDefaultThreads all(threads);  // every filter and the metric below: each sums in a fixed order
   auto resample = itk::ResampleImageFilter<ImageType, ImageType>::New();
   resample->SetInput(level.moving);
   resample->SetTransform(&affine);
@@ -256,7 +283,7 @@ RegistrationStage runBSplineStage(BSplineType* bspline, AffineType& affine, cons
   metric->SetNumberOfHistogramBins(o.histogramBins);
   metric->SetNumberOfSpatialSamples(itk::SizeValueType(o.bsplineSamples));
   metric->ReinitializeSeed(int(o.seed));
-  metric->SetNumberOfWorkUnits(1);
+  metric->SetUseExplicitPDFDerivatives(false);
   auto optimizer = itk::LBFGSBOptimizer::New();
   const unsigned parameters = bspline->GetNumberOfParameters();
   itk::LBFGSBOptimizer::BoundSelectionType select(parameters);
@@ -276,6 +303,7 @@ RegistrationStage runBSplineStage(BSplineType* bspline, AffineType& affine, cons
   auto registration = itk::ImageRegistrationMethod<ImageType, ImageType>::New();
   registration->SetMetric(metric);
   registration->SetOptimizer(optimizer);
+  registration->SetNumberOfWorkUnits(kBSplineWorkUnits);  // it sets the metric's when initialised
   registration->SetTransform(bspline);
   registration->SetInterpolator(itk::LinearInterpolateImageFunction<ImageType, double>::New());
   registration->SetFixedImage(level.fixed);
@@ -314,11 +342,10 @@ RegistrationStage runBSplineStage(BSplineType* bspline, AffineType& affine, cons
 
 // A cubic B-spline over the target's domain, optimised on top of the affine (runBSplineStage),
 // kept only when it improves its metric, squeezes no region and maps every point somewhere. Its
-// result leaves as point pairs: the composite map (affine after B-spline, target -> model)
-// sampled on a grid of 2 cells + 1 points per axis over the target, through which the
-// initialisation fits a thin-plate spline each way (SpatialMap), as it does for landmarks.
+// result leaves as its control grid (bsplineWarpOf): the initialisation evaluates the map, affine
+// after B-spline (target -> model), and its inverse in core (SpatialMap::warpThenAffine).
 void refineByBSpline(AffineType& affine, ImageType* fixed, const std::vector<PyramidLevel>& pyramid,
-                     const RegistrationOptions& o, RegistrationResult& result) {
+                     const RegistrationOptions& o, RegistrationResult& result, itk::ThreadIdType threads) {
   auto bspline = BSplineType::New();
   auto init = itk::BSplineTransformInitializer<BSplineType, ImageType>::New();
   init->SetTransform(bspline);
@@ -328,76 +355,49 @@ void refineByBSpline(AffineType& affine, ImageType* fixed, const std::vector<Pyr
   init->SetTransformDomainMeshSize(mesh);
   init->InitializeTransform();
   bspline->SetIdentity();
-  RegistrationStage stage = runBSplineStage(bspline.GetPointer(), affine, pyramid.front(), o);
+  RegistrationStage stage = runBSplineStage(bspline.GetPointer(), affine, pyramid.front(), o, threads);
+  BSplineWarp warp = bsplineWarpOf(*bspline);
+  const bool finite = warp.valid();
+  // The warp's Jacobian determinant on a grid of 2 cells + 1 points per axis over the target, one
+  // voxel in from its edges (where the transform's domain ends and it becomes the identity).
   const int n = 2 * o.bsplineCells + 1;
   const auto size = fixed->GetLargestPossibleRegion().GetSize();
-  std::vector<LandmarkPair> pairs;
   double least = 1e300;
-  for (int k = 0; k < n; ++k)
+  for (int k = 0; k < n && finite; ++k)
     for (int j = 0; j < n; ++j)
       for (int i = 0; i < n; ++i) {
         itk::ContinuousIndex<double, 3> index;
         const int ijk[3] = {i, j, k};
-        // Voxel centres one voxel in from the edges: the differences below stay inside the
-        // transform's domain, outside which it is the identity.
         for (int a = 0; a < 3; ++a) index[a] = 1.0 + double(size[a] - 3) * double(ijk[a]) / double(n - 1);
         ImageType::PointType x;
         fixed->TransformContinuousIndexToPhysicalPoint(index, x);
-        // ITK 5.2's BSplineTransform has no Jacobian with respect to position: central differences.
         Eigen::Matrix3d jac;
-        for (int a = 0; a < 3; ++a) {
-          ImageType::PointType lo = x, hi = x;
-          lo[a] -= kDifferenceMm;
-          hi[a] += kDifferenceMm;
-          const auto d = bspline->TransformPoint(hi) - bspline->TransformPoint(lo);
-          for (int r = 0; r < 3; ++r) jac(r, a) = d[r] / (2.0 * kDifferenceMm);
-        }
-        least = std::min(least, jac.determinant());
-        const ImageType::PointType y = affine.TransformPoint(bspline->TransformPoint(x));
-        pairs.push_back({{y[0], y[1], y[2]}, {x[0], x[1], x[2]}});
+        warp.displacement({x[0], x[1], x[2]}, &jac);
+        least = std::min(least, (Eigen::Matrix3d::Identity() + jac).determinant());
       }
   const bool better = std::isfinite(stage.metric) && stage.metric < stage.startMetric;
   const bool folds = !(least > kLeastWarpDeterminant);  // a NaN anywhere in the Jacobians too
-  bool finite = true;
-  for (const LandmarkPair& p : pairs)
-    for (int a = 0; a < 3; ++a) finite = finite && std::isfinite(p.model[a]);
   if (o.log && (!better || folds || !finite))
     o.log(std::string("registration: B-spline stage not kept (") +
-          (!finite ? std::string("it maps some points to non-finite positions")
+          (!finite ? std::string("its coefficients are not finite")
            : folds ? "the warp squeezes or folds a region: least Jacobian determinant " + fmt(least)
                    : "Mattes MI " + fmt(stage.metric) + ", " + fmt(stage.startMetric) + " before it") +
           "); the affine alone places the model");
   stage.kept = better && !folds && finite;
   result.stages.push_back(stage);
-  if (stage.kept) result.deformation = std::move(pairs);
+  if (stage.kept) result.deformation = std::move(warp);
 }
 }  // namespace
 
 namespace {
-// ITK's global default number of threads for a scope, restored to what it was after. Objects take
-// the global default when they are made (and so do the filters a filter makes for itself, whatever
-// its own work units: GradientRecursiveGaussianImageFilter's smoothing and derivative filters).
-class ItkDefaultThreads {
-public:
-  explicit ItkDefaultThreads(itk::ThreadIdType threads) : before_(itk::MultiThreaderBase::GetGlobalDefaultNumberOfThreads()) {
-    itk::MultiThreaderBase::SetGlobalDefaultNumberOfThreads(threads);
-  }
-  ~ItkDefaultThreads() { itk::MultiThreaderBase::SetGlobalDefaultNumberOfThreads(before_); }
-  itk::ThreadIdType before() const { return before_; }
-  ItkDefaultThreads(const ItkDefaultThreads&) = delete;
-  ItkDefaultThreads& operator=(const ItkDefaultThreads&) = delete;
-
-private:
-  itk::ThreadIdType before_;
-};
-
-// ITK on one thread while the registration's metric is made and run. With more threads in the
-// metric, the transform differs in its last digits from run to run (ITK 5.2's Mattes metric adds
-// the threads' joint-PDF derivatives into a shared buffer in whatever order its mutex is taken, and
-// capping the metric's work units alone did not make it repeat), and the segmentation after it by
-// up to 0.1 mm ASSD per structure. What computes each voxel on its own (the pyramid's filters) or
-// sums its threads in order (the probe's value) is made inside an ItkDefaultThreads of
-// threadsBefore(): with one thread, each moving gradient took about 75 ms on the 2-core machine.
+// ITK on one thread while the registration's metric is made and run. With more threads in the v4
+// metric (the rigid and affine stages), the transform differs in its last digits from run to run
+// (ITK 5.2's v4 Mattes metric adds the threads' joint-PDF derivatives into a shared buffer in
+// whatever order its mutex is taken, and capping the metric's work units alone did not make it
+// repeat), and the segmentation after it by up to 0.1 mm ASSD per structure. What computes each
+// voxel on its own (the pyramid's filters) or sums its threads in order (the probe's value, the
+// B-spline stage's v3 metric) is made inside an ItkDefaultThreads of threadsBefore(): with one
+// thread, each moving gradient took about 75 ms on the 2-core machine.
 // Registrations in one process run one at a time, so that each restores what it found. Other ITK
 // objects made meanwhile (a label map still being read) also get one thread: slower, not wrong.
 class SerialItk {
@@ -416,6 +416,26 @@ private:
   ItkDefaultThreads one_{1};
 };
 }  // namespace
+
+BSplineWarp bsplineWarpOf(const itk::BSplineTransform<double, 3, 3>& transform) {
+  const auto& images = transform.GetCoefficientImages();
+  const auto& image = *images[0];
+  BSplineWarp w;
+  const auto size = image.GetLargestPossibleRegion().GetSize();
+  for (int a = 0; a < 3; ++a) {
+    w.size[a] = int(size[a]);
+    w.origin[a] = image.GetOrigin()[a];
+    w.spacing[a] = image.GetSpacing()[a];
+    for (int b = 0; b < 3; ++b) w.direction(a, b) = image.GetDirection()[a][b];
+  }
+  const size_t count = image.GetLargestPossibleRegion().GetNumberOfPixels();
+  w.coefficients.resize(count);
+  for (int a = 0; a < 3; ++a) {
+    const double* c = images[a]->GetBufferPointer();
+    for (size_t i = 0; i < count; ++i) w.coefficients[i][a] = c[i];
+  }
+  return w;
+}
 
 RegistrationResult registerImagesItk(const Image3D& target, const Image3D& model, const RegistrationOptions& o) {
   const auto checkCancelled = [&o] {
@@ -476,7 +496,7 @@ RegistrationResult registerImagesItk(const Image3D& target, const Image3D& model
     affine->SetTranslation(rigid->GetTranslation());
     result.stages.push_back(runLinearStage("affine", affine.GetPointer(), pyramid, o, 1.0));
     m = toMatrix(*affine);
-    if (o.bsplineCells > 0) refineByBSpline(*affine, fixed, pyramid, o, result);
+    if (o.bsplineCells > 0) refineByBSpline(*affine, fixed, pyramid, o, result, threads);
   }
   const RegistrationStage& last = result.stages[o.affine ? 1 : 0];  // the affine's checks: the B-spline's are its own
   // Mattes MI is negative; near 0 means the images share no information where they overlap.

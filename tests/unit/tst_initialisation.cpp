@@ -1,5 +1,5 @@
 // The pieces of the new-subject path that need no image: landmark maps (thin-plate spline and
-// affine fit, and the landmark checks), the affine regularisation of image forces, the scene keys
+// affine fit, and the landmark checks), a registration's B-spline map and its inverse, the affine regularisation of image forces, the scene keys
 // of the initialisation, and the model files (written, read back exactly, damage refused).
 #include "sinew/core/model_builder.h"
 #include "sinew/core/model_file.h"
@@ -115,6 +115,73 @@ private slots:
     QVERIFY2(largest < 0.02, qPrintable(QString::number(largest)));
     const Eigen::Vector3d outside(45.0, -40.0, 35.0);
     QCOMPARE(sampled.apply(outside), spline.apply(outside));
+  }
+
+  // A registration's B-spline in core (BSplineWarp, SpatialMap::warpThenAffine). Cubic B-splines
+  // reproduce a linear field: coefficients M p (p a control point's position) give d(x) = M x and
+  // the Jacobian M inside the grid's valid region, zero outside. With random coefficients added,
+  // the map's inverse (Newton) must undo it, and the sampled inverse stay near the exact one.
+  void bsplineWarpAndItsInverse() {
+    BSplineWarp w;
+    w.size = {7, 8, 6};
+    w.spacing = Eigen::Vector3d(30.0, 25.0, 35.0);
+    w.direction = Eigen::AngleAxisd(0.3, Eigen::Vector3d(0.2, 1.0, -0.4).normalized()).toRotationMatrix();
+    w.origin = Eigen::Vector3d(-80.0, -95.0, -70.0);
+    Eigen::Matrix3d m;
+    m << 0.04, -0.02, 0.01, 0.03, 0.05, -0.03, -0.01, 0.02, -0.04;
+    const auto controlPoint = [&](int i, int j, int k) -> Eigen::Vector3d {
+      return w.origin + w.direction * w.spacing.cwiseProduct(Eigen::Vector3d(i, j, k));
+    };
+    for (int k = 0; k < w.size[2]; ++k)
+      for (int j = 0; j < w.size[1]; ++j)
+        for (int i = 0; i < w.size[0]; ++i) w.coefficients.push_back(m * controlPoint(i, j, k));
+    QVERIFY(w.valid());
+    std::mt19937 rng(5);
+    std::uniform_real_distribution<double> u(0.0, 1.0);
+    const auto atIndex = [&](double a, double b, double c) -> Eigen::Vector3d {
+      return controlPoint(0, 0, 0) + w.direction * w.spacing.cwiseProduct(Eigen::Vector3d(a, b, c));
+    };
+    double largest = 0.0;
+    for (int n = 0; n < 500; ++n) {  // inside: index in [1, size - 2)
+      const Eigen::Vector3d x = atIndex(1.0 + u(rng) * 3.99, 1.0 + u(rng) * 4.99, 1.0 + u(rng) * 2.99);
+      Eigen::Matrix3d jac;
+      largest = std::max(largest, (w.displacement(x, &jac) - m * x).norm());
+      largest = std::max(largest, (jac - m).norm());
+    }
+    QVERIFY2(largest < 1e-9, qPrintable(QString::number(largest)));
+    QCOMPARE(w.displacement(atIndex(0.9, 2.0, 2.0)), Eigen::Vector3d::Zero());
+    QCOMPARE(w.displacement(atIndex(2.0, 6.01, 2.0)), Eigen::Vector3d::Zero());
+
+    std::uniform_real_distribution<double> c(-5.0, 5.0);
+    for (Eigen::Vector3d& v : w.coefficients) v += Eigen::Vector3d(c(rng), c(rng), c(rng));
+    const SpatialMap forward = SpatialMap::warpThenAffine(w, someAffine());
+    const SpatialMap inverse = forward.inverse();
+    QVERIFY(inverse.describe().find("inverse of B-spline (7x8x6 control points), then affine") == 0);
+    double roundTrip = 0.0, moved = 0.0;
+    // Half a cell in from the valid region's edge (12.5 mm or more, past the largest displacement),
+    // and a cell outside it: across the edge the warp drops to zero, and a point there may have two
+    // preimages.
+    for (int n = 0; n < 500; ++n) {
+      const Eigen::Vector3d x = n % 5 == 0 ? atIndex(-1.0 - u(rng), 3.0, 3.0)
+                                           : atIndex(1.5 + u(rng) * 2.99, 1.5 + u(rng) * 3.99, 1.5 + u(rng) * 1.99);
+      roundTrip = std::max(roundTrip, (inverse.apply(forward.apply(x)) - x).norm());
+      moved = std::max(moved, w.displacement(x).norm());
+    }
+    qInfo("largest displacement %.2f mm; largest round trip error %.3g mm", moved, roundTrip);
+    QVERIFY(moved > 3.0);
+    QVERIFY2(roundTrip < 1e-6, qPrintable(QString::number(roundTrip)));
+    const Eigen::Vector3d lo = atIndex(2.0, 2.0, 2.0).cwiseMin(atIndex(4.0, 5.0, 3.0)), hi = atIndex(2.0, 2.0, 2.0).cwiseMax(atIndex(4.0, 5.0, 3.0));
+    const SpatialMap sampled = inverse.sampledOn(lo, hi, 2.0);
+    double sampling = 0.0;
+    for (int n = 0; n < 500; ++n) {
+      const Eigen::Vector3d y = lo + (hi - lo).cwiseProduct(Eigen::Vector3d(u(rng), u(rng), u(rng)));
+      sampling = std::max(sampling, (sampled.apply(y) - inverse.apply(y)).norm());
+    }
+    qInfo("largest sampling error %.4f mm", sampling);
+    QVERIFY2(sampling < 0.02, qPrintable(QString::number(sampling)));
+    BSplineWarp broken = w;
+    broken.coefficients[17].y() = std::numeric_limits<double>::quiet_NaN();
+    expectError([&] { SpatialMap::warpThenAffine(broken, someAffine()); }, "not finite");
   }
 
   void badLandmarksAreRefused() {

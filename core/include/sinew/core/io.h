@@ -58,9 +58,9 @@ struct RegistrationResult {
   // ITK's convention: maps a point of the fixed (target) image to the moving (model) image.
   Eigen::Matrix4d targetToModel = Eigen::Matrix4d::Identity();  // the rigid or affine stage's
   std::vector<RegistrationStage> stages;
-  // After a kept B-spline stage: the whole map sampled as (model, target) point pairs on a grid over
-  // the target, for a thin-plate spline each way (scene_runner_initialise.cpp). Empty otherwise.
-  std::vector<LandmarkPair> deformation;
+  // After a kept B-spline stage: its displacement, in the target, before targetToModel (the whole
+  // map is SpatialMap::warpThenAffine(deformation, targetToModel)). Empty otherwise.
+  BSplineWarp deformation;
 };
 
 struct ImageIODescriptor {

@@ -9,7 +9,7 @@
 // Raised whenever a change to an installed header changes what a compiled plugin relies on (a
 // class layout, a virtual function, the PluginInfo fields). Plugins built for another value are
 // refused at load time.
-#define SINEW_PLUGIN_ABI_VERSION 9
+#define SINEW_PLUGIN_ABI_VERSION 10
 
 #include <string>
 
