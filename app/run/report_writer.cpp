@@ -63,8 +63,10 @@ void writeReportJson(const std::filesystem::path& path, const RunReport& r, cons
     if (in.hasAffine) {
       Json m = Json::array();
       for (int row = 0; row < 4; ++row)
-        for (int c = 0; c < 4; ++c) m.push_back(in.targetToModel(row, c));
+        for (int c = 0; c < 4; ++c) m.push_back(in.transform.targetToModel(row, c));
       init["target_to_model"] = m;
+      const BSplineWarp& w = in.transform.deformation;  // applied before target_to_model
+      if (!w.empty()) init["bspline_control_points"] = {w.size[0], w.size[1], w.size[2]};
       init["transform_file"] = "subject-to-atlas.tfm";
     }
     j["initialisation"] = init;

@@ -285,7 +285,7 @@ int main(int argc, char** argv) {
     });
     if (report.initialisation.hasAffine) {
       const fs::path tfm = out.file("subject-to-atlas.tfm");
-      write([&, tfm] { registry.imageRegistration().writeTransform(tfm, report.initialisation.targetToModel); });
+      write([&, tfm] { registry.imageRegistration().writeTransform(tfm, report.initialisation.transform); });
     }
     const fs::path reportCsv = out.file("report.csv"), timelineCsv = out.file("timeline.csv"), plot = out.file("error_vs_time.png");
     write([&] {

@@ -116,38 +116,17 @@ void SceneRunner::initialise(std::vector<StructureSpec>& specs, const std::funct
       L.clock.lap("registration");
       r.method = std::string("registration (") + (!reg.deformation.empty() ? "affine, then B-spline" : d.affine ? "affine" : "rigid") + ")";
       r.registration = reg.stages;
-      r.hasAffine = true;
-      r.targetToModel = reg.targetToModel;  // the affine part (transform files hold an affine)
-      map = SpatialMap::affine(reg.targetToModel.inverse());
-      inverse = SpatialMap::affine(reg.targetToModel);
-      if (!reg.deformation.empty()) {
-        // The B-spline then the affine takes the target to the model; the model is placed by its
-        // inverse. Each is evaluated from its own values on a grid over where it is used
-        // (SpatialMap::sampledOn).
-        try {
-          inverse = SpatialMap::warpThenAffine(reg.deformation, reg.targetToModel);
-        } catch (const InputError& e) {
-          sceneError(scene_, "/initialise/registration", e.what());
-        }
-        map = inverse.inverse();
-        const auto [lo, hi] = boxOf(specs, kMapBoxMarginMm);
-        map = map.sampledOn(lo, hi, kMapGridMm);
-        sampleInverseAfterMapping = true;
-      }
+      r.transform = reg;
       break;
     }
-    case InitialiseDesc::Method::Transform: {
+    case InitialiseDesc::Method::Transform:
       try {
-        r.targetToModel = registry_.imageRegistration().readTransform(d.transform);
+        r.transform = registry_.imageRegistration().readTransform(d.transform);
       } catch (const InputError& e) {
         sceneError(scene_, "/initialise/transform", e.what());
       }
-      r.method = "transform " + d.transform.string();
-      r.hasAffine = true;
-      map = SpatialMap::affine(r.targetToModel.inverse());
-      inverse = SpatialMap::affine(r.targetToModel);
+      r.method = "transform " + d.transform.string() + (r.transform.deformation.empty() ? "" : " (affine, then B-spline)");
       break;
-    }
     case InitialiseDesc::Method::Landmarks:
       try {
         // The spline's inverse has no closed form: the spline through the swapped pairs stands in
@@ -162,8 +141,29 @@ void SceneRunner::initialise(std::vector<StructureSpec>& specs, const std::funct
       }
       r.method = "landmarks: " + map.describe();
       r.hasAffine = !map.hasSpline();
-      r.targetToModel = map.affinePart().inverse();
+      r.transform.targetToModel = map.affinePart().inverse();
       break;
+  }
+  if (d.method == InitialiseDesc::Method::Registration || d.method == InitialiseDesc::Method::Transform) {
+    r.hasAffine = true;
+    const RegistrationTransform& t = r.transform;
+    map = SpatialMap::affine(t.targetToModel.inverse());
+    inverse = SpatialMap::affine(t.targetToModel);
+    if (!t.deformation.empty()) {
+      // The B-spline then the affine takes the target to the model; the model is placed by its
+      // inverse. Each is evaluated from its own values on a grid over where it is used
+      // (SpatialMap::sampledOn).
+      try {
+        inverse = SpatialMap::warpThenAffine(t.deformation, t.targetToModel);
+      } catch (const InputError& e) {
+        sceneError(scene_, d.method == InitialiseDesc::Method::Transform ? "/initialise/transform" : "/initialise/registration",
+                   e.what());
+      }
+      map = inverse.inverse();
+      const auto [lo, hi] = boxOf(specs, kMapBoxMarginMm);
+      map = map.sampledOn(lo, hi, kMapGridMm);
+      sampleInverseAfterMapping = true;
+    }
   }
   for (size_t i = 0; i < specs.size(); ++i) {
     StructureSpec& s = specs[i];

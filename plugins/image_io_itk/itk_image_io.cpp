@@ -4,6 +4,7 @@
 #include "compressed_input.h"
 #include "itk_convert.h"
 #include "itk_registration.h"
+#include "itk_transforms.h"
 #include "sinew/core/registry.h"
 
 #include <itkGDCMImageIO.h>
@@ -550,8 +551,8 @@ void registerItkImageIO(Registry& registry) {
   };
   d.writeImage = [](const fs::path& p, const Image3D& v) { writeItk(p, toItk<float>(v).GetPointer()); };
   d.registerImages = registerImagesItk;
-  d.readTransform = readAffineTransform;
-  d.writeTransform = writeAffineTransform;
+  d.readTransform = readRegistrationTransform;
+  d.writeTransform = writeRegistrationTransform;
   registry.addImageIO(std::move(d));
 }
 

@@ -1,6 +1,6 @@
 #include "itk_registration.h"
 
-#include "itk_bspline_warp.h"
+#include "itk_transforms.h"
 #include "itk_convert.h"
 
 #include <mutex>
@@ -23,9 +23,6 @@
 #include <itkRegularStepGradientDescentOptimizerv4.h>
 #include <itkResampleImageFilter.h>
 #include <itkSmoothingRecursiveGaussianImageFilter.h>
-#include <itkTransformFactory.h>
-#include <itkTransformFileReader.h>
-#include <itkTransformFileWriter.h>
 #include <itkVersorRigid3DTransform.h>
 
 #include <chrono>
@@ -137,15 +134,6 @@ std::vector<PyramidLevel> pyramidOf(ImageType* fixed, ImageType* moving, int lev
     level.movingGradient = gradientOf(level.moving, threads);
   }
   return out;
-}
-
-Eigen::Matrix4d toMatrix(const itk::MatrixOffsetTransformBase<double, 3, 3>& t) {
-  Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
-  for (int r = 0; r < 3; ++r) {
-    for (int c = 0; c < 3; ++c) m(r, c) = t.GetMatrix()[r][c];
-    m(r, 3) = t.GetOffset()[r];
-  }
-  return m;
 }
 
 double metricValue(MetricType* metric, itk::Transform<double, 3, 3>* transform, const PyramidLevel& finest) {
@@ -417,26 +405,6 @@ private:
 };
 }  // namespace
 
-BSplineWarp bsplineWarpOf(const itk::BSplineTransform<double, 3, 3>& transform) {
-  const auto& images = transform.GetCoefficientImages();
-  const auto& image = *images[0];
-  BSplineWarp w;
-  const auto size = image.GetLargestPossibleRegion().GetSize();
-  for (int a = 0; a < 3; ++a) {
-    w.size[a] = int(size[a]);
-    w.origin[a] = image.GetOrigin()[a];
-    w.spacing[a] = image.GetSpacing()[a];
-    for (int b = 0; b < 3; ++b) w.direction(a, b) = image.GetDirection()[a][b];
-  }
-  const size_t count = image.GetLargestPossibleRegion().GetNumberOfPixels();
-  w.coefficients.resize(count);
-  for (int a = 0; a < 3; ++a) {
-    const double* c = images[a]->GetBufferPointer();
-    for (size_t i = 0; i < count; ++i) w.coefficients[i][a] = c[i];
-  }
-  return w;
-}
-
 RegistrationResult registerImagesItk(const Image3D& target, const Image3D& model, const RegistrationOptions& o) {
   const auto checkCancelled = [&o] {
     if (o.cancelled && o.cancelled()) throw RegistrationCancelled();
@@ -509,52 +477,6 @@ RegistrationResult registerImagesItk(const Image3D& target, const Image3D& model
                      ", Mattes MI " + fmt(last.metric) + ")");
   result.targetToModel = m;
   return result;
-}
-
-Eigen::Matrix4d readAffineTransform(const fs::path& path) {
-  std::error_code ec;
-  if (!fs::is_regular_file(path, ec)) throw InputError(path.string() + ": no such transform file");
-  itk::TransformFactoryBase::RegisterDefaultTransforms();
-  auto reader = itk::TransformFileReaderTemplate<double>::New();
-  reader->SetFileName(path.string());
-  try {
-    reader->Update();
-  } catch (const itk::ExceptionObject& e) {
-    throw InputError(path.string() + ": cannot read the transform: " + std::string(e.GetDescription()));
-  }
-  const auto* list = reader->GetTransformList();
-  if (list->size() != 1)
-    throw InputError(path.string() + ": holds " + std::to_string(list->size()) + " transforms; one affine is needed");
-  const auto* t = dynamic_cast<const itk::MatrixOffsetTransformBase<double, 3, 3>*>(list->front().GetPointer());
-  if (!t)
-    throw InputError(path.string() + ": transform '" + list->front()->GetNameOfClass() +
-                     "' is not affine (rigid, similarity and affine 3D transforms are read)");
-  const Eigen::Matrix4d m = toMatrix(*t);
-  if (!m.allFinite() || std::abs(m.topLeftCorner<3, 3>().determinant()) < 1e-9)
-    throw InputError(path.string() + ": the transform is singular or not finite");
-  return m;
-}
-
-void writeAffineTransform(const fs::path& path, const Eigen::Matrix4d& m) {
-  auto t = AffineType::New();
-  AffineType::MatrixType matrix;
-  AffineType::OutputVectorType offset;
-  for (int r = 0; r < 3; ++r) {
-    for (int c = 0; c < 3; ++c) matrix[r][c] = m(r, c);
-    offset[r] = m(r, 3);
-  }
-  t->SetMatrix(matrix);
-  t->SetOffset(offset);
-  AtomicOutput out(path);
-  auto writer = itk::TransformFileWriterTemplate<double>::New();
-  writer->SetInput(t);
-  writer->SetFileName(out.tempPath().string());
-  try {
-    writer->Update();
-  } catch (const itk::ExceptionObject& e) {
-    throw InputError(path.string() + ": cannot write the transform: " + std::string(e.GetDescription()));
-  }
-  out.commit();
 }
 
 }  // namespace sinew

@@ -175,7 +175,7 @@ private slots:
     // The registration found the generator's global affine (the warp aside): the two maps agree
     // within a few millimetres over the brain's central box.
     QVERIFY(QFile::exists(run_ + "/subject-to-atlas.tfm"));
-    const Eigen::Matrix4d found = builtinRegistry().imageRegistration().readTransform((run_ + "/subject-to-atlas.tfm").toStdString());
+    const Eigen::Matrix4d found = builtinRegistry().imageRegistration().readTransform((run_ + "/subject-to-atlas.tfm").toStdString()).targetToModel;
     const QJsonObject truth = readJson(subject_ + "/subject.json")["affine"].toObject();
     Eigen::Matrix4d drawn;
     const QJsonArray rows = truth["matrix"].toArray();
@@ -222,9 +222,15 @@ private slots:
     QCOMPARE(reg.size(), 3);
     QCOMPARE(reg[2].toObject()["name"].toString(), QString("bspline"));
     QVERIFY(reg[2].toObject()["kept"].toBool());
-    QFile a(run_ + "/subject-to-atlas.tfm"), b(path("bspline/subject-to-atlas.tfm"));
-    QVERIFY(a.open(QIODevice::ReadOnly) && b.open(QIODevice::ReadOnly));
-    QVERIFY2(a.readAll() == b.readAll(), "the transform file holds the affine stage, the same as the affine registration's");
+    // The transform file holds the whole map: the affine stage's (the affine registration's, to the
+    // bit), then the B-spline.
+    const ImageIODescriptor& itk = builtinRegistry().imageRegistration();
+    const RegistrationTransform byAffineFile = itk.readTransform((run_ + "/subject-to-atlas.tfm").toStdString());
+    const RegistrationTransform byBSplineFile = itk.readTransform(path("bspline/subject-to-atlas.tfm").toStdString());
+    QVERIFY(byAffineFile.deformation.empty());
+    QCOMPARE(byBSplineFile.targetToModel, byAffineFile.targetToModel);
+    QVERIFY(byBSplineFile.deformation.valid());
+    QCOMPARE(init["bspline_control_points"].toArray().size(), 3);
     const double byAffine = stageMean(affine, "initialisation"), byBSpline = stageMean(report, "initialisation");
     const double finalAffine = stageMean(affine, "level 2"), finalBSpline = stageMean(report, "level 2");
     qInfo("mean ASSD after the initialisation %.3f -> %.3f mm, final %.3f -> %.3f mm (affine -> B-spline)", byAffine,
@@ -232,7 +238,7 @@ private slots:
     QVERIFY2(std::abs(byBSpline - byAffine) > 1e-3, "the B-spline's map did not move the model");
     QVERIFY2(byBSpline < byAffine + 0.05, "regression bound; docs/accuracy.md has the measured values");
     QVERIFY2(finalBSpline < 0.7, "regression bound");
-    // It repeats exactly too: the B-spline's metric on one thread, its map's grids computed point by point.
+    // It repeats exactly too: the B-spline's metric in fixed parts, its map's grids computed point by point.
     QJsonObject again = readJson(path("bspline.json"));
     withoutIterations(again);
     writeJson(path("bspline-short.json"), again);
@@ -240,9 +246,17 @@ private slots:
       r = runTool(SINEW_RUN, {path("bspline-short.json"), "-o", path(out), "-q", "--backend", "cpu"});
       QVERIFY2(r.code == 0, qPrintable(r.err));
     }
-    QFile c(path("short-1/Thalamus_R.vtp")), d(path("short-2/Thalamus_R.vtp"));
-    QVERIFY(c.open(QIODevice::ReadOnly) && d.open(QIODevice::ReadOnly));
-    QVERIFY2(c.readAll() == d.readAll(), "two runs of the same B-spline scene differ");
+    // Reusing its transform file places the model as registering did: the same run, to the bit.
+    again["initialise"] = QJsonObject{{"transform", path("bspline/subject-to-atlas.tfm")}};
+    writeJson(path("bspline-reuse.json"), again);
+    r = runTool(SINEW_RUN, {path("bspline-reuse.json"), "-o", path("short-reuse"), "-q", "--backend", "cpu"});
+    QVERIFY2(r.code == 0, qPrintable(r.err));
+    QVERIFY(readJson(path("short-reuse/report.json"))["initialisation"].toObject()["method"].toString().endsWith("(affine, then B-spline)"));
+    QFile c(path("short-1/Thalamus_R.vtp")), d(path("short-2/Thalamus_R.vtp")), e(path("short-reuse/Thalamus_R.vtp"));
+    QVERIFY(c.open(QIODevice::ReadOnly) && d.open(QIODevice::ReadOnly) && e.open(QIODevice::ReadOnly));
+    const QByteArray first = c.readAll();
+    QVERIFY2(first == d.readAll(), "two runs of the same B-spline scene differ");
+    QVERIFY2(first == e.readAll(), "the reused transform file places the model elsewhere");
   }
 
   // The written transform is an input too: the same placement without registering again.

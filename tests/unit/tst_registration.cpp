@@ -6,14 +6,16 @@
 // (mricron-data) moved by a known rotation and shift, and requires the same matrix. The B-spline
 // stage is checked against a known warp, and core's evaluation of its map against ITK's.
 #include "synthetic.h"
-#include "../../plugins/image_io_itk/itk_bspline_warp.h"
+#include "../../plugins/image_io_itk/itk_transforms.h"
 #include "../../plugins/image_io_itk/itk_convert.h"
 #include "sinew/core/scene.h"
 #include "sinew/core/spatial_map.h"
 
+#include <QTemporaryDir>
 #include <QtTest>
 
 #include <itkAffineTransform.h>
+#include <itkCompositeTransform.h>
 #include <itkBinShrinkImageFilter.h>
 #include <itkCenteredTransformInitializer.h>
 #include <itkImageRegistrationMethodv4.h>
@@ -221,6 +223,7 @@ private slots:
   // Core evaluates the B-spline stage's map without ITK (BSplineWarp has ITK's layout): for a
   // transform over an oblique, anisotropic domain with random coefficients, the displacement and
   // its Jacobian must be ITK's TransformPoint's, inside the domain and outside it (the identity).
+  // The warp must go back to ITK and through a transform file unchanged.
   void bsplineWarpEvaluatesAsItk() {
     using BSpline = itk::BSplineTransform<double, 3, 3>;
     auto t = BSpline::New();
@@ -274,6 +277,67 @@ private slots:
     QVERIFY2(inside > 500 && inside < 2500, "the points must fall both inside and outside the domain");
     QVERIFY2(largest < 1e-9, qPrintable(QString::number(largest)));
     QVERIFY2(largestJacobian < 1e-5, qPrintable(QString::number(largestJacobian)));
+
+    // Back to ITK, and through a transform file (a composite: the affine, then the B-spline added
+    // last, which ITK applies first): the same grid and coefficients.
+    const BSplineWarp back = bsplineWarpOf(*bsplineTransformOf(warp));
+    QCOMPARE(back.size, warp.size);
+    QVERIFY((back.origin - warp.origin).norm() < 1e-9 && (back.spacing - warp.spacing).norm() < 1e-9 &&
+            (back.direction - warp.direction).norm() < 1e-12);
+    QVERIFY(back.coefficients == warp.coefficients);
+    QTemporaryDir dir;
+    const std::filesystem::path file = dir.filePath("map.tfm").toStdString();
+    RegistrationTransform written;
+    written.targetToModel << 1.02, 0.05, -0.01, 3.5, -0.04, 0.98, 0.02, -7.25, 0.01, -0.03, 1.01, 0.125, 0, 0, 0, 1;
+    written.deformation = warp;
+    writeRegistrationTransform(file, written);
+    const RegistrationTransform read = readRegistrationTransform(file);
+    QCOMPARE(read.targetToModel, written.targetToModel);
+    QCOMPARE(read.deformation.size, warp.size);
+    QVERIFY(read.deformation.coefficients == warp.coefficients);
+    QVERIFY((read.deformation.origin - warp.origin).norm() < 1e-9);
+    // ITK's composite in the writer's order (the affine, then the B-spline added last) does to a
+    // point what Sinew's map does.
+    auto composite = itk::CompositeTransform<double, 3>::New();
+    auto affine = itk::AffineTransform<double, 3>::New();
+    itk::AffineTransform<double, 3>::MatrixType matrix;
+    itk::AffineTransform<double, 3>::OutputVectorType offset;
+    for (int r = 0; r < 3; ++r) {
+      for (int c = 0; c < 3; ++c) matrix[r][c] = read.targetToModel(r, c);
+      offset[r] = read.targetToModel(r, 3);
+    }
+    affine->SetMatrix(matrix);
+    affine->SetOffset(offset);
+    composite->AddTransform(affine);
+    composite->AddTransform(bsplineTransformOf(read.deformation));
+    const SpatialMap map = SpatialMap::warpThenAffine(read.deformation, read.targetToModel);
+    double largestMap = 0.0;
+    for (int i = 0; i < 200; ++i) {
+      const Eigen::Vector3d x(position(rng), position(rng), position(rng));
+      const auto y = composite->TransformPoint(itk::Point<double, 3>(x.data()));
+      largestMap = std::max(largestMap, (Eigen::Vector3d(y[0], y[1], y[2]) - map.apply(x)).norm());
+    }
+    QVERIFY2(largestMap < 1e-9, qPrintable(QString::number(largestMap)));
+    // An affine alone stays a plain affine file; a composite of two affines is refused.
+    written.deformation = BSplineWarp{};
+    writeRegistrationTransform(file, written);
+    QVERIFY(readRegistrationTransform(file).deformation.empty());
+    QFile plain(QString::fromStdString(file.string()));
+    QVERIFY(plain.open(QIODevice::ReadOnly) && !plain.readAll().contains("Composite"));
+    {
+      QFile twoAffines(QString::fromStdString(file.string()));
+      QVERIFY(twoAffines.open(QIODevice::WriteOnly | QIODevice::Truncate));
+      const char* identity = "Transform: AffineTransform_double_3_3\nParameters: 1 0 0 0 1 0 0 0 1 0 0 0\nFixedParameters: 0 0 0\n";
+      twoAffines.write(QByteArray("#Insight Transform File V1.0\n#Transform 0\nTransform: CompositeTransform_double_3_3\n") +
+                       "#Transform 1\n" + identity + "#Transform 2\n" + identity);
+    }
+    try {
+      readRegistrationTransform(file);
+      QFAIL("a composite of two affines was read");
+    } catch (const InputError& e) {
+      QVERIFY2(std::string(e.what()).find("is not a cubic 3D B-spline") != std::string::npos, e.what());
+      QVERIFY2(std::string(e.what()).find(file.string()) == 0, e.what());
+    }
   }
 
   // A run whose loading fails cancels its registration (scene_runner_loaded.h): it must stop at the

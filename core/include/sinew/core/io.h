@@ -54,13 +54,16 @@ struct RegistrationStage {
   double startMetric = 0.0;  // the B-spline stage's own metric before it (the affine alone)
 };
 
-struct RegistrationResult {
-  // ITK's convention: maps a point of the fixed (target) image to the moving (model) image.
+// A map of target points to model points (ITK's fixed-to-moving convention): what a registration
+// found and what a transform file holds. The whole map is
+// SpatialMap::warpThenAffine(deformation, targetToModel).
+struct RegistrationTransform {
   Eigen::Matrix4d targetToModel = Eigen::Matrix4d::Identity();  // the rigid or affine stage's
+  BSplineWarp deformation;  // a B-spline applied before the affine; empty: the affine alone
+};
+
+struct RegistrationResult : RegistrationTransform {
   std::vector<RegistrationStage> stages;
-  // After a kept B-spline stage: its displacement, in the target, before targetToModel (the whole
-  // map is SpatialMap::warpThenAffine(deformation, targetToModel)). Empty otherwise.
-  BSplineWarp deformation;
 };
 
 struct ImageIODescriptor {
@@ -71,12 +74,12 @@ struct ImageIODescriptor {
   std::function<LabelVolume(const std::filesystem::path&)> readLabels;
   std::function<void(const std::filesystem::path&, const LabelVolume&)> writeLabels;
   std::function<void(const std::filesystem::path&, const Image3D&)> writeImage;
-  // Optional: registration and affine transform files (ITK's .tfm/.txt/.mat formats), 4x4 in
-  // world millimetres, ITK's fixed-to-moving convention. Errors throw InputError naming the stage
-  // and the metric value (registration) or the file (transforms).
+  // Optional: registration and transform files (ITK's .tfm/.txt/.mat formats: an affine, or an
+  // affine after a cubic B-spline), world millimetres, ITK's fixed-to-moving convention. Errors
+  // throw InputError naming the stage and the metric value (registration) or the file (transforms).
   std::function<RegistrationResult(const Image3D& target, const Image3D& model, const RegistrationOptions&)> registerImages;
-  std::function<Eigen::Matrix4d(const std::filesystem::path&)> readTransform;
-  std::function<void(const std::filesystem::path&, const Eigen::Matrix4d&)> writeTransform;
+  std::function<RegistrationTransform(const std::filesystem::path&)> readTransform;
+  std::function<void(const std::filesystem::path&, const RegistrationTransform&)> writeTransform;
 };
 
 // Where a label lies in a label map: the bounding box of its voxels (index space, both ends

@@ -87,8 +87,8 @@ struct InitialisationResult {
   std::string method = "none";  // "registration (affine)", "transform FILE", "landmarks: thin-plate spline (N landmarks)"
   double seconds = 0.0;
   std::vector<RegistrationStage> registration;  // metric per registration stage
-  bool hasAffine = false;       // targetToModel is meaningful (registration, transform, affine landmarks)
-  Eigen::Matrix4d targetToModel = Eigen::Matrix4d::Identity();  // ITK convention
+  bool hasAffine = false;       // transform is meaningful (registration, transform, affine landmarks)
+  RegistrationTransform transform;  // ITK convention; with a B-spline after a registration or from a file
 };
 
 struct RunReport {
