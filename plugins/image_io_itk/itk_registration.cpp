@@ -1,7 +1,7 @@
 #include "itk_registration.h"
 
-#include "itk_transforms.h"
 #include "itk_convert.h"
+#include "itk_transforms.h"
 
 #include <mutex>
 

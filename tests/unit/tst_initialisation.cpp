@@ -1,6 +1,7 @@
 // The pieces of the new-subject path that need no image: landmark maps (thin-plate spline and
-// affine fit, and the landmark checks), a registration's B-spline map and its inverse, the affine regularisation of image forces, the scene keys
-// of the initialisation, and the model files (written, read back exactly, damage refused).
+// affine fit, and the landmark checks), a registration's B-spline map and its inverse, the affine
+// regularisation of image forces, the scene keys of the initialisation, and the model files
+// (written, read back exactly, damage refused).
 #include "sinew/core/model_builder.h"
 #include "sinew/core/model_file.h"
 #include "sinew/core/scene.h"
@@ -170,7 +171,8 @@ private slots:
     qInfo("largest displacement %.2f mm; largest round trip error %.3g mm", moved, roundTrip);
     QVERIFY(moved > 3.0);
     QVERIFY2(roundTrip < 1e-6, qPrintable(QString::number(roundTrip)));
-    const Eigen::Vector3d lo = atIndex(2.0, 2.0, 2.0).cwiseMin(atIndex(4.0, 5.0, 3.0)), hi = atIndex(2.0, 2.0, 2.0).cwiseMax(atIndex(4.0, 5.0, 3.0));
+    const Eigen::Vector3d lo = atIndex(2.0, 2.0, 2.0).cwiseMin(atIndex(4.0, 5.0, 3.0));
+    const Eigen::Vector3d hi = atIndex(2.0, 2.0, 2.0).cwiseMax(atIndex(4.0, 5.0, 3.0));
     const SpatialMap sampled = inverse.sampledOn(lo, hi, 2.0);
     double sampling = 0.0;
     for (int n = 0; n < 500; ++n) {

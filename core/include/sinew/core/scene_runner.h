@@ -84,7 +84,7 @@ struct OverlapResult {
 inline constexpr double kOverlapSpacingMm = 0.5;
 
 struct InitialisationResult {
-  std::string method = "none";  // "registration (affine)", "transform FILE", "landmarks: thin-plate spline (N landmarks)"
+  std::string method = "none";  // "registration (affine)", "transform FILE [(affine, then B-spline)]", "landmarks: ..."
   double seconds = 0.0;
   std::vector<RegistrationStage> registration;  // metric per registration stage
   bool hasAffine = false;       // transform is meaningful (registration, transform, affine landmarks)
