@@ -253,8 +253,7 @@ constexpr itk::ThreadIdType kBSplineWorkUnits = 8;
 // before SerialItk) in kBSplineWorkUnits parts, with a fixed random sample (the options' seed):
 // runs repeat exactly. The metric's derivatives are implicit: explicit ones keep a histogram's
 // derivative per part (bins^2 x parameters, 30 MB with 5 cells), whose clearing and summing set the
-// time with more than one part. A cancellation is asked after the stage (0.2-1.0 s on the 2-core
-// machine): v3's optimiser has no stop.
+// time with more than one part.
 RegistrationStage runBSplineStage(BSplineType* bspline, AffineType& affine, const PyramidLevel& level,
                                   const RegistrationOptions& o, itk::ThreadIdType threads) {
   const auto t0 = Clock::now();
@@ -299,6 +298,13 @@ RegistrationStage runBSplineStage(BSplineType* bspline, AffineType& affine, cons
   registration->SetFixedImageRegion(level.fixed->GetBufferedRegion());
   const BSplineType::ParametersType identity = bspline->GetParameters();
   registration->SetInitialTransformParameters(identity);
+  // A cancelled registration stops at the optimiser's next iteration. v3's L-BFGS-B has no stop:
+  // the observer throws, between the metric's evaluations (on this thread, its parts done), and
+  // the exception leaves through the method's update.
+  if (o.cancelled)
+    optimizer->AddObserver(itk::IterationEvent(), [&o](const itk::EventObject&) {
+      if (o.cancelled()) throw RegistrationCancelled();
+    });
   RegistrationStage stage;
   stage.name = "bspline";
   try {
@@ -319,7 +325,6 @@ RegistrationStage runBSplineStage(BSplineType* bspline, AffineType& affine, cons
     while (!d.empty() && (d.back() == '\n' || d.back() == ' ')) d.pop_back();
     throw InputError("registration, bspline stage: " + d);
   }
-  if (o.cancelled && o.cancelled()) throw RegistrationCancelled();
   stage.iterations = int(optimizer->GetCurrentIteration());
   stage.seconds = std::chrono::duration<double>(Clock::now() - t0).count();
   if (o.log)

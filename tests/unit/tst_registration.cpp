@@ -344,7 +344,8 @@ private slots:
   // next question, not at the end of the stage. Counted: how often a whole registration asks, then
   // a registration cancelled at its first question and one cancelled at its sixth (the rigid
   // stage's second iteration at the coarse level) must throw RegistrationCancelled and ask no more
-  // (the optimiser asks at every iteration, so one more iteration after the stop would count).
+  // (the optimiser asks at every iteration, so one more iteration after the stop would count). The
+  // B-spline stage likewise.
   void cancelledRegistrationStopsAtTheNextQuestion() {
     if (!std::filesystem::exists(kTemplates / "ch2.nii.gz")) QSKIP("mricron-data is not installed");
     const ImageIODescriptor& io = builtinRegistry().imageIOFor("ch2.nii.gz");
@@ -364,6 +365,19 @@ private slots:
       QVERIFY_THROWS_EXCEPTION(RegistrationCancelled, io.registerImages(target, model, options));
       QCOMPARE(asked, at);
     }
+    // The B-spline stage asks at each of its iterations too, and stops at the one asked: here a
+    // few iterations into it.
+    asked = 0;
+    options.bsplineCells = kDefaultBSplineCells;
+    options.cancelled = [&asked] { return ++asked < 0; };
+    io.registerImages(target, model, options);
+    const int withBSpline = asked;
+    qInfo("with the B-spline stage, %d times", withBSpline);
+    QVERIFY2(withBSpline > whole + 10, qPrintable(QString("%1 against %2").arg(withBSpline).arg(whole)));
+    asked = 0;
+    options.cancelled = [&asked, at = whole + 3] { return ++asked >= at; };
+    QVERIFY_THROWS_EXCEPTION(RegistrationCancelled, io.registerImages(target, model, options));
+    QCOMPARE(asked, whole + 3);
   }
 
   // The optimiser's metrics run on one thread (their threads' derivative sums would not repeat),
