@@ -124,7 +124,7 @@ RegistrationTransform readRegistrationTransform(const fs::path& path) {
   return out;
 }
 
-void writeRegistrationTransform(const fs::path& path, const RegistrationTransform& transform) {
+itk::Transform<double, 3, 3>::Pointer itkTransformOf(const RegistrationTransform& transform) {
   const Eigen::Matrix4d& m = transform.targetToModel;
   auto affine = AffineType::New();
   AffineType::MatrixType matrix;
@@ -135,16 +135,19 @@ void writeRegistrationTransform(const fs::path& path, const RegistrationTransfor
   }
   affine->SetMatrix(matrix);
   affine->SetOffset(offset);
+  if (transform.deformation.empty()) return affine.GetPointer();  // a plain affine file, as other tools expect
+  // ITK applies a composite's transforms last added first: the B-spline, then the affine.
+  auto composite = CompositeType::New();
+  composite->AddTransform(affine);
+  composite->AddTransform(bsplineTransformOf(transform.deformation));
+  return composite.GetPointer();
+}
+
+void writeRegistrationTransform(const fs::path& path, const RegistrationTransform& transform) {
+  const auto written = itkTransformOf(transform);
   AtomicOutput out(path);
   auto writer = itk::TransformFileWriterTemplate<double>::New();
-  auto composite = CompositeType::New();
-  if (transform.deformation.empty()) {
-    writer->SetInput(affine);  // an affine alone stays a plain affine file, as other tools expect
-  } else {
-    composite->AddTransform(affine);
-    composite->AddTransform(bsplineTransformOf(transform.deformation));
-    writer->SetInput(composite);
-  }
+  writer->SetInput(written);
   writer->SetFileName(out.tempPath().string());
   try {
     writer->Update();

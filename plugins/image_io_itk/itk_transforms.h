@@ -15,6 +15,8 @@ Eigen::Matrix4d toMatrix(const itk::MatrixOffsetTransformBase<double, 3, 3>& tra
 BSplineWarp bsplineWarpOf(const itk::BSplineTransform<double, 3, 3>& transform);
 itk::BSplineTransform<double, 3, 3>::Pointer bsplineTransformOf(const BSplineWarp& warp);
 
+// The transform a file holds: an affine alone, or the composite below.
+itk::Transform<double, 3, 3>::Pointer itkTransformOf(const RegistrationTransform& transform);
 // An affine alone, or ITK's composite transform of an affine and a cubic B-spline applied before it
 // (the last added, as ITK applies them). Reading throws InputError naming the file and the problem.
 RegistrationTransform readRegistrationTransform(const std::filesystem::path& path);

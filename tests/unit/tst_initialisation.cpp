@@ -158,6 +158,8 @@ private slots:
     const SpatialMap forward = SpatialMap::warpThenAffine(w, someAffine());
     const SpatialMap inverse = forward.inverse();
     QVERIFY(inverse.describe().find("inverse of B-spline (7x8x6 control points), then affine") == 0);
+    QVERIFY((inverse.affinePart() - someAffine().inverse()).norm() < 1e-12);  // the model -> target map's
+    const SpatialMap twice = inverse.inverse();
     double roundTrip = 0.0, moved = 0.0;
     // Half a cell in from the valid region's edge (12.5 mm or more, past the largest displacement),
     // and a cell outside it: across the edge the warp drops to zero, and a point there may have two
@@ -166,6 +168,7 @@ private slots:
       const Eigen::Vector3d x = n % 5 == 0 ? atIndex(-1.0 - u(rng), 3.0, 3.0)
                                            : atIndex(1.5 + u(rng) * 2.99, 1.5 + u(rng) * 3.99, 1.5 + u(rng) * 1.99);
       roundTrip = std::max(roundTrip, (inverse.apply(forward.apply(x)) - x).norm());
+      roundTrip = std::max(roundTrip, (twice.apply(x) - forward.apply(x)).norm());
       moved = std::max(moved, w.displacement(x).norm());
     }
     qInfo("largest displacement %.2f mm; largest round trip error %.3g mm", moved, roundTrip);

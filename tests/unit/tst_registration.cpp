@@ -296,20 +296,9 @@ private slots:
     QCOMPARE(read.deformation.size, warp.size);
     QVERIFY(read.deformation.coefficients == warp.coefficients);
     QVERIFY((read.deformation.origin - warp.origin).norm() < 1e-9);
-    // ITK's composite in the writer's order (the affine, then the B-spline added last) does to a
-    // point what Sinew's map does.
-    auto composite = itk::CompositeTransform<double, 3>::New();
-    auto affine = itk::AffineTransform<double, 3>::New();
-    itk::AffineTransform<double, 3>::MatrixType matrix;
-    itk::AffineTransform<double, 3>::OutputVectorType offset;
-    for (int r = 0; r < 3; ++r) {
-      for (int c = 0; c < 3; ++c) matrix[r][c] = read.targetToModel(r, c);
-      offset[r] = read.targetToModel(r, 3);
-    }
-    affine->SetMatrix(matrix);
-    affine->SetOffset(offset);
-    composite->AddTransform(affine);
-    composite->AddTransform(bsplineTransformOf(read.deformation));
+    // The composite the writer writes does to a point what Sinew's map does.
+    const auto composite = itkTransformOf(read);
+    QVERIFY((dynamic_cast<const itk::CompositeTransform<double, 3>*>(composite.GetPointer())));
     const SpatialMap map = SpatialMap::warpThenAffine(read.deformation, read.targetToModel);
     double largestMap = 0.0;
     for (int i = 0; i < 200; ++i) {

@@ -36,8 +36,9 @@ public:
   // x -> affine (x + warp's d(x)): a registration's B-spline, then its affine (the result's
   // targetToModel). Throws InputError when the warp is not valid().
   static SpatialMap warpThenAffine(const BSplineWarp& warp, const Eigen::Matrix4d& affine);
-  // The inverse of an affine or warpThenAffine map (the latter solved by Newton's method at each
-  // point, NaN where it does not converge); std::logic_error for a thin-plate spline's.
+  // The inverse of an affine or warpThenAffine map (the latter: the inverse affine, then the warp
+  // undone by Newton's method at each point, NaN where it does not converge); std::logic_error for
+  // a thin-plate spline's.
   SpatialMap inverse() const;
 
   // The same map, evaluated inside the box [lo, hi] by trilinear interpolation of its values on a
