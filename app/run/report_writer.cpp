@@ -120,6 +120,7 @@ void writeReportJson(const std::filesystem::path& path, const RunReport& r, cons
                           {"dice", number(s.dice)},
                           {"dice_initial", number(s.diceInitial)},
                           {"dice_model", number(s.diceModel)},
+                          {"outside_image_share", s.outsideImageShare},
                           {"seconds", s.seconds}});
     if (const auto& r = s.medialRadius)
       structures.back()["medial_radius_mm"] = {{"mean", r->mean}, {"p5", r->p5}, {"median", r->median}, {"p95", r->p95}, {"max", r->max}};

@@ -28,6 +28,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cctype>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -142,6 +143,71 @@ double biasPolynomial(const std::array<double, 9>& c, const Image::IndexType& id
          c[6] * u[0] * u[1] + c[7] * u[0] * u[2] + c[8] * u[1] * u[2];
 }
 
+// The direction matrix of an orientation code: three letters, one per index axis, each naming where
+// that axis points (L/R, P/A, S/I; NIfTI's convention, e.g. RAS). ITK's physical space is LPS.
+Image::DirectionType directionOf(const std::string& code) {
+  Image::DirectionType d;
+  d.Fill(0.0);
+  bool used[3] = {false, false, false};
+  if (code.size() != 3) throw std::invalid_argument("--axes " + code + ": expected three letters (e.g. RAS)");
+  for (int i = 0; i < 3; ++i) {
+    const char c = char(std::toupper(static_cast<unsigned char>(code[size_t(i)])));
+    const std::string letters = "LRPASI";
+    const auto at = letters.find(c);
+    if (at == std::string::npos) throw std::invalid_argument("--axes " + code + ": letters are L, R, P, A, S or I");
+    const int axis = int(at) / 2;
+    if (used[axis]) throw std::invalid_argument("--axes " + code + ": each of L/R, P/A and S/I once");
+    used[axis] = true;
+    d(axis, i) = at % 2 == 0 ? 1.0 : -1.0;  // L, P, S: ITK's +x, +y, +z
+  }
+  return d;
+}
+
+// The subject's acquisition grid: `direction` and `spacing`, covering the centres of the image's
+// voxels (the box of its corners in the new axes), so that nothing of the image is cut; then the
+// central `fov` share of that box along each of the grid's axes (a smaller field of view).
+struct Grid {
+  Image::PointType origin;
+  Image::SpacingType spacing;
+  Image::DirectionType direction;
+  Image::SizeType size;
+};
+Grid gridCovering(const Image* image, const Image::SpacingType& spacing, const Image::DirectionType& direction,
+                  const double fov[3]) {
+  const auto size = image->GetLargestPossibleRegion().GetSize();
+  double lo[3] = {1e300, 1e300, 1e300}, hi[3] = {-1e300, -1e300, -1e300};
+  for (int corner = 0; corner < 8; ++corner) {
+    Image::IndexType idx;
+    for (int d = 0; d < 3; ++d) idx[d] = (corner >> d) & 1 ? Image::IndexValueType(size[d]) - 1 : 0;
+    Image::PointType p;
+    image->TransformIndexToPhysicalPoint(idx, p);
+    for (int a = 0; a < 3; ++a) {  // p along the new grid's axis a
+      const double along = direction(0, a) * p[0] + direction(1, a) * p[1] + direction(2, a) * p[2];
+      lo[a] = std::min(lo[a], along);
+      hi[a] = std::max(hi[a], along);
+    }
+  }
+  for (int a = 0; a < 3; ++a) {
+    const double middle = 0.5 * (lo[a] + hi[a]), half = 0.5 * fov[a] * (hi[a] - lo[a]);
+    lo[a] = middle - half;
+    hi[a] = middle + half;
+  }
+  Grid g;
+  g.spacing = spacing;
+  g.direction = direction;
+  for (int r = 0; r < 3; ++r) g.origin[r] = direction(r, 0) * lo[0] + direction(r, 1) * lo[1] + direction(r, 2) * lo[2];
+  for (int a = 0; a < 3; ++a) g.size[a] = Image::SizeValueType(std::floor((hi[a] - lo[a]) / spacing[a] + 1e-9)) + 1;
+  return g;
+}
+
+template <typename TFilter>
+void setGrid(TFilter* filter, const Grid& g) {
+  filter->SetOutputOrigin(g.origin);
+  filter->SetOutputSpacing(g.spacing);
+  filter->SetOutputDirection(g.direction);
+  filter->SetSize(g.size);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -150,6 +216,9 @@ int main(int argc, char** argv) {
   unsigned seed = 1;
   double warpMm = 4.0, maxRotation = 6.0, maxTranslation = 4.0, scaleMin = 0.93, scaleMax = 1.07;
   double bias = 0.2, contrast = 0.2, noise = 0.03;
+  std::vector<double> gridSpacing, fieldOfView;
+  std::string axes;
+  double tiltDeg = 0.0, intensityScale = 1.0;
   cli.add_option("--image", imagePath, "scalar 3D image (the model's intensities)")->required();
   cli.add_option("--labels", labelsPath, "its integer label map (resampled onto the image's grid)")->required();
   cli.add_option("--seed", seed, "seed of every random draw")->capture_default_str();
@@ -162,6 +231,21 @@ int main(int argc, char** argv) {
   cli.add_option("--bias", bias, "multiplicative bias field: max |log gain| = log(1 + bias)")->capture_default_str();
   cli.add_option("--contrast", contrast, "gamma drawn in [1/(1+c), 1+c]")->capture_default_str();
   cli.add_option("--noise", noise, "Rician noise sigma as a fraction of the image range")->capture_default_str();
+  cli.add_option("--spacing", gridSpacing, "the subject's voxel size, mm, three values SX,SY,SZ (default: the image's)")
+      ->expected(3)
+      ->delimiter(',');
+  cli.add_option("--axes", axes,
+                 "where the subject's index axes point: three letters of L/R, P/A, S/I (NIfTI's convention, e.g. RAS; "
+                 "default: the image's directions)");
+  cli.add_option("--fov", fieldOfView,
+                 "the share of the image's extent that the subject's grid keeps along each of its axes, centred, three "
+                 "values in (0, 1] (default: 1,1,1)")
+      ->expected(3)
+      ->delimiter(',');
+  cli.add_option("--tilt-deg", tiltDeg, "the subject's grid turned by this angle about a random axis (an oblique scan)")
+      ->capture_default_str();
+  cli.add_option("--intensity-scale", intensityScale, "the subject's intensities multiplied by this (another scanner's units)")
+      ->capture_default_str();
   cli.set_version_flag("--version", std::string("sinew-make-subject ") + SINEW_VERSION);
   try {
     cli.parse(argc, argv);
@@ -179,6 +263,18 @@ int main(int argc, char** argv) {
   if (!(bias >= 0)) return badOption("--bias: must be >= 0");
   if (!(contrast >= 0)) return badOption("--contrast: must be >= 0");
   if (!(noise >= 0)) return badOption("--noise: must be >= 0");
+  for (double v : gridSpacing)
+    if (!(v > 0 && v <= 100)) return badOption("--spacing: each voxel size must be in (0, 100] mm");
+  for (double v : fieldOfView)
+    if (!(v > 0 && v <= 1)) return badOption("--fov: each share must be in (0, 1]");
+  if (!(tiltDeg >= 0 && tiltDeg <= 180)) return badOption("--tilt-deg: must be in [0, 180]");
+  if (!(intensityScale > 0 && std::isfinite(intensityScale))) return badOption("--intensity-scale: must be > 0");
+  Image::DirectionType axesDirection;
+  try {
+    if (!axes.empty()) axesDirection = directionOf(axes);
+  } catch (const std::invalid_argument& e) {
+    return badOption(e.what());
+  }
 
   // Explicit registration: this program does not use ITK_USE_FILE's generated factory manager.
   itk::NiftiImageIOFactory::RegisterOneFactory();
@@ -258,19 +354,47 @@ int main(int argc, char** argv) {
     transform->AddTransform(affine);
     transform->AddTransform(warp);
 
-    // Both on the image's grid with the same transform; the labels straight from their own grid
+    // The subject's grid: the image's, or another acquisition's (--spacing, --axes, --tilt-deg). The
+    // tilt's axis comes from an RNG of its own, so that every other draw of a seed stays the same.
+    const bool ownGrid = !gridSpacing.empty() || !fieldOfView.empty() || !axes.empty() || tiltDeg > 0;
+    Image::DirectionType gridDirection = axes.empty() ? image->GetDirection() : axesDirection;
+    itk::Vector<double, 3> tiltAxis;
+    tiltAxis.Fill(0.0);
+    if (tiltDeg > 0) {
+      std::mt19937 tiltRng(seed ^ 0x5bd1e995u);
+      std::normal_distribution<double> tiltGauss(0.0, 1.0);
+      for (int i = 0; i < 3; ++i) tiltAxis[i] = tiltGauss(tiltRng);
+      tiltAxis /= tiltAxis.GetNorm();
+      itk::Versor<double> tilt;
+      tilt.Set(tiltAxis, tiltDeg * M_PI / 180.0);
+      gridDirection = tilt.GetMatrix() * gridDirection;
+    }
+    Image::SpacingType spacing = image->GetSpacing();
+    if (!gridSpacing.empty())
+      for (int d = 0; d < 3; ++d) spacing[d] = gridSpacing[size_t(d)];
+    double fov[3] = {1.0, 1.0, 1.0};
+    for (std::size_t d = 0; d < fieldOfView.size(); ++d) fov[d] = fieldOfView[d];
+    const Grid grid = gridCovering(image, spacing, gridDirection, fov);
+
+    // Both on the subject's grid with the same transform; the labels straight from their own grid
     // (one nearest-neighbour lookup, so values stay exact), the image linearly, background = min.
     auto moveImage = itk::ResampleImageFilter<Image, Image>::New();
     moveImage->SetInput(image);
     moveImage->SetTransform(transform);
     moveImage->SetInterpolator(itk::LinearInterpolateImageFunction<Image, double>::New());
-    moveImage->SetOutputParametersFromImage(image);
+    if (ownGrid)
+      setGrid(moveImage.GetPointer(), grid);
+    else
+      moveImage->SetOutputParametersFromImage(image);
     moveImage->SetDefaultPixelValue(float(lo));
     auto moveLabels = itk::ResampleImageFilter<Labels, Labels>::New();
     moveLabels->SetInput(labels);
     moveLabels->SetTransform(transform);
     moveLabels->SetInterpolator(itk::NearestNeighborInterpolateImageFunction<Labels, double>::New());
-    moveLabels->SetOutputParametersFromImage(image);
+    if (ownGrid)
+      setGrid(moveLabels.GetPointer(), grid);
+    else
+      moveLabels->SetOutputParametersFromImage(image);
     moveLabels->SetDefaultPixelValue(0);
     moveImage->Update();
     moveLabels->Update();
@@ -295,7 +419,7 @@ int main(int argc, char** argv) {
         const double n1 = sigma * gauss(rng), n2 = sigma * gauss(rng);
         v = std::sqrt((v + n1) * (v + n1) + n2 * n2);
       }
-      it.Set(float(v));
+      it.Set(float(v * intensityScale));
     }
 
     // Labels pushed wholly out of the field of view (or too thin to survive nearest neighbour).
@@ -316,7 +440,15 @@ int main(int argc, char** argv) {
                       {"labels_resampled_from_own_grid", !labelsOnImageGrid}};
     json["parameters"] = {{"warp_mm", warpMm}, {"max_rotation_deg", maxRotation}, {"max_translation_mm", maxTranslation},
                           {"scale_min", scaleMin}, {"scale_max", scaleMax}, {"bias", bias}, {"contrast", contrast},
-                          {"noise", noise}};
+                          {"noise", noise}, {"intensity_scale", intensityScale}};
+    const auto& gd = subject->GetDirection();
+    Json directionRows = Json::array();
+    for (int r = 0; r < 3; ++r) directionRows.push_back({gd(r, 0), gd(r, 1), gd(r, 2)});
+    json["grid"] = {{"size", {size[0], size[1], size[2]}},
+                    {"spacing_mm", {subject->GetSpacing()[0], subject->GetSpacing()[1], subject->GetSpacing()[2]}},
+                    {"origin_mm", {subject->GetOrigin()[0], subject->GetOrigin()[1], subject->GetOrigin()[2]}},
+                    {"direction", directionRows}, {"axes", axes.empty() ? Json(nullptr) : Json(axes)},
+                    {"field_of_view", {fov[0], fov[1], fov[2]}}, {"tilt_deg", tiltDeg}, {"tilt_axis", {tiltAxis[0], tiltAxis[1], tiltAxis[2]}}};
     json["convention"] =
         "ITK physical coordinates (LPS, mm). A subject point x (a voxel of the outputs) maps to the model point "
         "y = A(x + w(x)) of the inputs (ResampleImageFilter's output-to-input convention): w, the B-spline warp, "

@@ -112,6 +112,12 @@ void printTable(const RunReport& r) {
     std::printf("overlap between structures: %.1f mm^3 at the start, %.1f mm^3 at the end (%d pairs)\n", before, after,
                 overlapping);
   }
+  std::string past;
+  for (const StructureResult& s : r.structures)
+    if (s.outsideImageShare > 0.0) past += (past.empty() ? " " : ", ") + s.name + " " + cell(100.0 * s.outsideImageShare, 0, 1) + " %";
+  if (!past.empty())
+    std::printf("past the image's field of view (share of vertices):%s; there the model, not the image, shapes them\n",
+                past.c_str());
   if (r.initialisation.method != "none") std::printf("initialisation: %s, %.2f s\n", r.initialisation.method.c_str(), r.initialisation.seconds);
   std::printf("backend %s, %s; simulation %.2f s, total %.2f s\n", r.backend.c_str(), r.device.c_str(),
               r.simulationSeconds, r.totalSeconds);

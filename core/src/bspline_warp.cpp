@@ -1,5 +1,6 @@
 #include "sinew/core/bspline_warp.h"
 
+#include <algorithm>
 #include <cmath>
 
 namespace sinew {
@@ -39,10 +40,16 @@ Eigen::Vector3d BSplineWarp::displacement(const Eigen::Vector3d& x, Eigen::Matri
   const Eigen::Vector3d u = toIndex * (x - origin);
   int first[3];
   double w[3][4], dw[3][4];
+  bool clamped[3];
   for (int a = 0; a < 3; ++a) {
-    if (!(u[a] >= 1.0 && u[a] < double(size[a]) - 2.0)) return Eigen::Vector3d::Zero();  // outside (or NaN)
-    first[a] = int(std::floor(u[a] - 1.0));
-    cubicWeights(u[a] - 1.0 - double(first[a]), w[a], dw[a]);
+    if (std::isnan(u[a])) return Eigen::Vector3d::Zero();
+    // Past the valid region, the displacement at its nearest point (the cell's end, t = 1, on the
+    // far side: the same limit from inside).
+    const double last = double(size[a]) - 2.0;
+    clamped[a] = !(u[a] >= 1.0 && u[a] < last);
+    const double v = std::clamp(u[a], 1.0, last);
+    first[a] = std::min(int(std::floor(v - 1.0)), size[a] - 4);
+    cubicWeights(v - 1.0 - double(first[a]), w[a], dw[a]);
   }
   Eigen::Vector3d d = Eigen::Vector3d::Zero();
   Eigen::Matrix3d dIndex = Eigen::Matrix3d::Zero();  // d's derivative with respect to the index
@@ -59,7 +66,11 @@ Eigen::Vector3d BSplineWarp::displacement(const Eigen::Vector3d& x, Eigen::Matri
         }
       }
     }
-  if (jacobian) *jacobian = dIndex * toIndex;
+  if (jacobian) {
+    for (int a = 0; a < 3; ++a)
+      if (clamped[a]) dIndex.col(a).setZero();  // constant along a clamped axis
+    *jacobian = dIndex * toIndex;
+  }
   return d;
 }
 

@@ -1,6 +1,7 @@
 // SceneRunner's scoring against the ground truths: the exact evaluation (the start, the end, the
 // workstation's), the timeline's sampled error, the label map of a result.
 #include "scene_runner_loaded.h"
+#include "sinew/core/shape_guard.h"
 #include "sinew/core/voxelize.h"
 
 namespace sinew {
@@ -19,6 +20,9 @@ StructureResult SceneRunner::surfaceOf(Index i, const std::vector<Vec3>& positio
   r.name = scene_.structures[i].name;
   r.label = scene_.structures[i].label;
   r.vertices = store.range(i).vertexCount();
+  const SceneData& data = loaded_->sim->scene();
+  if (data.hasTargetImage() && !positions.empty())
+    r.outsideImageShare = double(pointsOutside(positions, data.targetImage().geometry())) / double(positions.size());
   r.surface = tessellate(store.topologyOf(i), positions);
   return r;
 }

@@ -21,7 +21,7 @@ void SceneRunner::runShapeGuarded(const std::function<void()>& runChunk, int chu
                                   const std::function<void()>& reload) {
   Simulation& sim = simulation();
   MeshStore& store = sim.store();
-  if (!shapeGuard_.captured()) shapeGuard_.capture(store);
+  if (!shapeGuard_.captured()) shapeGuard_.capture(store, sim.scene().targetImage().geometry());
   shapeGuard_.followLevel(store);
   std::vector<std::string> names;
   for (const auto& s : scene_.structures) names.push_back(s.name);

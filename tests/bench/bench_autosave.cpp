@@ -75,11 +75,11 @@ int main(int argc, char** argv) {
   // self-intersection sampling alone; the image is made large enough to hold every vertex.
   {
     MeshStore& store = session.simulation().store();
-    ShapeGuard shape;
-    shape.capture(store);
     ImageGeometry everywhere;
     everywhere.size = {40000, 40000, 40000};
     everywhere.origin = Eigen::Vector3d(-20000, -20000, -20000);
+    ShapeGuard shape;
+    shape.capture(store, everywhere);
     std::vector<std::string> names(std::size_t(store.meshCount()), "s");
     std::vector<double> check, self;
     for (int r = 0; r < 11; ++r) {

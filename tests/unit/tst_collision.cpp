@@ -154,11 +154,11 @@ private slots:
     auto sim = collidingSpheres(15.0f, 1.0f, 10.0f, "damped_verlet", 2.0);
     sim->forceParams("collision").setAll("full_search_every", every);
     const double before = pairOverlap(*sim);
-    ShapeGuard guard;
-    guard.capture(sim->store());
     ImageGeometry image;
     image.size = {200, 200, 200};
     image.origin = Eigen::Vector3d(-100, -100, -100);
+    ShapeGuard guard;
+    guard.capture(sim->store(), image);
     const std::vector<std::string> names{"a", "b"};
     int swings = 0;
     double largest = 0.0;

@@ -52,6 +52,9 @@ struct StructureResult {
   double diceInitial = std::numeric_limits<double>::quiet_NaN();
   double dice = std::numeric_limits<double>::quiet_NaN();
   double seconds = 0.0;  // simulation time; all structures are simulated together
+  // The share of its vertices outside the target image: a structure that a small field of view
+  // cuts, whose shape past the image comes from the model alone.
+  double outsideImageShare = 0.0;
   TriangleMesh surface;  // final Fig. 1b tessellation, world mm
   std::optional<RadiusSummary> medialRadius;  // with "outputs.thickness" (addThickness)
 };

@@ -2,7 +2,8 @@
 // and over-long steps, not a stable but wrong result (a structure collapsed to a twentieth of its
 // volume, or carried off by 12 mm, with exit 0). This one compares each structure with itself at
 // the start of the simulation, at every report sample, on the host, for every backend: its volume
-// (Fig. 1b tessellation), how far its centroid drifted, how many of its vertices left the image,
+// (Fig. 1b tessellation), how far its centroid drifted, how many more of its vertices are outside
+// the image than were at the start (a structure may start partly outside a small field of view),
 // and how many of its cells turned over or collapsed (each cell's vector area against the start's).
 // The scene runner rolls a violating chunk back and halves the step like a numerical failure.
 #pragma once
@@ -18,8 +19,8 @@ namespace sinew {
 
 class ShapeGuard {
 public:
-  // Each structure's volume and centroid now become the reference.
-  void capture(MeshStore& store);
+  // Each structure's volume, centroid and vertices outside `image` now become the reference.
+  void capture(MeshStore& store, const ImageGeometry& image);
   bool captured() const { return !volume_.empty(); }
   // At a new level of detail (other cells): its cells' orientation and area now become the
   // reference; volumes and centroids stay those of the start. Call before each chunk.
@@ -36,9 +37,14 @@ private:
 
   std::vector<double> volume_;
   std::vector<Vec3> centroid_;
+  std::vector<double> outsideShare_;  // per structure, the share of its vertices outside the image at the start
   std::vector<Vec3> cellArea_;  // per cell of the store, its vector area at the start
 };
 
+// How many of the points (a structure's vertices) lie outside the image (beyond its border
+// voxels' outer faces).
+Index pointsOutside(std::span<const Vec3> points, const ImageGeometry& image);
+Index verticesOutside(MeshStore& store, Index mesh, const ImageGeometry& image);
 // A structure's enclosed volume (mm^3) and its vertices' centroid.
 double structureVolume(MeshStore& store, Index mesh);
 Vec3 structureCentroid(MeshStore& store, Index mesh);

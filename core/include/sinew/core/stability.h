@@ -15,7 +15,11 @@ struct ShapeLimits {
   double minVolumeRatio = 0.5;       // volume / volume at the start
   double maxVolumeRatio = 2.0;
   double maxDriftMm = 10.0;          // centroid distance from the start
-  double maxOutsideFraction = 0.01;  // of the structure's vertices outside the target image
+  // More of the structure's vertices outside the target image than at the start (a structure cut
+  // by a small field of view starts partly outside, and its vertices at the cut slide across it),
+  // as a share of them; fewer than kMinOutside more never count (small coarse levels).
+  double maxOutsideFraction = 0.01;
+  static constexpr int kMinOutside = 5;
   // Cells (faces of the simplex mesh) turned over against their orientation at the start, and
   // cells collapsed below a hundredth of their area at the start, as shares of the structure's
   // cells. Fine levels of thin structures fold a few per cent of their cells locally (the
