@@ -354,8 +354,9 @@ int main(int argc, char** argv) {
     transform->AddTransform(affine);
     transform->AddTransform(warp);
 
-    // The subject's grid: the image's, or another acquisition's (--spacing, --axes, --tilt-deg). The
-    // tilt's axis comes from an RNG of its own, so that every other draw of a seed stays the same.
+    // The subject's grid: the image's, or another acquisition's (--spacing, --axes, --tilt-deg,
+    // --fov). The tilt's axis comes from an RNG of its own, so that every other draw of a seed stays
+    // the same.
     const bool ownGrid = !gridSpacing.empty() || !fieldOfView.empty() || !axes.empty() || tiltDeg > 0;
     Image::DirectionType gridDirection = axes.empty() ? image->GetDirection() : axesDirection;
     itk::Vector<double, 3> tiltAxis;

@@ -202,7 +202,7 @@ std::string ShapeGuard::checkOne(MeshStore& store, Index m, const ImageGeometry&
   // field of view starts partly outside.
   const double vertexCount = double(std::max<Index>(1, r.vertexCount()));
   const double fraction = double(vertexSums.outside) / vertexCount, atStart = outsideShare_[m];
-  if (fraction - atStart > limits.maxOutsideFraction && (fraction - atStart) * vertexCount >= ShapeLimits::kMinOutside) {
+  if (fraction - atStart > limits.maxOutsideFraction && (fraction - atStart) * vertexCount > ShapeLimits::kMinOutside - 0.5) {
     if (atStart == 0.0)
       std::snprintf(text, sizeof text, "shape check: %s has %.3g %% of its vertices outside the image (limit %.3g %%)",
                     name.c_str(), 100.0 * fraction, 100.0 * limits.maxOutsideFraction);

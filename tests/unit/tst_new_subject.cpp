@@ -13,6 +13,7 @@
 #include <QTemporaryDir>
 #include <QtTest>
 
+#include <algorithm>
 #include <fstream>
 
 using namespace sinew;
@@ -316,6 +317,41 @@ private slots:
     QVERIFY(report["initialisation"].toObject()["method"].toString().startsWith("landmarks: affine"));
     QVERIFY(byLandmarks < stageMean(report, "model"));
     QVERIFY(std::abs(byLandmarks - byRegistration) < 0.3);
+  }
+
+  // A scan stored otherwise (sagittal slices, PIR) whose field of view cuts the hippocampus and the
+  // amygdala (the central 0.4 of the head's height): the B-spline registration maps the model
+  // across the image's edge (until the thirty-sixth session: exit 3, "non-finite positions"), the
+  // shape guard holds each structure to its share outside at the start (exit 4 at iteration 0),
+  // and the report and the summary name what lies past the field of view.
+  void segmentsAScanCutByItsFieldOfView() {
+    const QString cut = path("cut");
+    Result r = runTool(SINEW_MAKE_SUBJECT, {"--image", kTemplates + "ch2.nii.gz", "--labels", kTemplates + "aal.nii.gz",
+                                            "--seed", "17", "--axes", "PIR", "--fov", "1,0.4,1", "-o", cut});
+    QVERIFY2(r.code == 0, qPrintable(r.err));
+    const QJsonObject grid = readJson(cut + "/subject.json")["grid"].toObject();
+    QCOMPARE(grid["direction"].toArray()[1].toArray()[0].toDouble(), 1.0);  // index i points posterior (ITK's +y)
+    QVERIFY(grid["size"].toArray()[1].toInt() < 80);                         // j: 0.4 of the 181 mm height
+    r = runTool(SINEW_MAKE_SCENE, {"--model", model_, "--target", cut + "/image.nii.gz", "--ground-truth",
+                                   cut + "/labels.nii.gz", "--structures", "Hippocampus_L,Amygdala_L,Putamen_R,Thalamus_R",
+                                   "-o", path("cut.json")});
+    QVERIFY2(r.code == 0, qPrintable(r.err));
+    r = runTool(SINEW_RUN, {path("cut.json"), "-o", path("cut-run"), "--backend", "cpu"});
+    QVERIFY2(r.code == 0, qPrintable(r.err + r.out));
+    const QJsonObject report = readJson(path("cut-run/report.json"));
+    QCOMPARE(report["status"].toString(), QString("completed"));
+    double largest = 0.0;
+    for (const auto& s : report["structures"].toArray()) largest = std::max(largest, s.toObject()["outside_image_share"].toDouble());
+    qInfo("largest share of a structure's vertices past the field of view: %.3f; mean ASSD %.3f -> %.3f mm", largest,
+          stageMean(report, "initialisation"), stageMean(report, report["stages"].toArray().last().toObject()["name"].toString()));
+    QVERIFY(largest > 0.01);
+    QVERIFY2(r.out.contains("past the image's field of view"), qPrintable(r.out));
+    QVERIFY(stageMean(report, report["stages"].toArray().last().toObject()["name"].toString()) < stageMean(report, "initialisation"));
+    // An orientation code that is not one is refused, naming the option.
+    r = runTool(SINEW_MAKE_SUBJECT, {"--image", kTemplates + "ch2.nii.gz", "--labels", kTemplates + "aal.nii.gz",
+                                     "--axes", "RAR", "-o", path("bad")});
+    QCOMPARE(r.code, 2);
+    QVERIFY2(r.err.contains("--axes RAR: each of L/R, P/A and S/I once"), qPrintable(r.err));
   }
 
   // A user's scene has no ground truth: it runs and reports motion and force instead of error.
