@@ -120,8 +120,9 @@ private slots:
 
   // A registration's B-spline in core (BSplineWarp, SpatialMap::warpThenAffine). Cubic B-splines
   // reproduce a linear field: coefficients M p (p a control point's position) give d(x) = M x and
-  // the Jacobian M inside the grid's valid region, the nearest point's past it. With random coefficients added,
-  // the map's inverse (Newton) must undo it, and the sampled inverse stay near the exact one.
+  // the Jacobian M inside the grid's valid region, and past it the nearest point's. With random
+  // coefficients added, the map's inverse (Newton) must undo it, and the sampled inverse stay near
+  // the exact one.
   void bsplineWarpAndItsInverse() {
     BSplineWarp w;
     w.size = {7, 8, 6};
@@ -151,7 +152,7 @@ private slots:
     }
     QVERIFY2(largest < 1e-9, qPrintable(QString::number(largest)));
     // Past the valid region (index 5, 6, 4 at its far ends): the displacement at its nearest point,
-    // constant along the axes left (ITK gives zero there; the map would jump at the region's edge).
+    // constant along each axis it is past (ITK gives zero there: the map would jump at the edge).
     Eigen::Matrix3d past;
     QVERIFY((w.displacement(atIndex(0.9, 2.0, 2.0), &past) - m * atIndex(1.0, 2.0, 2.0)).norm() < 1e-9);
     QVERIFY((past * w.direction.col(0)).norm() < 1e-12);
