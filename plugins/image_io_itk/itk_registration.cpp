@@ -353,7 +353,8 @@ void refineByBSpline(AffineType& affine, ImageType* fixed, const std::vector<Pyr
   BSplineWarp warp = bsplineWarpOf(*bspline);
   const bool finite = warp.valid();
   // The warp's Jacobian determinant on a grid of 2 cells + 1 points per axis over the target, one
-  // voxel in from its edges (where the transform's domain ends and it becomes the identity).
+  // voxel in from its edges (where the transform's domain ends: past it ITK's map is the identity,
+  // and BSplineWarp's continues the edge's displacement).
   const int n = 2 * o.bsplineCells + 1;
   const auto size = fixed->GetLargestPossibleRegion().GetSize();
   double least = 1e300;
