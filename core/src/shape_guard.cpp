@@ -99,16 +99,11 @@ namespace {
 // Whether p lies within the image: its index within the outer faces of the border voxels.
 struct InsideImage {
   explicit InsideImage(const ImageGeometry& image)
-      : toIndex(image.indexToWorldMatrix().inverse().cast<float>()), origin(image.origin.cast<float>()), size(image.size) {}
-  bool operator()(const Vec3& p) const {
-    const Vec3 idx = toIndex * (p - origin);
-    for (int a = 0; a < 3; ++a)
-      if (!(idx[a] >= -0.5f && idx[a] <= size[a] - 0.5f)) return false;
-    return true;
-  }
+      : image(image), toIndex(image.indexToWorldMatrix().inverse().cast<float>()), origin(image.origin.cast<float>()) {}
+  bool operator()(const Vec3& p) const { return image.containsIndex(toIndex * (p - origin)); }
+  const ImageGeometry& image;
   Eigen::Matrix3f toIndex;
   Vec3 origin;
-  std::array<int, 3> size;
 };
 }  // namespace
 

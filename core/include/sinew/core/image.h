@@ -21,6 +21,13 @@ struct ImageGeometry {
     return static_cast<std::size_t>(size[0]) * size[1] * size[2];
   }
   Eigen::Matrix3d indexToWorldMatrix() const { return direction * spacing.asDiagonal(); }
+  // Whether a continuous voxel index lies within the voxels' extent (half a voxel past the first
+  // and last centres), where a sample still has a voxel to take.
+  bool containsIndex(const Vec3& idx) const {
+    for (int a = 0; a < 3; ++a)
+      if (!(idx[a] >= -0.5f && idx[a] <= static_cast<float>(size[a]) - 0.5f)) return false;
+    return true;
+  }
 };
 
 template <class T>
@@ -101,11 +108,7 @@ public:
     }
   }
 
-  bool containsIndex(const Vec3& idx) const {
-    for (int a = 0; a < 3; ++a)
-      if (!(idx[a] >= -0.5f && idx[a] <= geometry_.size[a] - 0.5f)) return false;
-    return true;
-  }
+  bool containsIndex(const Vec3& idx) const { return geometry_.containsIndex(idx); }
 
 private:
   static T lerp(const T& a, const T& b, float t) { return a + (b - a) * t; }
