@@ -156,16 +156,29 @@ private slots:
   }
 
   // A head turned beyond the rigid stage's reach from the moments' alignment: ch2 turned by 40
-  // degrees. The rotation search must find a start from which the rigid stage undoes the turn
-  // (the registration says so in its log), and the map must then put brain points within 1.5 mm
-  // of where they belong.
+  // degrees (a turn of the search's first ring), and by 65 degrees (beyond it: the search climbs on,
+  // where the first ring alone left brain points 43 mm off). The rotation search must
+  // find a start from which the rigid stage undoes the turn (the registration says so in its log),
+  // and the map must then put brain points within 1.5 mm of where they belong.
+  void rotationSearchReachesATurnedHead_data() {
+    QTest::addColumn<double>("degrees");
+    QTest::addColumn<double>("x");
+    QTest::addColumn<double>("y");
+    QTest::addColumn<double>("z");
+    QTest::newRow("40 degrees") << 40.0 << 1.0 << 0.5 << -0.3;
+    QTest::newRow("65 degrees") << 65.0 << -0.5 << 0.1 << 0.9;
+  }
   void rotationSearchReachesATurnedHead() {
     if (!std::filesystem::exists(kTemplates / "ch2.nii.gz")) QSKIP("mricron-data is not installed");
+    QFETCH(double, degrees);
+    QFETCH(double, x);
+    QFETCH(double, y);
+    QFETCH(double, z);
     const ImageIODescriptor& io = builtinRegistry().imageIOFor("ch2.nii.gz");
     const Image3D original = io.readImage(kTemplates / "ch2.nii.gz");
     const Image3D model = io.readImage(kTemplates / "ch2better.nii.gz");
     ImageGeometry g = original.geometry();
-    const Eigen::Matrix3d turn = Eigen::AngleAxisd(40.0 * M_PI / 180.0, Eigen::Vector3d(1, 0.5, -0.3).normalized()).toRotationMatrix();
+    const Eigen::Matrix3d turn = Eigen::AngleAxisd(degrees * M_PI / 180.0, Eigen::Vector3d(x, y, z).normalized()).toRotationMatrix();
     g.direction = turn * g.direction;
     g.origin = turn * g.origin;
     Image3D target(g);
