@@ -52,6 +52,19 @@ constexpr Metric kMetrics[] = {{"assd_final_mm", &StructureResult::assdFinal},
                                {"hd95_mm", &StructureResult::hd95},
                                {"dice", &StructureResult::dice}};
 
+// The Mattes MI of a report's last linear registration stage (affine, else rigid): the B-spline's
+// can make up for a wrong pose, theirs cannot. NaN without a registration.
+double linearRegistrationMetric(const Json& report) {
+  double metric = kNaN;
+  if (!report.contains("initialisation") || !report["initialisation"].is_object()) return metric;
+  for (const Json& stage : report["initialisation"].value("registration", Json::array())) {
+    if (!stage.is_object()) continue;
+    const std::string name = stage.value("name", std::string());
+    if (name == "affine" || (name == "rigid" && std::isnan(metric))) metric = number(stage, "mattes_mi");
+  }
+  return metric;
+}
+
 Json statsJson(const Statistics& s) {
   return {{"n", s.n}, {"mean", s.mean}, {"sd", s.sd}, {"min", s.min}, {"q1", s.q1}, {"median", s.median}, {"q3", s.q3}, {"max", s.max}};
 }
@@ -98,6 +111,7 @@ CohortReport gatherReport(const Cohort& cohort) {
     row.id = cohort.subjects[i].id;
     row.status = readStatus(cohort, i);
     row.totalSeconds = row.simulationSeconds = row.meanAssd = row.meanDice = row.overlapMm3 = kNaN;
+    row.registrationMetric = row.outsideImageShare = kNaN;
     const std::string& st = row.status.status;
     const bool hasOutputs = (st == "completed" || st == "degraded") && fs::exists(cohort.outputDir(i) / "report.json");
     if (hasOutputs) {
@@ -110,6 +124,7 @@ CohortReport gatherReport(const Cohort& cohort) {
         row.totalSeconds = number(j, "total_seconds");
         row.simulationSeconds = number(j, "simulation_seconds");
         if (j.contains("overlaps")) row.overlapMm3 = number(j["overlaps"], "total_after_mm3");
+        row.registrationMetric = linearRegistrationMetric(j);
         std::vector<double> assd, dice;
         for (const Json& s : j.value("structures", Json::array())) {
           StructureResult r;
@@ -123,6 +138,9 @@ CohortReport gatherReport(const Cohort& cohort) {
           r.hd95 = number(s, "hd95_mm");
           r.dice = number(s, "dice");
           r.diceInitial = number(s, "dice_initial");
+          const double outside = number(s, "outside_image_share");
+          if (!std::isnan(outside) && (std::isnan(row.outsideImageShare) || outside > row.outsideImageShare))
+            row.outsideImageShare = outside;
           assd.push_back(r.assdFinal);
           dice.push_back(r.dice);
           if (std::find(rep.structures.begin(), rep.structures.end(), r.structure) == rep.structures.end())
@@ -139,7 +157,21 @@ CohortReport gatherReport(const Cohort& cohort) {
     (now == "completed" ? rep.completed : now == "degraded" ? rep.degraded : now == "pending" ? rep.pending : rep.failed)++;
     rep.subjects.push_back(std::move(row));
   }
+  markRegistrationOutliers(rep);
   return rep;
+}
+
+void markRegistrationOutliers(CohortReport& rep) {
+  std::vector<double> values;
+  for (const SubjectRow& r : rep.subjects)
+    if (!std::isnan(r.registrationMetric)) values.push_back(r.registrationMetric);
+  rep.registrationMedian = rep.registrationLimit = kNaN;
+  if (int(values.size()) < kRegistrationQuorum) return;
+  rep.registrationMedian = statistics(values).median;
+  for (double& v : values) v = std::abs(v - rep.registrationMedian);
+  const double spread = 1.4826 * statistics(values).median;
+  rep.registrationLimit = rep.registrationMedian + std::max(kRegistrationMargin, kRegistrationSpreads * spread);
+  for (SubjectRow& r : rep.subjects) r.registrationOutlier = r.registrationMetric > rep.registrationLimit;
 }
 
 void writeReport(const Cohort& cohort, const CohortReport& rep) {
@@ -150,13 +182,14 @@ void writeReport(const Cohort& cohort, const CohortReport& rep) {
 
   std::ostringstream subjects;
   subjects << "subject,status,exit_code,attempts,wall_seconds,total_seconds,simulation_seconds,backend,host,gpu,"
-              "mean_assd_mm,mean_dice,overlap_mm3,message\n";
+              "mean_assd_mm,mean_dice,overlap_mm3,registration_mattes_mi,registration_outlier,outside_image_share,message\n";
   for (const SubjectRow& r : rep.subjects)
     subjects << csvField(r.id) << ',' << r.status.status << ',' << (r.status.exitCode >= 0 ? std::to_string(r.status.exitCode) : "")
              << ',' << r.status.attempts << ',' << num(r.status.seconds) << ',' << num(r.totalSeconds) << ','
              << num(r.simulationSeconds) << ',' << csvField(r.status.backend) << ',' << csvField(r.status.host) << ','
              << csvField(r.status.gpu) << ',' << num(r.meanAssd) << ',' << num(r.meanDice) << ',' << num(r.overlapMm3)
-             << ',' << csvField(r.status.message) << '\n';
+             << ',' << num(r.registrationMetric) << ',' << (r.registrationOutlier ? "yes" : "") << ','
+             << num(r.outsideImageShare) << ',' << csvField(r.status.message) << '\n';
   writeFileAtomically(dir / "subjects.csv", subjects.str());
 
   std::ostringstream structures;
@@ -190,6 +223,10 @@ void writeReport(const Cohort& cohort, const CohortReport& rep) {
                           {"attempts", r.status.attempts}, {"message", r.status.message}});
     if (r.status.attempts) wall.push_back(r.status.seconds);
   }
+  Json outliers = Json::array();
+  for (const SubjectRow& r : rep.subjects)
+    if (r.registrationOutlier) outliers.push_back({{"subject", r.id}, {"mattes_mi", r.registrationMetric}});
+  const auto orNull = [](double v) { return std::isnan(v) ? Json(nullptr) : Json(v); };
   Json pending = Json::array();
   for (const SubjectRow& r : rep.subjects)
     if (r.status.status == "pending") pending.push_back(r.id);
@@ -200,6 +237,9 @@ void writeReport(const Cohort& cohort, const CohortReport& rep) {
                   {"failed", rep.failed},
                   {"pending", pending},
                   {"failures", failures},
+                  {"registration", {{"median_mattes_mi", orNull(rep.registrationMedian)},
+                                    {"outlier_above", orNull(rep.registrationLimit)},
+                                    {"outliers", outliers}}},
                   {"subject_wall_seconds", statsJson(statistics(wall))},
                   {"structures", perStructure}};
   writeBoxPlot(dir / "assd_boxplot.png", rep, &StructureResult::assdFinal, "Final ASSD per structure", "ASSD (mm)");

@@ -21,6 +21,11 @@ struct SubjectRow {
   SubjectStatus status;
   double totalSeconds = 0, simulationSeconds = 0;  // sinew-run's own (NaN when it wrote no report)
   double meanAssd = 0, meanDice = 0, overlapMm3 = 0;
+  // The registration's last linear stage's Mattes MI (the affine's, else the rigid's; NaN without a
+  // registration: a transform or landmarks given), and the largest share of a structure's vertices
+  // past the target's field of view at the end.
+  double registrationMetric = 0, outsideImageShare = 0;
+  bool registrationOutlier = false;
 };
 
 // Order statistics of one metric over subjects (quartiles by linear interpolation).
@@ -35,10 +40,21 @@ struct CohortReport {
   std::vector<StructureResult> results;        // the subjects with outputs (completed or degraded)
   std::vector<std::string> structures;         // in the order first met
   int completed = 0, degraded = 0, failed = 0, pending = 0;
+  // The subjects' registration metrics against the cohort's: their median, and the level above which a
+  // subject's stands out (NaN with fewer than kRegistrationQuorum subjects registered).
+  double registrationMedian = 0, registrationLimit = 0;
   std::vector<double> metric(const std::string& structure, double StructureResult::*field) const;
 };
 
 CohortReport gatherReport(const Cohort& cohort);
+
+// A subject's registration stands out when its Mattes MI lies above the cohort's median by more than
+// kRegistrationSpreads robust standard deviations (1.4826 times the median absolute deviation) and
+// by at least kRegistrationMargin; judged among at least kRegistrationQuorum registered subjects.
+// The metric's level differs with scanners and contrasts, so each cohort is its own reference.
+constexpr int kRegistrationQuorum = 5;
+constexpr double kRegistrationSpreads = 5.0, kRegistrationMargin = 0.1;
+void markRegistrationOutliers(CohortReport& report);
 
 // Writes report/subjects.csv, structures.csv, summary.csv, cohort_report.json and the plots
 // (assd_boxplot.png, dice_boxplot.png, run_time.png).

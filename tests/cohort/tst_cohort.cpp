@@ -4,6 +4,8 @@
 // tests/cohort/slurm_local.sh) as a job array with its report job; manifests refused.
 #include "run_tool.h"
 
+#include <algorithm>
+
 #include <QDir>
 #include <QFile>
 #include <QJsonArray>
@@ -129,6 +131,69 @@ private slots:
     QCOMPARE(report["failed"].toInt(), 1);
     QCOMPARE(report["failures"].toArray()[0].toObject()["subject"].toString(), QString("truncated"));
     QVERIFY(QFile::remove(path("nowhere.nii.gz")));
+  }
+
+  // A cohort of six completed subjects (s1's report, its affine stage's Mattes MI set per subject):
+  // the one whose registration stands out from the others' is named in the report, its CSV row and
+  // the printed summary; in a cohort that spreads widely it is not. Fewer than five registered subjects
+  // (the local cohort's three) name none.
+  void registrationsThatStandOutAreNamed() {
+    const QJsonObject local = readJson(path("local/cohort.json"));
+    QVERIFY(!local.isEmpty());
+    QCOMPARE(local["subjects"].toArray().size(), 4);
+    const QJsonObject localRegistration = readJson(path("local/report/cohort_report.json"))["registration"].toObject();
+    QVERIFY(localRegistration["median_mattes_mi"].isNull());
+    QVERIFY(localRegistration["outliers"].toArray().isEmpty());
+
+    const QJsonObject s1 = readJson(path("local/subjects/s1/out/report.json"));
+    const QJsonArray stages = s1["initialisation"].toObject()["registration"].toArray();
+    QVERIFY(std::any_of(stages.begin(), stages.end(), [](const QJsonValue& v) { return v.toObject()["name"] == "affine"; }));
+    const auto makeCohort = [&](const QString& name, const QList<double>& metrics) {
+      QJsonObject cohort = local;
+      QJsonArray subjects;
+      for (int i = 0; i < metrics.size(); ++i) {
+        const QString id = QString("q%1").arg(i);
+        subjects.append(QJsonObject{{"id", id}, {"target", path("subject1/image.nii.gz")}});
+        QVERIFY(QDir().mkpath(path(name + "/subjects/" + id + "/out")));
+        writeText(path(name + "/subjects/" + id + "/status.json"),
+                  R"({"status": "completed", "exit_code": 0, "attempts": 1, "seconds": 1.0, "message": ""})");
+        QJsonArray changed;
+        for (const QJsonValue& v : stages) {
+          QJsonObject stage = v.toObject();
+          if (stage["name"] == "affine") stage["mattes_mi"] = metrics[i];
+          changed.append(stage);
+        }
+        QJsonObject report = s1, init = s1["initialisation"].toObject();
+        init["registration"] = changed;
+        report["initialisation"] = init;
+        writeText(path(name + "/subjects/" + id + "/out/report.json"), QJsonDocument(report).toJson());
+      }
+      cohort["subjects"] = subjects;
+      writeText(path(name + "/cohort.json"), QJsonDocument(cohort).toJson());
+    };
+
+    makeCohort("qc", {-0.72, -0.70, -0.74, -0.71, -0.73, -0.35});
+    ToolResult r = runTool(SINEW_COHORT, {"report", path("qc")});
+    QVERIFY2(r.code == 0, qPrintable(r.err + r.out));
+    QJsonObject registration = readJson(path("qc/report/cohort_report.json"))["registration"].toObject();
+    QCOMPARE(registration["median_mattes_mi"].toDouble(), -0.715);
+    const QJsonArray outliers = registration["outliers"].toArray();
+    QCOMPARE(outliers.size(), 1);
+    QCOMPARE(outliers[0].toObject()["subject"].toString(), QString("q5"));
+    QVERIFY2(r.out.contains("q5: its registration stands out (Mattes MI -0.350"), qPrintable(r.out));
+    const QStringList rows = readText(path("qc/report/subjects.csv")).split('\n', Qt::SkipEmptyParts);
+    QVERIFY2(rows[0].contains("registration_mattes_mi,registration_outlier,outside_image_share"), qPrintable(rows[0]));
+    for (const QString& row : rows.mid(1))
+      QVERIFY2(row.contains(",-0.35,yes,") == row.startsWith("q5,"), qPrintable(row));
+
+    // The same value in a cohort that spreads widely: 5 robust standard deviations (1.11 here) above
+    // the median, not the margin of 0.1 alone, set the limit.
+    makeCohort("qc-spread", {-0.9, -0.7, -0.5, -0.8, -0.6, -0.35});
+    r = runTool(SINEW_COHORT, {"report", path("qc-spread")});
+    QVERIFY2(r.code == 0, qPrintable(r.err + r.out));
+    registration = readJson(path("qc-spread/report/cohort_report.json"))["registration"].toObject();
+    QVERIFY2(registration["outliers"].toArray().isEmpty(), qPrintable(QJsonDocument(registration).toJson()));
+    QVERIFY(!r.out.contains("stands out"));
   }
 
   void aSecondRunOnTheFolderIsRefused() {
