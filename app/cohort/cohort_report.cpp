@@ -157,11 +157,11 @@ CohortReport gatherReport(const Cohort& cohort) {
     (now == "completed" ? rep.completed : now == "degraded" ? rep.degraded : now == "pending" ? rep.pending : rep.failed)++;
     rep.subjects.push_back(std::move(row));
   }
-  markRegistrationOutliers(rep);
+  setRegistrationLimit(rep);
   return rep;
 }
 
-void markRegistrationOutliers(CohortReport& rep) {
+void setRegistrationLimit(CohortReport& rep) {
   std::vector<double> values;
   for (const SubjectRow& r : rep.subjects)
     if (!std::isnan(r.registrationMetric)) values.push_back(r.registrationMetric);
@@ -171,7 +171,6 @@ void markRegistrationOutliers(CohortReport& rep) {
   for (double& v : values) v = std::abs(v - rep.registrationMedian);
   const double spread = 1.4826 * statistics(values).median;
   rep.registrationLimit = rep.registrationMedian + std::max(kRegistrationMargin, kRegistrationSpreads * spread);
-  for (SubjectRow& r : rep.subjects) r.registrationOutlier = r.registrationMetric > rep.registrationLimit;
 }
 
 void writeReport(const Cohort& cohort, const CohortReport& rep) {
@@ -188,7 +187,7 @@ void writeReport(const Cohort& cohort, const CohortReport& rep) {
              << ',' << r.status.attempts << ',' << num(r.status.seconds) << ',' << num(r.totalSeconds) << ','
              << num(r.simulationSeconds) << ',' << csvField(r.status.backend) << ',' << csvField(r.status.host) << ','
              << csvField(r.status.gpu) << ',' << num(r.meanAssd) << ',' << num(r.meanDice) << ',' << num(r.overlapMm3)
-             << ',' << num(r.registrationMetric) << ',' << (r.registrationOutlier ? "yes" : "") << ','
+             << ',' << num(r.registrationMetric) << ',' << (rep.registrationStandsOut(r) ? "yes" : "") << ','
              << num(r.outsideImageShare) << ',' << csvField(r.status.message) << '\n';
   writeFileAtomically(dir / "subjects.csv", subjects.str());
 
@@ -225,7 +224,7 @@ void writeReport(const Cohort& cohort, const CohortReport& rep) {
   }
   Json outliers = Json::array();
   for (const SubjectRow& r : rep.subjects)
-    if (r.registrationOutlier) outliers.push_back({{"subject", r.id}, {"mattes_mi", r.registrationMetric}});
+    if (rep.registrationStandsOut(r)) outliers.push_back({{"subject", r.id}, {"mattes_mi", r.registrationMetric}});
   const auto orNull = [](double v) { return std::isnan(v) ? Json(nullptr) : Json(v); };
   Json pending = Json::array();
   for (const SubjectRow& r : rep.subjects)

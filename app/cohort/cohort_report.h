@@ -25,7 +25,6 @@ struct SubjectRow {
   // registration: a transform or landmarks given), and the largest share of a structure's vertices
   // past the target's field of view at the end.
   double registrationMetric = 0, outsideImageShare = 0;
-  bool registrationOutlier = false;
 };
 
 // Order statistics of one metric over subjects (quartiles by linear interpolation).
@@ -43,6 +42,8 @@ struct CohortReport {
   // The subjects' registration metrics against the cohort's: their median, and the level above which a
   // subject's stands out (NaN with fewer than kRegistrationQuorum subjects registered).
   double registrationMedian = 0, registrationLimit = 0;
+  // False where either is NaN (no registration, or too few registered subjects to judge).
+  bool registrationStandsOut(const SubjectRow& row) const { return row.registrationMetric > registrationLimit; }
   std::vector<double> metric(const std::string& structure, double StructureResult::*field) const;
 };
 
@@ -54,7 +55,8 @@ CohortReport gatherReport(const Cohort& cohort);
 // The metric's level differs with scanners and contrasts, so each cohort is its own reference.
 constexpr int kRegistrationQuorum = 5;
 constexpr double kRegistrationSpreads = 5.0, kRegistrationMargin = 0.1;
-void markRegistrationOutliers(CohortReport& report);
+// Sets the report's registrationMedian and registrationLimit from its subjects (gatherReport does).
+void setRegistrationLimit(CohortReport& report);
 
 // Writes report/subjects.csv, structures.csv, summary.csv, cohort_report.json and the plots
 // (assd_boxplot.png, dice_boxplot.png, run_time.png).

@@ -80,7 +80,7 @@ void printReport(const CohortReport& rep, const Cohort& cohort) {
     if (r.status.status == "failed" || r.status.status == "degraded")
       std::printf("  %s %s: %s\n", r.id.c_str(), r.status.status.c_str(), r.status.message.c_str());
   for (const SubjectRow& r : rep.subjects)
-    if (r.registrationOutlier)
+    if (rep.registrationStandsOut(r))
       std::printf("  %s: its registration stands out (Mattes MI %.3f, the cohort's median %.3f): check its initialisation\n",
                   r.id.c_str(), r.registrationMetric, rep.registrationMedian);
   std::printf("report: %s\n", cohort.reportDir().string().c_str());

@@ -7,7 +7,6 @@
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_reduce.h>
 
-#include <array>
 #include <cstdio>
 #include <stdexcept>
 
