@@ -8,6 +8,7 @@
 #include "synthetic.h"
 #include "../../plugins/image_io_itk/itk_transforms.h"
 #include "../../plugins/image_io_itk/itk_convert.h"
+#include "../../plugins/image_io_itk/registration_mask.h"
 #include "sinew/core/scene.h"
 #include "sinew/core/spatial_map.h"
 
@@ -20,6 +21,7 @@
 #include <itkCenteredTransformInitializer.h>
 #include <itkImageRegistrationMethodv4.h>
 #include <itkMattesMutualInformationImageToImageMetricv4.h>
+#include <itkImageRegionIteratorWithIndex.h>
 #include <itkMultiThreaderBase.h>
 #include <itkRegistrationParameterScalesFromPhysicalShift.h>
 #include <itkRegularStepGradientDescentOptimizerv4.h>
@@ -52,10 +54,11 @@ ImageType::Pointer binnedTo2mm(const Image3D& v) {
 }
 
 // ITK's multi-level method over two levels (virtual domain shrunk by 2 and smoothed by 2 mm, then
-// the 2 mm grid); samples a level, bins, iterations and seed from the options.
+// the 2 mm grid); samples a level, bins, iterations and seed from the options, drawn in the fixed
+// image's foreground (`sampled`, as the plugin takes it).
 template <class TransformType>
 void multiLevelStage(TransformType* transform, ImageType* fixed, ImageType* moving, double step,
-                     const RegistrationOptions& o) {
+                     const RegistrationOptions& o, const SampledRegion& sampled) {
   using RegistrationType = itk::ImageRegistrationMethodv4<ImageType, ImageType, TransformType>;
   auto metric = MetricType::New();
   metric->SetNumberOfHistogramBins(o.histogramBins);
@@ -75,7 +78,8 @@ void multiLevelStage(TransformType* transform, ImageType* fixed, ImageType* movi
   registration->SetOptimizer(optimizer);
   registration->SetInitialTransform(transform);
   registration->InPlaceOn();
-  const double voxels = double(fixed->GetLargestPossibleRegion().GetNumberOfPixels());
+  metric->SetFixedImageMask(sampled.mask);
+  const double voxels = sampled.voxels;
   typename RegistrationType::ShrinkFactorsArrayType shrink(2);
   typename RegistrationType::SmoothingSigmasArrayType sigmas(2);
   typename RegistrationType::MetricSamplingPercentageArrayType percent(2);
@@ -104,12 +108,13 @@ Eigen::Matrix4d multiLevelRegistration(const Image3D& target, const Image3D& mod
   init->SetMovingImage(moving);
   init->MomentsOn();
   init->InitializeTransform();
-  multiLevelStage(rigid.GetPointer(), fixed, moving, 2.0, o);
+  const SampledRegion sampled = foregroundOf(fixed, 1);
+  multiLevelStage(rigid.GetPointer(), fixed, moving, 2.0, o, sampled);
   auto affine = itk::AffineTransform<double, 3>::New();
   affine->SetCenter(rigid->GetCenter());
   affine->SetMatrix(rigid->GetMatrix());
   affine->SetTranslation(rigid->GetTranslation());
-  multiLevelStage(affine.GetPointer(), fixed, moving, 1.0, o);
+  multiLevelStage(affine.GetPointer(), fixed, moving, 1.0, o, sampled);
   itk::MultiThreaderBase::SetGlobalDefaultNumberOfThreads(threads);
   Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
   for (int r = 0; r < 3; ++r) {
@@ -153,6 +158,60 @@ private slots:
     // Not a trivial agreement: the registration undid most of the move.
     const Eigen::Matrix3d undone = plugin.targetToModel.topLeftCorner<3, 3>() * turn;
     QVERIFY2((undone - Eigen::Matrix3d::Identity()).norm() < 0.05, "the rotation is not undone");
+  }
+
+  // Where the metric samples: ch2's head with its ventricles (holes filled), not the air at the grid's
+  // corners; an image without a background, all of it; the same mask on any number of threads.
+  void metricSamplesTheForeground() {
+    if (!std::filesystem::exists(kTemplates / "ch2.nii.gz")) QSKIP("mricron-data is not installed");
+    const Image3D ch2 = builtinRegistry().imageIOFor("ch2.nii.gz").readImage(kTemplates / "ch2.nii.gz");
+    const ImageType::Pointer fixed = binnedTo2mm(ch2);
+    const SampledRegion head = foregroundOf(fixed, 1);
+    QVERIFY(head.mask);
+    qInfo("ch2's foreground: %.1f %% of its 2 mm grid", 100.0 * head.share);
+    QVERIFY(head.share > 0.3 && head.share < 0.8);
+    QCOMPARE(head.voxels, head.share * double(fixed->GetLargestPossibleRegion().GetNumberOfPixels()));
+    const auto inside = [&](const Vec3& index) {
+      const Vec3 w = ch2.indexToWorld(index);
+      ImageType::PointType p;
+      for (int a = 0; a < 3; ++a) p[a] = w[a];
+      return head.mask->IsInsideInWorldSpace(p);
+    };
+    QVERIFY(inside(Vec3(90, 108, 90)));  // the brain's centre
+    QVERIFY(!inside(Vec3(2, 2, 2)) && !inside(Vec3(178, 214, 178)));
+    const SampledRegion again = foregroundOf(fixed, 4);
+    QCOMPARE(again.voxels, head.voxels);
+    // A dark cavity enclosed by bright tissue (a ventricle, CSF dark in T1, here 16 mm across, wider
+    // than the 4 mm growth reaches) is filled: a shell of radius 8-24 mm in a 100 mm box of air.
+    auto shell = ImageType::New();
+    ImageType::RegionType box;
+    box.SetSize({{50, 50, 50}});
+    shell->SetRegions(box);
+    ImageType::SpacingType two;
+    two.Fill(2.0);
+    shell->SetSpacing(two);
+    shell->Allocate();
+    for (itk::ImageRegionIteratorWithIndex<ImageType> it(shell, box); !it.IsAtEnd(); ++it) {
+      double r2 = 0.0;
+      for (int a = 0; a < 3; ++a) r2 += std::pow(2.0 * (double(it.GetIndex()[a]) - 25.0), 2);
+      it.Set(r2 >= 8.0 * 8.0 && r2 <= 24.0 * 24.0 ? 100.0f : 2.0f);
+    }
+    const SampledRegion filled = foregroundOf(shell, 1);
+    QVERIFY(filled.mask);
+    ImageType::PointType middle, corner;
+    middle.Fill(50.0);
+    corner.Fill(2.0);
+    QVERIFY(filled.mask->IsInsideInWorldSpace(middle));
+    QVERIFY(!filled.mask->IsInsideInWorldSpace(corner));
+    // A constant image has no foreground to tell apart: every voxel is sampled.
+    auto flat = ImageType::New();
+    flat->CopyInformation(fixed);
+    flat->SetRegions(fixed->GetLargestPossibleRegion());
+    flat->Allocate();
+    flat->FillBuffer(5.0f);
+    const SampledRegion all = foregroundOf(flat, 1);
+    QVERIFY(!all.mask);
+    QCOMPARE(all.voxels, double(fixed->GetLargestPossibleRegion().GetNumberOfPixels()));
   }
 
   // A head turned beyond the rigid stage's reach from the moments' alignment: ch2 turned by 40
@@ -317,7 +376,7 @@ private slots:
         // Outside: ITK at the nearest point, a billionth of a cell in (at the edge itself, a
         // round trip through the index could leave it outside for ITK).
         itk::ContinuousIndex<double, 3> index;
-        const auto& grid = t->GetCoefficientImages()[0];
+        const auto grid = t->GetCoefficientImages()[0];  // a copy: the array is returned by value
         grid->TransformPhysicalPointToContinuousIndex(px, index);
         for (int a = 0; a < 3; ++a)
           index[a] = std::clamp(index[a], 1.0 + 1e-9, double(grid->GetLargestPossibleRegion().GetSize()[a]) - 2.0 - 1e-9);
