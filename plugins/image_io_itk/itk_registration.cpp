@@ -175,7 +175,8 @@ RegistrationStage runStage(const char* name, TransformType* transform, const std
       if (o.cancelled()) stopped = true, optimizer->StopOptimization();
     });
 
-  // The share of the samples drawn over the grid that the method keeps (those in the mask) is the mask's.
+  // The method draws over the whole grid and keeps what falls in the mask: the share is taken of the
+  // mask's voxels, so that a level keeps about `samplesPerLevel`.
   const double voxels = pyramid.back().sampled.voxels;
   RegistrationStage stage;
   stage.name = name;
