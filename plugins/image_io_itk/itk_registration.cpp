@@ -456,7 +456,7 @@ SearchedStarts searchRotation(const RigidType& start, const PyramidLevel& level,
   std::mt19937 rng(o.seed);
   std::uniform_real_distribution<double> unit(0.0, 1.0);
   const auto size = level.fixed->GetLargestPossibleRegion().GetSize();
-  const ForegroundMask* mask = level.sampled.mask;
+  const ForegroundMask* mask = level.sampled.mask;  // holds >= 2 % of the grid: about 50 draws a point at most
   for (int i = 0, drawn = 0; i < kSearchPoints && drawn < 100 * kSearchPoints; ++drawn) {
     itk::ContinuousIndex<double, 3> index;
     for (int a = 0; a < 3; ++a) index[a] = unit(rng) * double(size[a] - 1);
