@@ -2,7 +2,7 @@
 
 #include "itk_convert.h"
 #include "itk_transforms.h"
-#include "registration_mask.h"
+#include "registration_pyramid.h"
 
 #include <map>
 #include <mutex>
@@ -12,7 +12,6 @@
 #include <itkBSplineTransformInitializer.h>
 #include <itkBinShrinkImageFilter.h>
 #include <itkCenteredTransformInitializer.h>
-#include <itkGradientRecursiveGaussianImageFilter.h>
 #include <itkImageRegistrationMethod.h>
 #include <itkImageRegistrationMethodv4.h>
 #include <itkLBFGSBOptimizer.h>
@@ -24,31 +23,29 @@
 #include <itkRegistrationParameterScalesFromPhysicalShift.h>
 #include <itkRegularStepGradientDescentOptimizerv4.h>
 #include <itkResampleImageFilter.h>
-#include <itkSmoothingRecursiveGaussianImageFilter.h>
 #include <itkVersorRigid3DTransform.h>
 
 #include <algorithm>
+#include <atomic>
+#include <exception>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <limits>
 #include <random>
+#include <thread>
 
 namespace sinew {
 
 namespace {
 namespace fs = std::filesystem;
-using ImageType = itk::Image<float, 3>;
+using ImageType = RegistrationImage;
 using RigidType = itk::VersorRigid3DTransform<double>;
 using AffineType = itk::AffineTransform<double, 3>;
 using BSplineType = itk::BSplineTransform<double, 3, 3>;
-using MetricType = itk::MattesMutualInformationImageToImageMetricv4<ImageType, ImageType>;
+using MetricType = RegistrationMetric;
 using OptimizerType = itk::RegularStepGradientDescentOptimizerv4<double>;
 using Clock = std::chrono::steady_clock;
-
-// Registration runs on images of about this voxel size (mm): bin-averaged once, so the v4
-// pyramid never smooths a full-resolution atlas (a 0.5 mm brain has 57 M voxels).
-constexpr double kWorkingSpacingMm = 2.0;
 
 // ITK's global default number of threads for a scope, restored to what it was after. Objects take
 // the global default when they are made (and so do the filters a filter makes for itself, whatever
@@ -84,67 +81,6 @@ ImageType::Pointer binned(const Image3D& v, itk::ThreadIdType threads) {
   shrink->SetShrinkFactors(factors);
   shrink->Update();
   return shrink->GetOutput();
-}
-
-// The images of one resolution level, made once and used by the probe and by both stages: what
-// ImageRegistrationMethodv4 would make again for each stage at each level (the smoothed images) and
-// what each metric would make again at each Initialize (the moving image's gradient, a recursive
-// Gaussian over the whole image). The same filters with the same settings, so the result is the
-// same to the bit; these filters compute every voxel on its own, so they may use every thread
-// (only the metric's sums need one: SerialItk).
-using GradientImageType = itk::Image<itk::CovariantVector<double, 3>, 3>;
-using GradientFilterType = itk::GradientRecursiveGaussianImageFilter<ImageType, GradientImageType>;
-struct PyramidLevel {
-  unsigned shrink = 1;  // of the virtual domain (the fixed image's grid)
-  ImageType::Pointer fixed, moving;
-  GradientFilterType::Pointer movingGradient;
-  SampledRegion sampled;  // where the metric samples the fixed image (every level: the binned target's foreground)
-};
-
-ImageType::Pointer smoothed(ImageType* image, double sigmaMm, itk::ThreadIdType threads) {
-  auto smooth = itk::SmoothingRecursiveGaussianImageFilter<ImageType, ImageType>::New();
-  smooth->SetNumberOfWorkUnits(threads);
-  smooth->SetSigmaArray(itk::SmoothingRecursiveGaussianImageFilter<ImageType, ImageType>::SigmaArrayType(sigmaMm));
-  smooth->SetInput(image);
-  smooth->Update();
-  ImageType::Pointer out = smooth->GetOutput();
-  out->DisconnectPipeline();
-  return out;
-}
-
-// The metric's default gradient filter (ImageToImageMetricv4::InitializeDefaultMovingImageGradientFilter).
-GradientFilterType::Pointer gradientOf(ImageType* moving, itk::ThreadIdType threads) {
-  auto f = GradientFilterType::New();
-  double maximumSpacing = 0.0;
-  for (int a = 0; a < 3; ++a) maximumSpacing = std::max(maximumSpacing, moving->GetSpacing()[a]);
-  f->SetSigma(maximumSpacing);
-  f->SetNormalizeAcrossScale(true);
-  f->SetUseImageDirection(true);
-  f->SetNumberOfWorkUnits(threads);
-  f->SetInput(moving);
-  f->Update();
-  return f;
-}
-
-// Levels coarse to fine: the virtual domain shrunk by 2^(levels-1-l), both images smoothed by half
-// of that many working voxels (none at the finest). The metric samples the fixed image's
-// foreground at every level: on a target resampled obliquely (a grid turned by 30 degrees, three
-// times ch2's voxels) the samples drawn over the whole grid fell mostly on its padding and air, and
-// a head turned by 12 degrees was not found (docs/accuracy.md, "The metric on the head alone").
-std::vector<PyramidLevel> pyramidOf(ImageType* fixed, ImageType* moving, int levels, itk::ThreadIdType threads) {
-  std::vector<PyramidLevel> out(std::size_t(std::max(1, levels)));
-  const SampledRegion sampled = foregroundOf(fixed, threads);
-  for (std::size_t l = 0; l < out.size(); ++l) {
-    const unsigned factor = 1u << (out.size() - 1 - l);
-    const double sigma = 0.5 * factor * kWorkingSpacingMm * (factor > 1);
-    PyramidLevel& level = out[l];
-    level.shrink = factor;
-    level.fixed = sigma > 0 ? smoothed(fixed, sigma, threads) : ImageType::Pointer(fixed);
-    level.moving = sigma > 0 ? smoothed(moving, sigma, threads) : ImageType::Pointer(moving);
-    level.movingGradient = gradientOf(level.moving, threads);
-    level.sampled = sampled;
-  }
-  return out;
 }
 
 double metricValue(MetricType* metric, itk::Transform<double, 3, 3>* transform, const PyramidLevel& finest) {
@@ -549,6 +485,48 @@ private:
   std::lock_guard<std::mutex> lock_;  // before one_: set and restored under the lock
   ItkDefaultThreads one_{1};
 };
+
+// The rigid stage from each start, optimised in place. Each stage runs on one thread (SerialItk);
+// where the process has more, up to that many stages run at once, each but the first on its own
+// view of the pyramid. They share only the voxels they read, so each ends as it would alone, and
+// their lines are logged in the starts' order; the first error in that order is thrown.
+std::size_t stagesAtOnce(std::size_t stages, itk::ThreadIdType threads) {
+  return std::min<std::size_t>(stages, std::max<itk::ThreadIdType>(1, threads));
+}
+
+std::vector<RegistrationStage> runRigidStages(const std::vector<RigidType::Pointer>& starts,
+                                              const std::vector<PyramidLevel>& pyramid, const RegistrationOptions& o,
+                                              itk::ThreadIdType threads) {
+  const std::size_t n = starts.size();
+  std::vector<RegistrationStage> ends(n);
+  std::vector<std::vector<std::string>> logs(n);
+  std::vector<std::exception_ptr> errors(n);
+  std::vector<std::vector<PyramidLevel>> views(stagesAtOnce(n, threads) - 1);
+  for (std::vector<PyramidLevel>& view : views) view = viewOf(pyramid);
+  std::atomic<std::size_t> next{0};
+  const auto work = [&](const std::vector<PyramidLevel>& levels) {
+    for (std::size_t i = next++; i < n; i = next++) {
+      RegistrationOptions mine = o;
+      mine.log = [&lines = logs[i]](const std::string& line) { lines.push_back(line); };
+      try {
+        ends[i] = runLinearStage("rigid", starts[i].GetPointer(), levels, mine, 2.0);
+      } catch (...) {
+        errors[i] = std::current_exception();
+      }
+    }
+  };
+  std::vector<std::thread> helpers;
+  for (const std::vector<PyramidLevel>& view : views) helpers.emplace_back(work, std::cref(view));
+  work(pyramid);
+  for (std::thread& helper : helpers) helper.join();
+  for (std::size_t i = 0; i < n; ++i) {
+    if (o.log)
+      for (const std::string& line : logs[i]) o.log(line);
+    if (errors[i]) std::rethrow_exception(errors[i]);
+  }
+  return ends;
+}
+
 }  // namespace
 
 RegistrationResult registerImagesItk(const Image3D& target, const Image3D& model, const RegistrationOptions& o) {
@@ -623,28 +601,32 @@ RegistrationResult registerImagesItk(const Image3D& target, const Image3D& model
           " degrees have Mattes MI " + values + " against " + fmt(searched.unturnedMetric) +
           " unturned; the rigid stage from each");
   }
-  RegistrationStage rigidStage = runLinearStage("rigid", rigid.GetPointer(), pyramid, o, 2.0);
+  std::vector<RigidType::Pointer> starts{rigid};
+  for (const TurnedStart& start : searched.turns) {
+    auto turned = RigidType::New();
+    turned->SetCenter(centre);
+    turned->SetTranslation(translation);
+    turned->SetRotation(start.versor);
+    starts.push_back(turned);
+  }
+  const auto rigidStarted = Clock::now();
+  const std::vector<RegistrationStage> ends = runRigidStages(starts, pyramid, o, threads);
+  RegistrationStage rigidStage = ends.front();
   if (!searched.turns.empty()) {
     const double fromNone = rigidStage.metric;
     double keptDegrees = 0.0;
-    for (const TurnedStart& start : searched.turns) {
-      auto turned = RigidType::New();
-      turned->SetCenter(centre);
-      turned->SetTranslation(translation);
-      turned->SetRotation(start.versor);
-      const RegistrationStage fromTurn = runLinearStage("rigid", turned.GetPointer(), pyramid, o, 2.0);
-      const double seconds = rigidStage.seconds + fromTurn.seconds;
-      if (fromTurn.metric < rigidStage.metric) {
-        rigidStage = fromTurn;
-        keptDegrees = start.degrees;
-        rigid->SetParameters(turned->GetParameters());  // the same centre
+    for (std::size_t i = 1; i < ends.size(); ++i)
+      if (ends[i].metric < rigidStage.metric) {
+        rigidStage = ends[i];
+        keptDegrees = searched.turns[i - 1].degrees;
+        rigid->SetParameters(starts[i]->GetParameters());  // the same centre
       }
-      rigidStage.seconds = seconds;
-    }
+    rigidStage.seconds = std::chrono::duration<double>(Clock::now() - rigidStarted).count();  // all of them, waited for
     if (o.log)
       o.log("registration: the rigid stage kept its end from the " +
             (keptDegrees > 0.0 ? "turned start (by " + fmt(keptDegrees) + " degrees)" : std::string("unturned start")) +
-            " (Mattes MI " + fmt(rigidStage.metric) + ", " + fmt(fromNone) + " unturned)");
+            " (Mattes MI " + fmt(rigidStage.metric) + ", " + fmt(fromNone) + " unturned; " + std::to_string(starts.size()) +
+            " stages, " + std::to_string(stagesAtOnce(starts.size(), threads)) + " at a time, " + fmt(rigidStage.seconds) + " s)");
   }
   rigidStage.seconds += searched.seconds;
   result.stages.push_back(rigidStage);

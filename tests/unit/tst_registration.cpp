@@ -261,7 +261,18 @@ private slots:
     std::vector<std::string> log;
     RegistrationOptions options;
     options.log = [&](const std::string& line) { log.push_back(line); };
+    // With 4 threads the rigid stages from the search's starts run at once, each on its own view of
+    // the pyramid; with 1, one after another. The same ends either way, to the bit.
+    const auto before = itk::MultiThreaderBase::GetGlobalDefaultNumberOfThreads();
+    itk::MultiThreaderBase::SetGlobalDefaultNumberOfThreads(4);
     const RegistrationResult r = io.registerImages(target, model, options);
+    itk::MultiThreaderBase::SetGlobalDefaultNumberOfThreads(1);
+    RegistrationOptions alone;
+    const RegistrationResult one = io.registerImages(target, model, alone);
+    itk::MultiThreaderBase::SetGlobalDefaultNumberOfThreads(before);
+    QVERIFY2(r.targetToModel == one.targetToModel, "the rigid stages at once ended elsewhere than one after another");
+    QCOMPARE(r.stages.size(), one.stages.size());
+    for (std::size_t k = 0; k < r.stages.size(); ++k) QCOMPARE(r.stages[k].metric, one.stages[k].metric);
     const auto said = [&](const char* text) {
       return std::any_of(log.begin(), log.end(), [&](const std::string& l) { return l.find(text) != std::string::npos; });
     };

@@ -36,6 +36,7 @@ struct RegistrationOptions {
   std::function<void(const std::string&)> log;
   // Asked between the registration's steps and its optimiser's iterations (when set): true stops
   // it, and it throws RegistrationCancelled. A run whose loading failed meanwhile stops it so.
+  // Stages that run at once ask it from their own threads (`log` is called from the caller's).
   std::function<bool()> cancelled;
 };
 
