@@ -27,10 +27,10 @@
 
 #include <algorithm>
 #include <atomic>
-#include <exception>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <exception>
 #include <limits>
 #include <random>
 #include <thread>
@@ -486,14 +486,15 @@ private:
   ItkDefaultThreads one_{1};
 };
 
-// The rigid stage from each start, optimised in place. Each stage runs on one thread (SerialItk);
-// where the process has more, up to that many stages run at once, each but the first on its own
-// view of the pyramid. They share only the voxels they read, so each ends as it would alone, and
-// their lines are logged in the starts' order; the first error in that order is thrown.
+// How many of the rigid stages run at once: one a thread the process has.
 std::size_t stagesAtOnce(std::size_t stages, itk::ThreadIdType threads) {
   return std::min<std::size_t>(stages, std::max<itk::ThreadIdType>(1, threads));
 }
 
+// The rigid stage from each start, optimised in place. Each stage runs on one thread (SerialItk);
+// where the process has more, up to that many stages run at once, each but the first on its own
+// view of the pyramid. They share only the voxels they read, so each ends as it would alone, and
+// their lines are logged in the starts' order; the first error in that order is thrown.
 std::vector<RegistrationStage> runRigidStages(const std::vector<RigidType::Pointer>& starts,
                                               const std::vector<PyramidLevel>& pyramid, const RegistrationOptions& o,
                                               itk::ThreadIdType threads) {
@@ -515,10 +516,17 @@ std::vector<RegistrationStage> runRigidStages(const std::vector<RigidType::Point
       }
     }
   };
-  std::vector<std::thread> helpers;
-  for (const std::vector<PyramidLevel>& view : views) helpers.emplace_back(work, std::cref(view));
-  work(pyramid);
-  for (std::thread& helper : helpers) helper.join();
+  {
+    std::vector<std::thread> helpers;
+    struct JoinAll {  // also where starting a thread throws: none is left running
+      std::vector<std::thread>& threads;
+      ~JoinAll() {
+        for (std::thread& t : threads) t.join();
+      }
+    } joinAll{helpers};
+    for (const std::vector<PyramidLevel>& view : views) helpers.emplace_back(work, std::cref(view));
+    work(pyramid);
+  }
   for (std::size_t i = 0; i < n; ++i) {
     if (o.log)
       for (const std::string& line : logs[i]) o.log(line);
