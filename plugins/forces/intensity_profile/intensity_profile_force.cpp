@@ -19,8 +19,9 @@ const std::string kChannel = "intensity_profile.reference";
 // wide, and for any x86-64, chosen at load time. The sums are the same either way (per window,
 // in the same order, no fused multiply-add: -ffp-contract=off). On the 2-core Xeon the demo's CPU
 // simulation took about 16 % less with the clones (docs/benchmarks.md); part of that came with the
-// AVX2 clone's closing vzeroupper alone, for reasons not established.
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+// AVX2 clone's closing vzeroupper alone, for reasons not established. Not under ThreadSanitizer:
+// the clones' resolver runs while the program loads, before TSan starts, and crashed it there.
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && !defined(__SANITIZE_THREAD__)
 __attribute__((target_clones("avx2", "default")))
 #endif
 void windowSums(const float* __restrict line, const float* __restrict ref, int length, int windows,
