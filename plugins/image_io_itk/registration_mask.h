@@ -10,9 +10,10 @@ namespace sinew {
 // ITK's image mask, asked faster: the v4 metric asks its mask at every sample of every iteration
 // (and the probe at every voxel), and through SpatialObject's general path (the object's transform,
 // its name and depth, its bounding box) the rigid and affine stages took 0.40 and 0.37 s instead of
-// 0.24 and 0.16 s on one subject (docs/benchmarks.md, "The metric on the head alone"). The same answer as ImageMaskSpatialObject::IsInsideInObjectSpace (the
-// voxel the point rounds to, by ITK's rounding, is in the image and non-zero) for a mask whose
-// object transform is the identity, as this one's always is. Call prepare() after SetImage.
+// 0.24 and 0.16 s on one subject (docs/benchmarks.md, "The metric on the head alone"). The same
+// answer as ImageMaskSpatialObject::IsInsideInObjectSpace (the voxel the point rounds to, by ITK's
+// rounding, is in the image and non-zero) for a mask whose object transform is the identity, as
+// this one's always is. Call prepare() after SetImage.
 class ForegroundMask final : public itk::ImageMaskSpatialObject<3> {
 public:
   using Self = ForegroundMask;

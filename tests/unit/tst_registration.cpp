@@ -279,6 +279,7 @@ private slots:
     for (const auto& l : log) qInfo("%s", l.c_str());
     QVERIFY(said("rotation search"));
     QVERIFY(said("kept its end from the turned start"));
+    QVERIFY2(!said(" 1 at a time"), "with 4 threads the stages ran one after another");
     // The target's point turn * q shows the model's point q.
     double largest = 0.0;
     const Eigen::Vector3d centre = original.indexToWorld(Vec3(90, 108, 90)).cast<double>();
