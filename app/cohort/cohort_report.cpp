@@ -111,7 +111,7 @@ CohortReport gatherReport(const Cohort& cohort) {
     row.id = cohort.subjects[i].id;
     row.status = readStatus(cohort, i);
     row.totalSeconds = row.simulationSeconds = row.meanAssd = row.meanDice = row.overlapMm3 = kNaN;
-    row.registrationMetric = row.outsideImageShare = kNaN;
+    row.registrationMetric = row.outsideImageShare = row.lowestImageFit = kNaN;
     const std::string& st = row.status.status;
     const bool hasOutputs = (st == "completed" || st == "degraded") && fs::exists(cohort.outputDir(i) / "report.json");
     if (hasOutputs) {
@@ -141,6 +141,9 @@ CohortReport gatherReport(const Cohort& cohort) {
           const double outside = number(s, "outside_image_share");
           if (!std::isnan(outside) && (std::isnan(row.outsideImageShare) || outside > row.outsideImageShare))
             row.outsideImageShare = outside;
+          const double fit = number(s, "image_fit");
+          if (!std::isnan(fit) && (std::isnan(row.lowestImageFit) || fit < row.lowestImageFit))
+            row.lowestImageFit = fit, row.lowestImageFitStructure = r.structure;
           assd.push_back(r.assdFinal);
           dice.push_back(r.dice);
           if (std::find(rep.structures.begin(), rep.structures.end(), r.structure) == rep.structures.end())
@@ -181,14 +184,16 @@ void writeReport(const Cohort& cohort, const CohortReport& rep) {
 
   std::ostringstream subjects;
   subjects << "subject,status,exit_code,attempts,wall_seconds,total_seconds,simulation_seconds,backend,host,gpu,"
-              "mean_assd_mm,mean_dice,overlap_mm3,registration_mattes_mi,registration_outlier,outside_image_share,message\n";
+              "mean_assd_mm,mean_dice,overlap_mm3,registration_mattes_mi,registration_outlier,outside_image_share,"
+              "lowest_image_fit,lowest_image_fit_structure,message\n";
   for (const SubjectRow& r : rep.subjects)
     subjects << csvField(r.id) << ',' << r.status.status << ',' << (r.status.exitCode >= 0 ? std::to_string(r.status.exitCode) : "")
              << ',' << r.status.attempts << ',' << num(r.status.seconds) << ',' << num(r.totalSeconds) << ','
              << num(r.simulationSeconds) << ',' << csvField(r.status.backend) << ',' << csvField(r.status.host) << ','
              << csvField(r.status.gpu) << ',' << num(r.meanAssd) << ',' << num(r.meanDice) << ',' << num(r.overlapMm3)
              << ',' << num(r.registrationMetric) << ',' << (rep.registrationStandsOut(r) ? "yes" : "") << ','
-             << num(r.outsideImageShare) << ',' << csvField(r.status.message) << '\n';
+             << num(r.outsideImageShare) << ',' << num(r.lowestImageFit) << ',' << csvField(r.lowestImageFitStructure) << ','
+             << csvField(r.status.message) << '\n';
   writeFileAtomically(dir / "subjects.csv", subjects.str());
 
   std::ostringstream structures;
@@ -226,6 +231,10 @@ void writeReport(const Cohort& cohort, const CohortReport& rep) {
   for (const SubjectRow& r : rep.subjects)
     if (rep.registrationStandsOut(r)) outliers.push_back({{"subject", r.id}, {"mattes_mi", r.registrationMetric}});
   const auto orNull = [](double v) { return std::isnan(v) ? Json(nullptr) : Json(v); };
+  Json poorFits = Json::array();
+  for (const SubjectRow& r : rep.subjects)
+    if (r.lowestImageFit < kPoorImageFit)
+      poorFits.push_back({{"subject", r.id}, {"structure", r.lowestImageFitStructure}, {"image_fit", r.lowestImageFit}});
   Json pending = Json::array();
   for (const SubjectRow& r : rep.subjects)
     if (r.status.status == "pending") pending.push_back(r.id);
@@ -239,6 +248,7 @@ void writeReport(const Cohort& cohort, const CohortReport& rep) {
                   {"registration", {{"median_mattes_mi", orNull(rep.registrationMedian)},
                                     {"outlier_above", orNull(rep.registrationLimit)},
                                     {"outliers", outliers}}},
+                  {"poor_image_fit", {{"below", kPoorImageFit}, {"subjects", poorFits}}},
                   {"subject_wall_seconds", statsJson(statistics(wall))},
                   {"structures", perStructure}};
   writeBoxPlot(dir / "assd_boxplot.png", rep, &StructureResult::assdFinal, "Final ASSD per structure", "ASSD (mm)");

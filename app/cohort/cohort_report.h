@@ -3,6 +3,7 @@
 #pragma once
 
 #include "cohort.h"
+#include "sinew/core/image_fit.h"
 
 #include <map>
 #include <string>
@@ -25,6 +26,10 @@ struct SubjectRow {
   // registration: a transform or landmarks given), and the largest share of a structure's vertices
   // past the target's field of view at the end.
   double registrationMetric = 0, outsideImageShare = 0;
+  // The lowest image fit of its structures (report.json's image_fit; NaN where none was reported)
+  // and that structure's name: below kPoorImageFit the summary says to check the subject.
+  double lowestImageFit = 0;
+  std::string lowestImageFitStructure;
 };
 
 // Order statistics of one metric over subjects (quartiles by linear interpolation).

@@ -83,6 +83,10 @@ void printReport(const CohortReport& rep, const Cohort& cohort) {
     if (rep.registrationStandsOut(r))
       std::printf("  %s: its registration stands out (Mattes MI %.3f, the cohort's median %.3f): check its initialisation\n",
                   r.id.c_str(), r.registrationMetric, rep.registrationMedian);
+  for (const SubjectRow& r : rep.subjects)
+    if (r.lowestImageFit < kPoorImageFit)
+      std::printf("  %s: %s's image fit is %.2f (below %.2f: the image does not look as trained there): check it\n",
+                  r.id.c_str(), r.lowestImageFitStructure.c_str(), r.lowestImageFit, kPoorImageFit);
   std::printf("report: %s\n", cohort.reportDir().string().c_str());
 }
 

@@ -121,6 +121,9 @@ void writeReportJson(const std::filesystem::path& path, const RunReport& r, cons
                           {"dice_initial", number(s.diceInitial)},
                           {"dice_model", number(s.diceModel)},
                           {"outside_image_share", s.outsideImageShare},
+                          {"image_fit", number(s.imageFit)},
+                          {"profile_match", number(s.profileMatch)},
+                          {"self_agreement", number(s.selfAgreement)},
                           {"seconds", s.seconds}});
     if (const auto& r = s.medialRadius)
       structures.back()["medial_radius_mm"] = {{"mean", r->mean}, {"p5", r->p5}, {"median", r->median}, {"p95", r->p95}, {"max", r->max}};
@@ -144,12 +147,12 @@ void writeReportJson(const std::filesystem::path& path, const RunReport& r, cons
 void writeReportCsv(const std::filesystem::path& path, const RunReport& r) {
   std::ostringstream s;
   s << "structure,label,vertices,assd_model_mm,assd_initial_mm,assd_final_mm,hd95_mm,dice_model,dice_initial,dice,"
-       "seconds\n";
+       "seconds,image_fit\n";
   for (const StructureResult& x : r.structures)
     s << x.name << ',' << x.label << ',' << x.vertices << ',' << csvNumber(x.assdModelMm) << ','
       << csvNumber(x.assdInitialMm) << ',' << csvNumber(x.assdFinalMm) << ',' << csvNumber(x.hd95Mm) << ','
       << csvNumber(x.diceModel) << ',' << csvNumber(x.diceInitial) << ',' << csvNumber(x.dice) << ','
-      << csvNumber(x.seconds) << '\n';
+      << csvNumber(x.seconds) << ',' << csvNumber(x.imageFit) << '\n';
   writeText(path, s.str());
 }
 

@@ -5,6 +5,7 @@
 #include "builtin_plugins.h"
 #include "output_lock.h"
 #include "report_writer.h"
+#include "sinew/core/image_fit.h"
 #include "sinew/core/scene_runner.h"
 
 #include <CLI/CLI.hpp>
@@ -75,31 +76,31 @@ std::string cell(double v, int width, int precision = 3) {
 void printTable(const RunReport& r) {
   if (!r.hasGroundTruth()) {
     // Without a ground truth the run reports how far it still moves and how hard it is pushed.
-    std::printf("%-22s %9s %16s %12s\n", "structure", "vertices", "displacement mm", "mean force");
+    std::printf("%-22s %9s %16s %12s %9s\n", "structure", "vertices", "displacement mm", "mean force", "image fit");
     const size_t n = r.structures.size();
     for (size_t i = 0; i < n && r.timeline.size() >= n; ++i) {
       const TimelineSample& t = r.timeline[r.timeline.size() - n + i];
-      std::printf("%-22s %9d %16.4f %12.4f\n", r.structures[i].name.c_str(), r.structures[i].vertices,
-                  t.meanDisplacementMm, t.meanForce);
+      std::printf("%-22s %9d %16.4f %12.4f %s\n", r.structures[i].name.c_str(), r.structures[i].vertices,
+                  t.meanDisplacementMm, t.meanForce, cell(r.structures[i].imageFit, 9).c_str());
     }
   } else {
-    std::printf("%-22s %9s %11s %11s %10s %8s %8s %8s\n", "structure", "vertices", "ASSD model", "ASSD start",
-                "ASSD end", "Dice 0", "Dice", "HD95");
-    double sums[6] = {0, 0, 0, 0, 0, 0};
+    std::printf("%-22s %9s %11s %11s %10s %8s %8s %8s %9s\n", "structure", "vertices", "ASSD model", "ASSD start",
+                "ASSD end", "Dice 0", "Dice", "HD95", "image fit");
+    double sums[7] = {0, 0, 0, 0, 0, 0, 0};
     int n = 0;
     for (const StructureResult& s : r.structures) {
-      std::printf("%-22s %9d %s %s %s %s %s %s\n", s.name.c_str(), s.vertices, cell(s.assdModelMm, 11).c_str(),
+      std::printf("%-22s %9d %s %s %s %s %s %s %s\n", s.name.c_str(), s.vertices, cell(s.assdModelMm, 11).c_str(),
                   cell(s.assdInitialMm, 11).c_str(), cell(s.assdFinalMm, 10).c_str(), cell(s.diceInitial, 8).c_str(),
-                  cell(s.dice, 8).c_str(), cell(s.hd95Mm, 8).c_str());
+                  cell(s.dice, 8).c_str(), cell(s.hd95Mm, 8).c_str(), cell(s.imageFit, 9).c_str());
       if (std::isnan(s.assdFinalMm)) continue;
-      const double v[6] = {s.assdModelMm, s.assdInitialMm, s.assdFinalMm, s.diceInitial, s.dice, s.hd95Mm};
-      for (int k = 0; k < 6; ++k) sums[k] += v[k];
+      const double v[7] = {s.assdModelMm, s.assdInitialMm, s.assdFinalMm, s.diceInitial, s.dice, s.hd95Mm, s.imageFit};
+      for (int k = 0; k < 7; ++k) sums[k] += v[k];
       ++n;
     }
     if (n > 0)
-      std::printf("%-22s %9s %s %s %s %s %s %s\n", "mean", "", cell(sums[0] / n, 11).c_str(), cell(sums[1] / n, 11).c_str(),
+      std::printf("%-22s %9s %s %s %s %s %s %s %s\n", "mean", "", cell(sums[0] / n, 11).c_str(), cell(sums[1] / n, 11).c_str(),
                   cell(sums[2] / n, 10).c_str(), cell(sums[3] / n, 8).c_str(), cell(sums[4] / n, 8).c_str(),
-                  cell(sums[5] / n, 8).c_str());
+                  cell(sums[5] / n, 8).c_str(), cell(sums[6] / n, 9).c_str());
   }
   if (r.structures.size() > 1) {
     double before = 0.0, after = 0.0;
@@ -118,6 +119,12 @@ void printTable(const RunReport& r) {
   if (!past.empty())
     std::printf("past the image's field of view (share of vertices):%s; there the model, not the image, shapes them\n",
                 past.c_str());
+  std::string poor;
+  for (const StructureResult& s : r.structures)
+    if (s.imageFit < kPoorImageFit) poor += (poor.empty() ? " " : ", ") + s.name + " " + cell(s.imageFit, 0, 2);
+  if (!poor.empty())
+    std::printf("check:%s: the image does not look as trained where these structures ended (image fit below %.2f; "
+                "a wrong initialisation?)\n", poor.c_str(), kPoorImageFit);
   if (r.initialisation.method != "none") std::printf("initialisation: %s, %.2f s\n", r.initialisation.method.c_str(), r.initialisation.seconds);
   std::printf("backend %s, %s; simulation %.2f s, total %.2f s\n", r.backend.c_str(), r.device.c_str(),
               r.simulationSeconds, r.totalSeconds);

@@ -1,6 +1,7 @@
 // SceneRunner's scoring against the ground truths: the exact evaluation (the start, the end, the
 // workstation's), the timeline's sampled error, the label map of a result.
 #include "scene_runner_loaded.h"
+#include "sinew/core/image_fit.h"
 #include "sinew/core/shape_guard.h"
 #include "sinew/core/voxelize.h"
 
@@ -36,6 +37,7 @@ std::vector<StructureResult> SceneRunner::evaluateEnd(ExecutionBackend* backend)
     const auto x = store.mesh(store.positions(), i);
     out.push_back(surfaceOf(i, std::vector<Vec3>(x.begin(), x.end())));
   }
+  setImageFit(out);
   if (backend && L.sampled) {
     // The host's samples and hierarchies, the device's searches: the truths' hierarchy is the
     // sampled error's (the same trees as the exact evaluation's), the final surfaces' built here.
@@ -88,6 +90,32 @@ std::vector<StructureResult> SceneRunner::evaluateEnd(ExecutionBackend* backend)
   }
   L.sim->executor().forEach(n, [&](Index i) { score(i, out[i], true); }, 1);  // structures side by side too
   return out;
+}
+
+void SceneRunner::setImageFit(std::vector<StructureResult>& out) {
+  Simulation& sim = *loaded_->sim;
+  MeshStore& store = sim.store();
+  for (const std::string& name : sim.forceNames()) {
+    auto* fit = dynamic_cast<ImageFit*>(&sim.force(name));
+    ParamTable& params = sim.forceParams(name);
+    if (!fit || !params.anyPositive(0)) continue;
+    const float nan = std::numeric_limits<float>::quiet_NaN();
+    std::vector<float> match(store.vertexCount(), nan), agreement(store.vertexCount(), nan);
+    ForceContext ctx{store, params, sim.scene(), sim.executor()};
+    fit->fitScores(ctx, match, agreement);
+    for (Index i = 0; i < store.meshCount(); ++i) {
+      const MeshRange& r = store.range(i);
+      double m = 0.0, a = 0.0;
+      Index n = 0;
+      for (Index v = r.vertexBegin; v < r.vertexEnd; ++v)
+        if (std::isfinite(match[v])) m += match[v], a += agreement[v], ++n;
+      if (n == 0) continue;
+      out[i].profileMatch = m / double(n);
+      out[i].selfAgreement = a / double(n);
+      out[i].imageFit = out[i].profileMatch / std::sqrt(std::max(out[i].selfAgreement, 0.01));
+    }
+    return;  // the first force that offers one
+  }
 }
 
 void SceneRunner::score(Index i, StructureResult& r, bool final) const {

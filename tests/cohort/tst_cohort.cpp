@@ -166,6 +166,13 @@ private slots:
         QJsonObject report = s1, init = s1["initialisation"].toObject();
         init["registration"] = changed;
         report["initialisation"] = init;
+        if (i == 2) {  // one structure where the image does not look as trained
+          QJsonArray structures = report["structures"].toArray();
+          QJsonObject first = structures[0].toObject();
+          first["image_fit"] = 0.2;
+          structures[0] = first;
+          report["structures"] = structures;
+        }
         writeText(path(name + "/subjects/" + id + "/out/report.json"), QJsonDocument(report).toJson());
       }
       cohort["subjects"] = subjects;
@@ -182,9 +189,18 @@ private slots:
     QCOMPARE(outliers[0].toObject()["subject"].toString(), QString("q5"));
     QVERIFY2(r.out.contains("q5: its registration stands out (Mattes MI -0.350"), qPrintable(r.out));
     const QStringList rows = readText(path("qc/report/subjects.csv")).split('\n', Qt::SkipEmptyParts);
-    QVERIFY2(rows[0].contains("registration_mattes_mi,registration_outlier,outside_image_share"), qPrintable(rows[0]));
+    QVERIFY2(rows[0].contains("registration_mattes_mi,registration_outlier,outside_image_share,lowest_image_fit"), qPrintable(rows[0]));
     for (const QString& row : rows.mid(1))
       QVERIFY2(row.contains(",-0.35,yes,") == row.startsWith("q5,"), qPrintable(row));
+    // A structure's image fit below kPoorImageFit names the subject and the structure; the real
+    // run's structures (every other subject's) fit.
+    const QString firstStructure = s1["structures"].toArray()[0].toObject()["name"].toString();
+    const QJsonArray poor = readJson(path("qc/report/cohort_report.json"))["poor_image_fit"].toObject()["subjects"].toArray();
+    QCOMPARE(poor.size(), 1);
+    QCOMPARE(poor[0].toObject()["subject"].toString(), QString("q2"));
+    QCOMPARE(poor[0].toObject()["structure"].toString(), firstStructure);
+    QVERIFY2(r.out.contains("q2: " + firstStructure + "'s image fit is 0.20"), qPrintable(r.out));
+    QVERIFY2(!r.out.contains("q1: "), qPrintable(r.out));
 
     // The same value in a cohort that spreads widely: 5 robust standard deviations (1.11 here) above
     // the median, not the margin of 0.1 alone, set the limit.

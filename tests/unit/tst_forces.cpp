@@ -1,4 +1,5 @@
 // Acceptance tests of the seed's forces and damped Verlet on shapes and images with known answers.
+#include "sinew/core/image_fit.h"
 #include "synthetic.h"
 
 #include <Eigen/Geometry>
@@ -160,6 +161,53 @@ private slots:
     qInfo("intensity profile: ASSD %.3f -> %.3f voxels", before, after);
     QVERIFY(before > 1.0);
     QVERIFY(after < 0.5);
+  }
+
+  // The image fit (image_fit.h) of a surface on the boundary and of the same surface 8 mm off, in a
+  // clean and a noisy image: the match falls with the miss and with the noise; the lines' agreement
+  // with their parallels falls with the noise, so the fit corrected by it (match / sqrt(agreement),
+  // what sinew-run reports) falls with the miss alone.
+  void imageFitTellsAMissFromNoise() {
+    struct Fit {
+      double match, agreement, fit;
+    };
+    const auto fitOf = [](float noise, float shiftMm) {
+      EllipsoidCase c = ellipsoidCase(4);
+      c.start.referencePositions = c.referenceOnTruth;
+      c.start.initialPositions = c.referenceOnTruth;
+      for (Vec3& p : c.start.initialPositions) p.x() += shiftMm;
+      EllipsoidImageSpec training = c.image;
+      training.seed = 99;
+      c.image.noiseSigma = noise;
+      Simulation sim(forceRegistry());
+      sim.addStructure(c.start);
+      sim.addForce("intensity_profile");
+      sim.setIntegrator("damped_verlet");
+      sim.scene().setTargetImage(std::make_shared<Image3D>(ellipsoidImage(c.image)));
+      sim.scene().setTrainingImage(std::make_shared<Image3D>(ellipsoidImage(training)));
+      sim.initialize();
+      auto* fit = dynamic_cast<ImageFit*>(&sim.force("intensity_profile"));
+      if (!fit) qFatal("the intensity profile offers no image fit");
+      const Index n = sim.store().vertexCount();
+      std::vector<float> match(n, -9.0f), agreement(n, -9.0f);
+      ForceContext ctx{sim.store(), sim.forceParams("intensity_profile"), sim.scene(), sim.executor()};
+      fit->fitScores(ctx, match, agreement);
+      double m = 0, a = 0;
+      for (Index v = 0; v < n; ++v) {
+        if (!(match[v] >= -1.0001f && match[v] <= 1.0001f && agreement[v] >= -1.0001f && agreement[v] <= 1.0001f))
+          qFatal("vertex %d: match %g, agreement %g", int(v), double(match[v]), double(agreement[v]));
+        m += match[v], a += agreement[v];
+      }
+      m /= n, a /= n;
+      return Fit{m, a, m / std::sqrt(a)};
+    };
+    const Fit on = fitOf(8.0f, 0.0f), onNoisy = fitOf(48.0f, 0.0f), off = fitOf(8.0f, 8.0f), offNoisy = fitOf(48.0f, 8.0f);
+    for (const auto& [name, f] : {std::pair{"on", on}, {"on, noisy", onNoisy}, {"off", off}, {"off, noisy", offNoisy}})
+      qInfo("%-10s match %.3f agreement %.3f fit %.3f", name, f.match, f.agreement, f.fit);
+    QVERIFY(on.fit > 0.9 && onNoisy.fit > 0.9);
+    QVERIFY(onNoisy.match < on.match - 0.2);          // the noise lowers the match
+    QVERIFY(std::abs(on.fit - onNoisy.fit) < 0.05);  // but not the fit
+    QVERIFY(off.fit < on.fit - 0.2 && offNoisy.fit < onNoisy.fit - 0.2);  // a miss lowers both
   }
 
   // The profile force's line sampler: the values of sampleIndex at every sample, to the bit, for

@@ -2,6 +2,7 @@
 // with sinew-build-model, a new subject made by sinew-make-subject (a seeded warp, affine, bias,
 // contrast and noise), a subject-mode scene from sinew-make-scene, and sinew-run initialising by
 // registration; then the transform reused, a scene without ground truth, and failures refused.
+#include "sinew/core/image_fit.h"
 #include "synthetic.h"
 // After the engine headers: a Qt macro (emit) breaks TBB headers included after it.
 #include "run_tool.h"
@@ -156,7 +157,9 @@ private slots:
       const QJsonObject o = s.toObject(), assd = o["assd_mm"].toObject();
       QVERIFY2(assd["final"].toDouble() < assd["initial"].toDouble(), qPrintable(o["name"].toString()));
       QVERIFY2(o["dice"].toDouble() > 0.75, qPrintable(o["name"].toString()));
+      QVERIFY2(o["image_fit"].toDouble() >= kPoorImageFit, qPrintable(o["name"].toString()));  // placed right
     }
+    QVERIFY2(!r.out.contains("check:"), qPrintable(r.out));
     // The stage times are reported, the registration among them, and they add up to the total:
     // the registration, timed inside the initialisation, is not counted in both (it was: subject
     // 206's report held 8.99 s of stages in a 6.43 s run).
@@ -191,6 +194,33 @@ private slots:
         }
     qInfo("registration vs the drawn affine: %.2f mm at worst over the box", worst);
     QVERIFY(worst < 3.0);
+  }
+
+  // The model placed 10 mm off (the registration's map moved): the run converges and exits 0, but
+  // the structures end where the image does not look as trained, and the summary says to check
+  // them (image_fit.h). segmentsANewSubject holds the right placement to the other side of the limit.
+  void saysWhenTheImageDoesNotLookAsTrained() {
+    const auto& registration = builtinRegistry().imageRegistration();
+    RegistrationTransform off = registration.readTransform((run_ + "/subject-to-atlas.tfm").toStdString());
+    off.targetToModel.block<3, 1>(0, 3) += Eigen::Vector3d(0.0, 10.0, 0.0);
+    registration.writeTransform(path("off.tfm").toStdString(), off);
+    Result r = runTool(SINEW_MAKE_SCENE, {"--model", model_, "--target", subject_ + "/image.nii.gz", "--ground-truth",
+                                          subject_ + "/labels.nii.gz", "--structures",
+                                          "Hippocampus_L,Amygdala_L,Putamen_R,Thalamus_R", "--transform", path("off.tfm"),
+                                          "-o", path("off.json")});
+    QVERIFY2(r.code == 0, qPrintable(r.err));
+    r = runTool(SINEW_RUN, {path("off.json"), "-o", path("off"), "-q", "--backend", "cpu"});
+    QVERIFY2(r.code == 0, qPrintable(r.err));
+    const QJsonObject report = readJson(path("off/report.json"));
+    double lowest = 1.0, worstAssd = 0.0;
+    for (const auto& s : report["structures"].toArray()) {
+      lowest = std::min(lowest, s.toObject()["image_fit"].toDouble());
+      worstAssd = std::max(worstAssd, s.toObject()["assd_mm"].toObject()["final"].toDouble());
+    }
+    qInfo("10 mm off: lowest image fit %.3f, worst final ASSD %.2f mm", lowest, worstAssd);
+    QVERIFY(worstAssd > 2.0);  // the case is a miss
+    QVERIFY(lowest < kPoorImageFit);
+    QVERIFY2(r.out.contains("check:"), qPrintable(r.out));
   }
 
   // The same scene run again gives the same transform and meshes, byte for byte: the registration

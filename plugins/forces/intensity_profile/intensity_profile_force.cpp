@@ -2,6 +2,7 @@
 // sampled along the reference shape's normal in a training image; the search slides a window of
 // the same length along the current normal in the target image and pulls the vertex to the offset
 // with the highest normalised cross-correlation (NCC) against its reference.
+#include "sinew/core/image_fit.h"
 #include "sinew/core/registry.h"
 
 #include <cmath>
@@ -37,7 +38,7 @@ void windowSums(const float* __restrict line, const float* __restrict ref, int l
   }
 }
 
-class IntensityProfileForce final : public Force {
+class IntensityProfileForce final : public Force, public ImageFit {
 public:
   Requirements requirements() const override {
     return {.attributes = {Attribute::Normal, Attribute::ReferenceNormal}, .referenceShape = true, .imageForce = true};
@@ -112,6 +113,41 @@ public:
         }
       }
       forces[v] += alpha * (static_cast<float>(bestJ) * spacing_) * normal[v];
+    });
+  }
+
+  // Where each vertex lies: the NCC of its profile with the trained one, and the mean NCC of its
+  // profile with two parallel lines 2 voxels away on either side along the surface, toward its
+  // first neighbour (the share of the line that is signal, not noise: nearer lines would share
+  // their voxels, and so their noise, through the trilinear interpolation).
+  void fitScores(ForceContext& ctx, std::span<float> match, std::span<float> agreement) override {
+    MeshStore& s = ctx.store;
+    const Image3D& image = ctx.scene.targetImage();
+    const auto x = s.positions();
+    const auto normal = s.normals();
+    const auto profiles = s.channel(kChannel);
+    const auto neighbours = s.neighbours();
+    forActiveVertices(ctx, [&](Index v, float) {
+      thread_local std::vector<float> lines;
+      lines.resize(3 * static_cast<size_t>(length_));
+      const Vec3 n = normal[v];
+      const Vec3 step = spacing_ * image.worldToIndexDirection(n);
+      const Vec3 start = image.worldToIndex(x[v]) + (static_cast<float>(-inside_) + 0.5f) * step;  // offset(0)
+      Vec3 along = x[neighbours[v][0]] - x[v];
+      along = (along - along.dot(n) * n).normalized();
+      const Vec3 alongIndex = image.worldToIndexDirection(along);
+      const float apart = 2.0f / std::max(alongIndex.cwiseAbs().maxCoeff(), 1e-6f);  // mm to cross 2 voxels
+      image.sampleLine(start, step, length_, &lines[0]);
+      image.sampleLine(start + apart * alongIndex, step, length_, &lines[length_]);
+      image.sampleLine(start - apart * alongIndex, step, length_, &lines[2 * length_]);
+      for (int k = 0; k < 3; ++k) normalise(&lines[k * static_cast<size_t>(length_)]);
+      const auto dot = [&](const float* a, const float* b) {
+        float d = 0.0f;
+        for (int k = 0; k < length_; ++k) d += a[k] * b[k];
+        return d;
+      };
+      match[v] = dot(&lines[0], &profiles[static_cast<size_t>(v) * length_]);
+      agreement[v] = 0.5f * (dot(&lines[0], &lines[length_]) + dot(&lines[0], &lines[2 * length_]));
     });
   }
 

@@ -55,6 +55,12 @@ struct StructureResult {
   // The share of its vertices outside the target image: a structure that a small field of view
   // cuts, whose shape past the image comes from the model alone.
   double outsideImageShare = 0.0;
+  // How well the image agrees with what was trained where the structure ended, from a force that
+  // offers it (image_fit.h; NaN when none does): profileMatch and selfAgreement are the means over
+  // its final vertices, imageFit = profileMatch / sqrt(selfAgreement), the match with the image's
+  // noise taken out (1 at best; below kPoorImageFit the run says "check").
+  double imageFit = std::numeric_limits<double>::quiet_NaN();
+  double profileMatch = std::numeric_limits<double>::quiet_NaN(), selfAgreement = std::numeric_limits<double>::quiet_NaN();
   TriangleMesh surface;  // final Fig. 1b tessellation, world mm
   std::optional<RadiusSummary> medialRadius;  // with "outputs.thickness" (addThickness)
 };
@@ -203,6 +209,8 @@ private:
   // Every structure's final surface, scored exactly: the distances on the backend's device where it
   // has one (the same values), else on the host.
   std::vector<StructureResult> evaluateEnd(ExecutionBackend* backend);
+  // Each structure's mean image fit (StructureResult::imageFit) at the current positions.
+  void setImageFit(std::vector<StructureResult>& out);
 
   const Registry& registry_;
   SceneDesc scene_;
