@@ -112,7 +112,9 @@ void SceneRunner::setImageFit(std::vector<StructureResult>& out) {
       if (n == 0) continue;
       out[i].profileMatch = m / double(n);
       out[i].selfAgreement = a / double(n);
-      out[i].imageFit = out[i].profileMatch / std::sqrt(std::max(out[i].selfAgreement, 0.01));
+      // Capped at 1: noisy or coarse images give lines that share less with their parallels than
+      // with themselves, which would put a fit of the same surface above 1.
+      out[i].imageFit = std::min(1.0, out[i].profileMatch / std::sqrt(std::max(out[i].selfAgreement, 0.01)));
     }
     return;  // the first force that offers one
   }

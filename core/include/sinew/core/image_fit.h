@@ -12,7 +12,7 @@
 namespace sinew {
 
 // Below this, a structure's image fit (StructureResult::imageFit: its mean match with the noise
-// taken out, about 1 where the image looks as trained) makes sinew-run and the cohort report say
+// taken out, 1 where the image looks as trained) makes sinew-run and the cohort report say
 // "check". Over 30 generated subjects of every kind of image, correctly placed, every structure
 // scored 0.89 or more; placed 6-10 mm off, most structures that ended over 2 mm off scored below it
 // (docs/accuracy.md, "The image fit").

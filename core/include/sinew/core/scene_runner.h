@@ -57,8 +57,9 @@ struct StructureResult {
   double outsideImageShare = 0.0;
   // How well the image agrees with what was trained where the structure ended, from a force that
   // offers it (image_fit.h; NaN when none does): profileMatch and selfAgreement are the means over
-  // its final vertices, imageFit = profileMatch / sqrt(selfAgreement), the match with the image's
-  // noise taken out (1 at best; below kPoorImageFit the run says "check").
+  // its final vertices, imageFit = min(1, profileMatch / sqrt(selfAgreement)), the match with
+  // the image's noise taken out (1 where the image looks as trained; below kPoorImageFit the run
+  // says "check").
   double imageFit = std::numeric_limits<double>::quiet_NaN();
   double profileMatch = std::numeric_limits<double>::quiet_NaN(), selfAgreement = std::numeric_limits<double>::quiet_NaN();
   TriangleMesh surface;  // final Fig. 1b tessellation, world mm
