@@ -93,31 +93,9 @@ std::vector<StructureResult> SceneRunner::evaluateEnd(ExecutionBackend* backend)
 }
 
 void SceneRunner::setImageFit(std::vector<StructureResult>& out) {
-  Simulation& sim = *loaded_->sim;
-  MeshStore& store = sim.store();
-  for (const std::string& name : sim.forceNames()) {
-    auto* fit = dynamic_cast<ImageFit*>(&sim.force(name));
-    ParamTable& params = sim.forceParams(name);
-    if (!fit || !params.anyPositive(0)) continue;
-    const float nan = std::numeric_limits<float>::quiet_NaN();
-    std::vector<float> match(store.vertexCount(), nan), agreement(store.vertexCount(), nan);
-    ForceContext ctx{store, params, sim.scene(), sim.executor()};
-    fit->fitScores(ctx, match, agreement);
-    for (Index i = 0; i < store.meshCount(); ++i) {
-      const MeshRange& r = store.range(i);
-      double m = 0.0, a = 0.0;
-      Index n = 0;
-      for (Index v = r.vertexBegin; v < r.vertexEnd; ++v)
-        if (std::isfinite(match[v])) m += match[v], a += agreement[v], ++n;
-      if (n == 0) continue;
-      out[i].profileMatch = m / double(n);
-      out[i].selfAgreement = a / double(n);
-      // Capped at 1: noisy or coarse images give lines that share less with their parallels than
-      // with themselves, which would put a fit of the same surface above 1.
-      out[i].imageFit = std::min(1.0, out[i].profileMatch / std::sqrt(std::max(out[i].selfAgreement, 0.01)));
-    }
-    return;  // the first force that offers one
-  }
+  const std::vector<StructureImageFit> fits = imageFitOf(*loaded_->sim);
+  for (size_t i = 0; i < out.size(); ++i)
+    out[i].imageFit = fits[i].fit, out[i].profileMatch = fits[i].match, out[i].selfAgreement = fits[i].agreement;
 }
 
 void SceneRunner::score(Index i, StructureResult& r, bool final) const {

@@ -10,6 +10,7 @@
 #include "structure_colour.h"
 #include "synthetic.h"
 #include "sinew/core/collision_tree.h"
+#include "sinew/core/image_fit.h"
 #include "sinew/core/medial_axis.h"
 #include "sinew/core/simplex_mesh.h"
 #include "volume_view.h"
@@ -20,6 +21,7 @@
 #include <QImage>
 #include <QProcess>
 #include <QSurfaceFormat>
+#include <QTableWidget>
 #include <QTemporaryDir>
 #include <QtTest>
 
@@ -474,6 +476,28 @@ private Q_SLOTS:
     QTest::mouseClick(axial, Qt::LeftButton, {}, QPoint(axial->width() / 3, axial->height() / 3));
     QVERIFY(display.cursor[0] != before[0] || display.cursor[1] != before[1]);
     QCOMPARE(display.cursor[2], before[2]);  // the axial slice itself stays
+  }
+
+  // At the end of the schedule every structure's image fit is scored into the structures table
+  // (the scene's image is the model's own: every structure fits), and cleared once the meshes move.
+  void imageFitShownAtTheEndOfTheSchedule() {
+    window_->setRunning(true);
+    QVERIFY(QTest::qWaitFor([&] { return !window_->isRunning(); }, 300000));
+    QTableWidget* table = nullptr;
+    for (auto* t : window_->findChildren<QTableWidget*>())
+      if (t->accessibleName() == "Structures") table = t;
+    QVERIFY(table);
+    QCOMPARE(table->horizontalHeaderItem(4)->text(), QString("Image fit"));
+    QCOMPARE(window_->session().imageFit().size(), std::size_t(4));
+    for (int row = 0; row < table->rowCount(); ++row) {
+      const QString text = table->item(row, 4)->text();
+      qInfo("%s: image fit %s", qPrintable(table->item(row, 2)->text()), qPrintable(text));
+      QVERIFY2(text.toDouble() >= kPoorImageFit && text.toDouble() <= 1.0, qPrintable(text));
+    }
+    window_->stepOnce();
+    window_->refreshViews();
+    QVERIFY(window_->session().imageFit().empty());  // never stale
+    for (int row = 0; row < table->rowCount(); ++row) QVERIFY(table->item(row, 4)->text().isEmpty());
   }
 
   void closesCleanlyWhileRunning() {

@@ -574,6 +574,13 @@ SceneDesc SegmentationSession::currentScene() {
 
 void SegmentationSession::saveScene(const fs::path& file) { writeScene(currentScene(), file); }
 
+const std::vector<StructureImageFit>& SegmentationSession::scoreImageFit() {
+  syncHost();
+  fits_ = imageFitOf(simulation());
+  fitRevision_ = revision_;
+  return fits_;
+}
+
 std::vector<StructureResult> SegmentationSession::finalSurfaces() {
   syncHost();
   MeshStore& store = simulation().store();

@@ -3,6 +3,7 @@
 // displacement) against time, and the exports. Widgets observe it; it knows nothing of them.
 #pragma once
 
+#include "sinew/core/image_fit.h"
 #include "sinew/core/scene_runner.h"
 
 #include <chrono>
@@ -110,6 +111,11 @@ public:
   // Appends a timeline sample (syncs the host; evaluates ASSD when ground truth exists).
   const SessionSample& sample();
   const std::vector<SessionSample>& timeline() const { return timeline_; }
+  // Scores every structure's image fit where it now lies (syncs the host; core imageFitOf): what
+  // sinew-run reports at the end of a run. Kept while the state does not change.
+  const std::vector<StructureImageFit>& scoreImageFit();
+  // The last scores while the state has not changed since (revision()), else empty: never stale.
+  std::vector<StructureImageFit> imageFit() const { return fitRevision_ == revision_ ? fits_ : std::vector<StructureImageFit>(); }
   bool hasGroundTruth();
   // Changes on every edit, undo, redo, step and level change: views redraw when it moved.
   std::uint64_t revision() const { return revision_; }
@@ -226,6 +232,8 @@ private:
   std::size_t historyLimit_ = std::size_t(256) << 20;
   std::string lastEdit_;  // label of the edit a continuing edit may extend
   std::uint64_t revision_ = 1;
+  std::vector<StructureImageFit> fits_;
+  std::uint64_t fitRevision_ = 0;  // the revision fits_ belong to (0: none)
 };
 
 }  // namespace sinew

@@ -555,7 +555,9 @@ void MainWindow::tick() {
     } else {
       setRunning(false);
       session_.sample();
-      statusBar()->showMessage(tr("Schedule finished"), 5000);
+      const QString poor = scenePanel_->showImageFit();
+      if (poor.isEmpty()) statusBar()->showMessage(tr("Schedule finished"), 5000);
+      else statusBar()->showMessage(tr("Schedule finished; check %1: the image does not look as trained there").arg(poor));
     }
   }
   fpsIterations_ += std::max(steps, 0);

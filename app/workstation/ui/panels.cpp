@@ -1,5 +1,6 @@
 #include "panels.h"
 
+#include <QBrush>
 #include <QCheckBox>
 #include <QColorDialog>
 #include <QDoubleSpinBox>
@@ -28,8 +29,12 @@ ScenePanel::ScenePanel(SegmentationSession& session, DisplayScene& display, QWid
   auto* layout = new QVBoxLayout(this);
   layout->setContentsMargins(2, 2, 2, 2);
   layout->addWidget(table_);
-  table_->setColumnCount(4);
-  table_->setHorizontalHeaderLabels({tr("Show"), tr("Colour"), tr("Structure"), tr("Vertices")});
+  table_->setColumnCount(5);
+  table_->setHorizontalHeaderLabels({tr("Show"), tr("Colour"), tr("Structure"), tr("Vertices"), tr("Image fit")});
+  table_->horizontalHeaderItem(4)->setToolTip(
+      tr("How well the image agrees with the trained profiles where the structure lies (1: as trained; "
+         "below %1: check it). Scored at the end of the schedule, cleared when the meshes change.")
+          .arg(kPoorImageFit));
   table_->horizontalHeader()->setSectionResizeMode(2, QHeaderView::Stretch);
   table_->verticalHeader()->hide();
   table_->setSelectionBehavior(QAbstractItemView::SelectRows);
@@ -72,6 +77,7 @@ void ScenePanel::rebuild() {
     table_->setItem(s, 1, colour);
     table_->setItem(s, 2, new QTableWidgetItem(QString::fromStdString(display_.look(s).name)));
     table_->setItem(s, 3, new QTableWidgetItem);
+    table_->setItem(s, 4, new QTableWidgetItem);
   }
   table_->selectRow(int(display_.selected));
   refresh();
@@ -81,8 +87,26 @@ void ScenePanel::refresh() {
   if (!session_.isOpen()) return;
   const QSignalBlocker block(table_);
   MeshStore& store = session_.simulation().store();
-  for (Index s = 0; s < display_.structureCount() && s < table_->rowCount(); ++s)
+  const std::vector<StructureImageFit> fits = session_.imageFit();
+  for (Index s = 0; s < display_.structureCount() && s < table_->rowCount(); ++s) {
     table_->item(s, 3)->setText(QString::number(store.range(s).vertexCount()));
+    const double fit = size_t(s) < fits.size() ? fits[s].fit : std::nan("");
+    QTableWidgetItem* cell = table_->item(s, 4);
+    cell->setText(std::isnan(fit) ? QString() : QString::number(fit, 'f', 2));
+    cell->setForeground(fit < kPoorImageFit ? QBrush(Qt::red) : QBrush());
+  }
+}
+
+QString ScenePanel::showImageFit() {
+  if (!session_.isOpen()) return {};
+  const std::vector<StructureImageFit> fits = session_.scoreImageFit();
+  refresh();
+  QString poor;
+  for (size_t s = 0; s < fits.size() && s < size_t(display_.structureCount()); ++s)
+    if (fits[s].fit < kPoorImageFit)
+      poor += (poor.isEmpty() ? "" : ", ") + QString::fromStdString(display_.look(Index(s)).name) + " " +
+              QString::number(fits[s].fit, 'f', 2);
+  return poor;
 }
 
 // --- parameters ----------------------------------------------------------------------------------

@@ -25,7 +25,11 @@ class ScenePanel : public QWidget {
 public:
   ScenePanel(SegmentationSession& session, DisplayScene& display, QWidget* parent = nullptr);
   void rebuild();  // new scene
-  void refresh();  // level, vertex counts
+  void refresh();  // level, vertex counts; image fits that the state has moved on from are cleared
+  // Scores every structure's image fit where it now lies (SegmentationSession::scoreImageFit) into
+  // the table's column, shown until the state changes; returns the structures below kPoorImageFit
+  // ("Name 0.21, ..."), empty when none.
+  QString showImageFit();
 
 Q_SIGNALS:
   void selectionChanged();

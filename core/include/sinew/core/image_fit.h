@@ -7,7 +7,9 @@
 
 #include "sinew/core/force.h"
 
+#include <limits>
 #include <span>
+#include <vector>
 
 namespace sinew {
 
@@ -27,5 +29,23 @@ public:
   // neighbours (an NCC too: near 1 where the image is clean, lower the more of it is noise).
   virtual void fitScores(ForceContext& ctx, std::span<float> match, std::span<float> agreement) = 0;
 };
+
+class Simulation;
+
+// A structure's image fit: the means over its vertices of match and agreement, and
+// fit = min(1, match / sqrt(agreement)), the match with the image's noise taken out (Spearman's
+// correction for attenuation). Capped at 1: in noisy or coarse images a line shares less with its
+// parallels than with itself, which would put the fit of a right surface above 1. NaN where no force
+// offers one.
+struct StructureImageFit {
+  double match = std::numeric_limits<double>::quiet_NaN();
+  double agreement = std::numeric_limits<double>::quiet_NaN();
+  double fit = std::numeric_limits<double>::quiet_NaN();
+};
+
+// Every structure's image fit at the simulation's current positions, from the first force of the
+// scene that offers one and is active (the others' weights are not consulted). Costs a few
+// profiles per vertex: call it on request (the end of a run, a button), not per step.
+std::vector<StructureImageFit> imageFitOf(Simulation& sim);
 
 }  // namespace sinew

@@ -55,11 +55,9 @@ struct StructureResult {
   // The share of its vertices outside the target image: a structure that a small field of view
   // cuts, whose shape past the image comes from the model alone.
   double outsideImageShare = 0.0;
-  // How well the image agrees with what was trained where the structure ended, from a force that
-  // offers it (image_fit.h; NaN when none does): profileMatch and selfAgreement are the means over
-  // its final vertices, imageFit = min(1, profileMatch / sqrt(selfAgreement)), the match with
-  // the image's noise taken out (1 where the image looks as trained; below kPoorImageFit the run
-  // says "check").
+  // How well the image agrees with what was trained where the structure ended (image_fit.h's
+  // StructureImageFit: fit, match, agreement; NaN when no force offers one): 1 where the image
+  // looks as trained; below kPoorImageFit the run says "check".
   double imageFit = std::numeric_limits<double>::quiet_NaN();
   double profileMatch = std::numeric_limits<double>::quiet_NaN(), selfAgreement = std::numeric_limits<double>::quiet_NaN();
   TriangleMesh surface;  // final Fig. 1b tessellation, world mm
