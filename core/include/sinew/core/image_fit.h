@@ -25,8 +25,9 @@ public:
   virtual ~ImageFit() = default;
   // For every vertex of every structure whose weight is positive (the others are left as they
   // are), at the current positions: match[v], how well the image there agrees with what was
-  // trained (an NCC: 1 at best); agreement[v], how well it agrees with itself at the vertex's
-  // neighbours (an NCC too: near 1 where the image is clean, lower the more of it is noise).
+  // trained (an NCC: 1 at best); agreement[v], how well it agrees with itself at a place nearby
+  // whose noise is independent of the vertex's (an NCC too: near 1 where the image is clean, lower
+  // the more of it is noise; the intensity profile takes parallel lines 2 voxels away).
   virtual void fitScores(ForceContext& ctx, std::span<float> match, std::span<float> agreement) = 0;
 };
 
