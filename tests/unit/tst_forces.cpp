@@ -165,12 +165,9 @@ private slots:
 
   // The image fit (image_fit.h) of a surface on the boundary and of the same surface 8 mm off, in a
   // clean and a noisy image: the match falls with the miss and with the noise; the lines' agreement
-  // with their parallels falls with the noise, so the fit corrected by it (match / sqrt(agreement),
-  // what sinew-run reports) falls with the miss alone.
+  // with their parallels falls with the noise, so the fit corrected by it (imageFitOf: what
+  // sinew-run reports) falls with the miss alone.
   void imageFitTellsAMissFromNoise() {
-    struct Fit {
-      double match, agreement, fit;
-    };
     const auto fitOf = [](float noise, float shiftMm) {
       EllipsoidCase c = ellipsoidCase(4);
       c.start.referencePositions = c.referenceOnTruth;
@@ -186,22 +183,22 @@ private slots:
       sim.scene().setTargetImage(std::make_shared<Image3D>(ellipsoidImage(c.image)));
       sim.scene().setTrainingImage(std::make_shared<Image3D>(ellipsoidImage(training)));
       sim.initialize();
+      // Every vertex's scores are NCCs, in [-1, 1]; imageFitOf averages them.
       auto* fit = dynamic_cast<ImageFit*>(&sim.force("intensity_profile"));
       if (!fit) qFatal("the intensity profile offers no image fit");
       const Index n = sim.store().vertexCount();
       std::vector<float> match(n, -9.0f), agreement(n, -9.0f);
       ForceContext ctx{sim.store(), sim.forceParams("intensity_profile"), sim.scene(), sim.executor()};
       fit->fitScores(ctx, match, agreement);
-      double m = 0, a = 0;
-      for (Index v = 0; v < n; ++v) {
-        if (!(match[v] >= -1.0001f && match[v] <= 1.0001f && agreement[v] >= -1.0001f && agreement[v] <= 1.0001f))
+      for (Index v = 0; v < n; ++v)
+        if (!(std::abs(match[v]) <= 1.0001f && std::abs(agreement[v]) <= 1.0001f))
           qFatal("vertex %d: match %g, agreement %g", int(v), double(match[v]), double(agreement[v]));
-        m += match[v], a += agreement[v];
-      }
-      m /= n, a /= n;
-      return Fit{m, a, m / std::sqrt(a)};
+      const std::vector<StructureImageFit> fits = imageFitOf(sim);
+      if (fits.size() != 1) qFatal("one structure, %zu fits", fits.size());
+      return fits[0];
     };
-    const Fit on = fitOf(8.0f, 0.0f), onNoisy = fitOf(48.0f, 0.0f), off = fitOf(8.0f, 8.0f), offNoisy = fitOf(48.0f, 8.0f);
+    const StructureImageFit on = fitOf(8.0f, 0.0f), onNoisy = fitOf(48.0f, 0.0f), off = fitOf(8.0f, 8.0f),
+                            offNoisy = fitOf(48.0f, 8.0f);
     for (const auto& [name, f] : {std::pair{"on", on}, {"on, noisy", onNoisy}, {"off", off}, {"off, noisy", offNoisy}})
       qInfo("%-10s match %.3f agreement %.3f fit %.3f", name, f.match, f.agreement, f.fit);
     QVERIFY(on.fit > 0.9 && onNoisy.fit > 0.9);

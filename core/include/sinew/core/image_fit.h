@@ -45,7 +45,7 @@ struct StructureImageFit {
 };
 
 // Every structure's image fit at the simulation's current positions, from the first force of the
-// scene that offers one and is active (the others' weights are not consulted). Costs a few
+// scene that offers one and is weighted above 0 on some structure. Costs a few
 // profiles per vertex: call it on request (the end of a run, a button), not per step.
 std::vector<StructureImageFit> imageFitOf(Simulation& sim);
 
