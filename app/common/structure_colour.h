@@ -1,5 +1,5 @@
 // Colours shared by sinew-run's pictures and the workstation's views: one per structure (evenly
-// spaced hues), and the thickness colour map.
+// spaced hues), the thickness and the image fit colour maps.
 #pragma once
 
 #include <QColor>
@@ -20,6 +20,14 @@ inline QColor structureColour(std::size_t structure, std::size_t count) {
 inline std::array<unsigned char, 3> thicknessColour(float radiusMm) {
   const float t = std::clamp((radiusMm - 1.0f) / 5.0f, 0.0f, 1.0f);
   const QColor c = QColor::fromHsvF(t * 240.0f / 360.0f, 1.0f, 1.0f);
+  return {static_cast<unsigned char>(c.red()), static_cast<unsigned char>(c.green()), static_cast<unsigned char>(c.blue())};
+}
+
+// The image fit colours (the workstation's View > Show Image Fit, core vertexImageFit): red at 0.3
+// or less, yellow at 0.6 (kPoorImageFit, where sinew-run says "check"), green at 0.9 or more.
+inline std::array<unsigned char, 3> fitColour(float fit) {
+  const float t = std::clamp((fit - 0.3f) / 0.6f, 0.0f, 1.0f);
+  const QColor c = QColor::fromHsvF(t * 120.0f / 360.0f, 1.0f, 1.0f);
   return {static_cast<unsigned char>(c.red()), static_cast<unsigned char>(c.green()), static_cast<unsigned char>(c.blue())};
 }
 

@@ -93,9 +93,26 @@ std::vector<StructureResult> SceneRunner::evaluateEnd(ExecutionBackend* backend)
 }
 
 void SceneRunner::setImageFit(std::vector<StructureResult>& out) {
-  const std::vector<StructureImageFit> fits = imageFitOf(*loaded_->sim);
-  for (size_t i = 0; i < out.size(); ++i)
-    out[i].imageFit = fits[i].fit, out[i].profileMatch = fits[i].match, out[i].selfAgreement = fits[i].agreement;
+  const MeshStore& store = loaded_->sim->store();
+  const ImageFitScores fits = imageFitScores(*loaded_->sim);
+  for (size_t i = 0; i < out.size(); ++i) {
+    const StructureImageFit& f = fits.structures[i];
+    out[i].imageFit = f.fit, out[i].profileMatch = f.match, out[i].selfAgreement = f.agreement;
+    // Per point of the written surface (the vertices, then the cell centres: tessellate): a
+    // vertex's own fit, a cell centre's the mean of its vertices'.
+    const MeshRange& r = store.range(Index(i));
+    const SimplexTopology& t = store.topologyOf(Index(i));
+    std::vector<float> perPoint(fits.vertices.begin() + r.vertexBegin, fits.vertices.begin() + r.vertexEnd);
+    for (Index c = 0; c < t.cellCount(); ++c) {
+      double sum = 0.0;
+      for (Index k = t.cellOffsets[c]; k < t.cellOffsets[c + 1]; ++k) sum += perPoint[t.cellVertices[k]];
+      perPoint.push_back(float(sum / double(t.cellOffsets[c + 1] - t.cellOffsets[c])));
+    }
+    if (!std::all_of(perPoint.begin(), perPoint.end(), [](float v) { return std::isfinite(v); })) continue;
+    if (perPoint.size() != out[i].surface.points.size()) throw std::logic_error("setImageFit: the surface is not the store's tessellation");
+    std::erase_if(out[i].surface.pointData, [](const PointArray& a) { return a.name == "image_fit"; });
+    out[i].surface.pointData.push_back({"image_fit", std::move(perPoint)});
+  }
 }
 
 void SceneRunner::score(Index i, StructureResult& r, bool final) const {

@@ -75,6 +75,15 @@ double nonBackground(const QImage& img) {
     for (int x = 0; x < img.width(); ++x) n += img.pixel(x, y) != bg;
   return double(n) / (img.width() * img.height());
 }
+
+// How many pixels of two grabs of one view differ (both the same size).
+long pixelsChanged(const QImage& a, const QImage& b) {
+  long changed = 0;
+  for (int y = 0; y < a.height(); ++y)
+    for (int x = 0; x < a.width(); ++x) changed += a.pixel(x, y) != b.pixel(x, y);
+  return changed;
+}
+
 }  // namespace
 
 class TestWorkstation : public QObject {
@@ -351,14 +360,53 @@ private Q_SLOTS:
     QTest::qWait(300);
     const QImage coloured = window_->volumeView()->grabFramebuffer();
     QCOMPARE(coloured.size(), moved.size());
-    long changed = 0;
-    for (int y = 0; y < moved.height(); ++y)
-      for (int x = 0; x < moved.width(); ++x) changed += moved.pixel(x, y) != coloured.pixel(x, y);
+    const long changed = pixelsChanged(moved, coloured);
     // The vertices are drawn as points over the surfaces: about a thousand pixels here, none before.
     QVERIFY2(changed > 300, qPrintable(QString("%1 pixels changed").arg(changed)));
     // The colour map's ends.
     QVERIFY((thicknessColour(0.5f) == std::array<unsigned char, 3>{255, 0, 0}));
     QVERIFY((thicknessColour(7.0f) == std::array<unsigned char, 3>{0, 0, 255}));
+  }
+
+  // View > Show Image Fit: every vertex in the colour of the image fit around it (core
+  // vertexImageFit), throttled while the state moves; it and Show Thickness take turns.
+  void imageFitColoursTheSurfaces() {
+    SegmentationSession& session = window_->session();
+    const std::vector<float> fit = session.vertexImageFit(0.0);
+    session.syncHost();
+    QVERIFY(fit == vertexImageFit(session.simulation()));
+    const long scored = std::count_if(fit.begin(), fit.end(), [](float f) { return std::isfinite(f); });
+    QCOMPARE(scored, long(session.simulation().store().vertexCount()));  // the scene's profile force scores all
+    session.step(1);
+    QVERIFY(session.vertexImageFit(1e9) == fit);  // throttled: the last fit
+    QTRY_VERIFY_WITH_TIMEOUT(session.vertexImageFit(0.0) != fit, 5000);
+    QVERIFY(session.vertexImageFit(0.0) == vertexImageFit(session.simulation()));
+    QAction *showFit = nullptr, *thickness = nullptr;
+    for (QAction* a : window_->findChildren<QAction*>()) {
+      if (a->text() == "Show Image &Fit") showFit = a;
+      if (a->text() == "Show &Thickness") thickness = a;
+    }
+    QVERIFY(showFit && thickness);
+    thickness->setChecked(false);
+    showFit->setChecked(false);
+    window_->refreshViews();
+    QTest::qWait(300);
+    const QImage plain = window_->volumeView()->grabFramebuffer();
+    showFit->trigger();
+    QTest::qWait(300);
+    const QImage coloured = window_->volumeView()->grabFramebuffer();
+    QCOMPARE(coloured.size(), plain.size());
+    const long changed = pixelsChanged(plain, coloured);
+    QVERIFY2(changed > 300, qPrintable(QString("%1 pixels changed").arg(changed)));
+    thickness->trigger();  // one colouring at a time
+    QVERIFY(thickness->isChecked() && !showFit->isChecked());
+    showFit->trigger();
+    QVERIFY(showFit->isChecked() && !thickness->isChecked());
+    showFit->trigger();
+    // The colour map's ends and middle.
+    QVERIFY((fitColour(0.2f) == std::array<unsigned char, 3>{255, 0, 0}));
+    QVERIFY((fitColour(0.6f) == std::array<unsigned char, 3>{255, 255, 0}));
+    QVERIFY((fitColour(1.0f) == std::array<unsigned char, 3>{0, 255, 0}));
   }
 
   void dragMovesPointInOneUndoStep() {

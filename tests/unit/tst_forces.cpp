@@ -79,6 +79,19 @@ double assdVoxels(MeshStore& s, const EllipsoidCase& c) {
   return surfaceDistance(tessellationOf(s, 0), c.truth, 0.25f).assd / c.image.spacing;
 }
 
+// The intensity profile alone on the case's image, trained on `training` (what the image fit tests
+// score), at the case's initial positions.
+std::unique_ptr<Simulation> profileScene(const EllipsoidCase& c, const EllipsoidImageSpec& training) {
+  auto sim = std::make_unique<Simulation>(forceRegistry());
+  sim->addStructure(c.start);
+  sim->addForce("intensity_profile");
+  sim->setIntegrator("damped_verlet");
+  sim->scene().setTargetImage(std::make_shared<Image3D>(ellipsoidImage(c.image)));
+  sim->scene().setTrainingImage(std::make_shared<Image3D>(ellipsoidImage(training)));
+  sim->initialize();
+  return sim;
+}
+
 }  // namespace
 
 class TestForces : public QObject {
@@ -176,13 +189,8 @@ private slots:
       EllipsoidImageSpec training = c.image;
       training.seed = 99;
       c.image.noiseSigma = noise;
-      Simulation sim(forceRegistry());
-      sim.addStructure(c.start);
-      sim.addForce("intensity_profile");
-      sim.setIntegrator("damped_verlet");
-      sim.scene().setTargetImage(std::make_shared<Image3D>(ellipsoidImage(c.image)));
-      sim.scene().setTrainingImage(std::make_shared<Image3D>(ellipsoidImage(training)));
-      sim.initialize();
+      const std::unique_ptr<Simulation> scene = profileScene(c, training);
+      Simulation& sim = *scene;
       // Every vertex's scores are NCCs, in [-1, 1]; imageFitOf averages them.
       auto* fit = dynamic_cast<ImageFit*>(&sim.force("intensity_profile"));
       if (!fit) qFatal("the intensity profile offers no image fit");
@@ -205,6 +213,55 @@ private slots:
     QVERIFY(onNoisy.match < on.match - 0.2);          // the noise lowers the match
     QVERIFY(std::abs(on.fit - onNoisy.fit) < 0.05);  // but not the fit
     QVERIFY(off.fit < on.fit - 0.2 && offNoisy.fit < onNoisy.fit - 0.2);  // a miss lowers both
+  }
+
+  // The image fit vertex by vertex (vertexImageFit: what the workstation colours): a surface on the
+  // boundary but for one half pushed 6 mm out scores low on that half and high on the other, with
+  // the structure's noise correction and cap.
+  void vertexImageFitShowsWhereTheSurfaceMisses() {
+    EllipsoidCase c = ellipsoidCase(4);
+    c.start.referencePositions = c.referenceOnTruth;
+    c.start.initialPositions = c.referenceOnTruth;
+    Vec3 centre = Vec3::Zero();
+    for (const Vec3& p : c.referenceOnTruth) centre += p;
+    centre /= float(c.referenceOnTruth.size());
+    std::vector<bool> pushed(c.start.initialPositions.size());
+    for (std::size_t v = 0; v < pushed.size(); ++v) {
+      Vec3& p = c.start.initialPositions[v];
+      // Well clear of the seam, where the smoothing mixes the two halves.
+      pushed[v] = p.x() > centre.x() + 4.0f;
+      if (pushed[v]) p += 6.0f * (p - centre).normalized();
+    }
+    EllipsoidImageSpec training = c.image;
+    training.seed = 99;
+    const std::unique_ptr<Simulation> scene = profileScene(c, training);
+    Simulation& sim = *scene;
+    const std::vector<float> fit = vertexImageFit(sim);
+    QCOMPARE(fit.size(), std::size_t(sim.store().vertexCount()));
+    std::vector<float> on, off;
+    for (std::size_t v = 0; v < fit.size(); ++v) {
+      if (!(fit[v] >= -1.0f && fit[v] <= 1.0f)) qFatal("vertex %zu: fit %g", v, double(fit[v]));
+      const float x = sim.store().positions()[v].x();
+      if (pushed[v]) off.push_back(fit[v]);
+      else if (x < centre.x() - 4.0f) on.push_back(fit[v]);
+    }
+    const auto median = [](std::vector<float> a) {
+      std::nth_element(a.begin(), a.begin() + a.size() / 2, a.end());
+      return a[a.size() / 2];
+    };
+    qInfo("median fit: %zu vertices on the boundary %.3f, %zu pushed off %.3f", on.size(), double(median(on)), off.size(),
+          double(median(off)));
+    QVERIFY(on.size() > 100 && off.size() > 100);
+    QVERIFY(median(on) > 0.9);
+    QVERIFY(median(off) < median(on) - 0.4);
+    // Without a force that scores the image, nothing is known.
+    Simulation plain(forceRegistry());
+    plain.addStructure(c.start);
+    plain.addForce("smoothing");
+    plain.setIntegrator("damped_verlet");
+    plain.initialize();
+    const std::vector<float> none = vertexImageFit(plain);
+    QVERIFY(std::all_of(none.begin(), none.end(), [](float f) { return std::isnan(f); }));
   }
 
   // The profile force's line sampler: the values of sampleIndex at every sample, to the bit, for

@@ -22,6 +22,8 @@
 #include <vtkPoints.h>
 #include <vtkPolyData.h>
 #include <vtkCellArray.h>
+#include <vtkDataArray.h>
+#include <vtkXMLPolyDataReader.h>
 
 #include <fstream>
 #include <regex>
@@ -225,6 +227,26 @@ private slots:
     const double independent = vtkAssd(result, truth);
     qInfo("ASSD: report %.4f mm, VTK distance filter %.4f mm", after, independent);
     QVERIFY(std::abs(independent - after) < 0.05);
+
+    // Each point's image fit is written with the mesh (point data "image_fit", image_fit.h): one
+    // value per point, an NCC-like score at most 1, high where the run ended on the boundary, and
+    // its mean near the structure's fit in the report.
+    vtkNew<vtkXMLPolyDataReader> reader;
+    reader->SetFileName((out / "ellipsoid.vtp").c_str());
+    reader->Update();
+    vtkDataArray* fit = reader->GetOutput()->GetPointData()->GetArray("image_fit");
+    QVERIFY(fit);
+    QCOMPARE(fit->GetNumberOfTuples(), reader->GetOutput()->GetNumberOfPoints());
+    QCOMPARE(std::size_t(fit->GetNumberOfTuples()), result.points.size());
+    double mean = 0.0;
+    for (vtkIdType p = 0; p < fit->GetNumberOfTuples(); ++p) {
+      const double v = fit->GetTuple1(p);
+      if (!(v >= -1.0 && v <= 1.0)) QFAIL(qPrintable(QString("point %1: image fit %2").arg(p).arg(v)));
+      mean += v / double(fit->GetNumberOfTuples());
+    }
+    qInfo("image fit: report %.3f, mean over the mesh's points %.3f", s["image_fit"].toDouble(), mean);
+    QVERIFY(s["image_fit"].toDouble() > 0.9);
+    QVERIFY(std::abs(mean - s["image_fit"].toDouble()) < 0.05);
 
     // The label map holds the structure's label where the mesh is.
     const LabelVolume seg = builtinRegistry().imageIOFor("x.nii.gz").readLabels(out / "segmentation.nii.gz");

@@ -402,6 +402,18 @@ const std::vector<unsigned char>& SegmentationSession::contactMask(double minInt
   return contactMask_;
 }
 
+const std::vector<float>& SegmentationSession::vertexImageFit(double minIntervalSeconds) {
+  const auto now = std::chrono::steady_clock::now();
+  if (!due(vertexFit_.size(), vertexFitRevision_, vertexFitTime_, now, std::max(minIntervalSeconds, 20.0 * vertexFitSeconds_)))
+    return vertexFit_;
+  syncHost();
+  vertexFit_ = sinew::vertexImageFit(simulation());
+  vertexFitRevision_ = revision_;
+  vertexFitTime_ = now;
+  vertexFitSeconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - now).count();
+  return vertexFit_;
+}
+
 const std::vector<float>& SegmentationSession::medialRadius(double minIntervalSeconds, bool wait) {
   static const std::vector<float> none;
   const auto finish = [&] {

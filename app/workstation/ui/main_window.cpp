@@ -246,6 +246,13 @@ void MainWindow::buildActions() {
   showThickness_->setCheckable(true);
   showThickness_->setToolTip(tr("Colour every vertex by its structure's medial radius there (half the local "
                                 "thickness): red 1 mm or less, through yellow and green, to blue 6 mm or more"));
+  showFit_ = view->addAction(tr("Show Image &Fit"), QKeySequence(tr("F")), this, redrawMarkers);
+  showFit_->setCheckable(true);
+  showFit_->setToolTip(tr("Colour every vertex by how well the image around it looks as the profiles were "
+                          "trained: red 0.3 or less, yellow 0.6 (check), green 0.9 or more"));
+  // Both colour every vertex: one at a time (none is fine too).
+  connect(showThickness_, &QAction::toggled, this, [this](bool on) { if (on) showFit_->setChecked(false); });
+  connect(showFit_, &QAction::toggled, this, [this](bool on) { if (on) showThickness_->setChecked(false); });
 
   QToolBar* bar = addToolBar(tr("Main"));
   bar->setObjectName("main");
@@ -463,36 +470,6 @@ std::vector<std::pair<Vec3, Vec3>> MainWindow::landmarkPairs() {
   std::vector<std::pair<Vec3, Vec3>> out;
   if (session_.isOpen())
     for (const PlacedLandmark& l : session_.landmarks()) out.emplace_back(l.from, l.to);
-  return out;
-}
-
-std::vector<Marker> MainWindow::markers(Index s) {
-  std::vector<Marker> out;
-  if (!session_.isOpen()) return out;
-  for (const ConstraintPoint& c : session_.constraintPoints(s))
-    out.push_back({c.at, c.include ? std::array<unsigned char, 3>{60, 220, 90} : std::array<unsigned char, 3>{240, 60, 60}});
-  if (showThickness_ && showThickness_->isChecked()) {
-    const std::vector<float>& radius = session_.medialRadius();
-    // The radii come from a background job: look again shortly while it runs.
-    if (session_.medialRadiusPending() && !thicknessPoll_) {
-      thicknessPoll_ = true;
-      QTimer::singleShot(100, this, [this] {
-        thicknessPoll_ = false;
-        invalidateViews();
-      });
-    }
-    MeshStore& store = session_.simulation().store();
-    const MeshRange& r = store.range(s);
-    for (Index v = r.vertexBegin; v < r.vertexEnd && v < Index(radius.size()); ++v)
-      out.push_back({store.positions()[v], thicknessColour(radius[v])});
-  }
-  if (showContacts_ && showContacts_->isChecked()) {
-    const std::vector<unsigned char>& mask = session_.contactMask();
-    MeshStore& store = session_.simulation().store();
-    const MeshRange& r = store.range(s);
-    for (Index v = r.vertexBegin; v < r.vertexEnd && v < Index(mask.size()); ++v)
-      if (mask[v]) out.push_back({store.positions()[v], {255, 150, 20}});
-  }
   return out;
 }
 

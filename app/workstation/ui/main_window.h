@@ -115,9 +115,9 @@ private:
   void startAutosave();
   void autosave();
   std::vector<std::pair<Vec3, Vec3>> landmarkPairs();
-  // What the views draw in colours of their own: include (green) and exclude (red) points, with
-  // View > Show Thickness every vertex in its thickness colour, and with View > Show Contacts the
-  // vertices in contact regions (orange).
+  // What the views draw in colours of their own (main_window_markers.cpp): include (green) and
+  // exclude (red) points, with View > Show Thickness or Show Image Fit every vertex in its thickness
+  // or fit colour, and with View > Show Contacts the vertices in contact regions (orange).
   std::vector<Marker> markers(Index structure);
   SessionOpenOptions sessionOptions(QProgressDialog& progress);
   ToolContext toolContext();
@@ -158,6 +158,7 @@ private:
   QAction *undo_, *redo_, *deletePoint_, *run_, *step_, *nextLevel_, *initialiseLandmarks_, *resetViews_, *maximise_;
   QAction* showContacts_ = nullptr;
   QAction* showThickness_ = nullptr;
+  QAction* showFit_ = nullptr;
   bool thicknessPoll_ = false;  // a redraw is due once the thickness job may have ended
   QMenu* recentMenu_ = nullptr;
   QActionGroup* toolGroup_ = nullptr;

@@ -19,6 +19,8 @@ namespace sinew {
 // scored 0.89 or more; placed 6-10 mm off, most structures that ended over 2 mm off scored below it
 // (docs/accuracy.md, "The image fit").
 inline constexpr double kPoorImageFit = 0.6;
+// vertexImageFit's smoothing passes (docs/accuracy.md, "The image fit point by point").
+inline constexpr int kImageFitPasses = 16;
 
 class ImageFit {
 public:
@@ -48,5 +50,19 @@ struct StructureImageFit {
 // scene that offers one and is weighted above 0 on some structure. Costs a few
 // profiles per vertex: call it on request (the end of a run, a button), not per step.
 std::vector<StructureImageFit> imageFitOf(Simulation& sim);
+
+// Where a structure fits the image and where not: per vertex, the same fit from the match smoothed
+// over the surface (`passes` times each vertex the mean of itself and its three neighbours: one
+// vertex's NCC is mostly noise), over the square root of its structure's mean agreement, capped at
+// 1. The workstation colours the surfaces with it (View > Show Image Fit) and sinew-run writes it
+// with the meshes (point data "image_fit"), to show where to correct. NaN where no force offers one.
+std::vector<float> vertexImageFit(Simulation& sim, int passes = kImageFitPasses);
+
+// Both from one scoring of the vertices (what each of the two above costs).
+struct ImageFitScores {
+  std::vector<StructureImageFit> structures;  // imageFitOf's
+  std::vector<float> vertices;                // vertexImageFit's
+};
+ImageFitScores imageFitScores(Simulation& sim, int passes = kImageFitPasses);
 
 }  // namespace sinew
