@@ -44,14 +44,7 @@ StructureImageFit structureFit(const MeshRange& r, const std::vector<float>& mat
 
 }  // namespace
 
-std::vector<StructureImageFit> imageFitOf(Simulation& sim) {
-  MeshStore& store = sim.store();
-  std::vector<StructureImageFit> out(store.meshCount());
-  std::vector<float> match, agreement;
-  if (!scoreVertices(sim, match, agreement)) return out;
-  for (Index i = 0; i < store.meshCount(); ++i) out[i] = structureFit(store.range(i), match, agreement);
-  return out;
-}
+std::vector<StructureImageFit> imageFitOf(Simulation& sim) { return imageFitScores(sim, 0).structures; }
 
 std::vector<float> vertexImageFit(Simulation& sim, int passes) { return imageFitScores(sim, passes).vertices; }
 

@@ -198,8 +198,9 @@ public:
   void exportLabelMap(const std::filesystem::path& file);
 
 private:
-  // Whether a view derived from the state (contact mask, image fit, medial radii) must be computed again: it
-  // does not fit the store, or the state moved and minIntervalSeconds have passed since `at`.
+  // Whether a view derived from the state (contact mask, image fit, medial radii) must be computed
+  // again: it does not fit the store, or the state moved and minIntervalSeconds have passed since
+  // `at`.
   bool due(std::size_t size, std::uint64_t revision, std::chrono::steady_clock::time_point at,
            std::chrono::steady_clock::time_point now, double minIntervalSeconds);
   std::vector<unsigned char> contactMask_;
