@@ -250,9 +250,11 @@ void MainWindow::buildActions() {
   showFit_->setCheckable(true);
   showFit_->setToolTip(tr("Colour every vertex by how well the image around it looks as the profiles were "
                           "trained: red 0.3 or less, yellow 0.6 (check), green 0.9 or more"));
-  // Both colour every vertex: one at a time (none is fine too).
-  connect(showThickness_, &QAction::toggled, this, [this](bool on) { if (on) showFit_->setChecked(false); });
-  connect(showFit_, &QAction::toggled, this, [this](bool on) { if (on) showThickness_->setChecked(false); });
+  // Both colour every vertex: one at a time, or none.
+  auto* colourings = new QActionGroup(this);
+  colourings->setExclusionPolicy(QActionGroup::ExclusionPolicy::ExclusiveOptional);
+  colourings->addAction(showThickness_);
+  colourings->addAction(showFit_);
 
   QToolBar* bar = addToolBar(tr("Main"));
   bar->setObjectName("main");
