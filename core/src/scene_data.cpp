@@ -1,5 +1,7 @@
 #include "sinew/core/scene_data.h"
 
+#include <stdexcept>
+
 namespace sinew {
 
 void SceneData::setTargetImage(std::shared_ptr<const Image3D> image) {
@@ -7,14 +9,26 @@ void SceneData::setTargetImage(std::shared_ptr<const Image3D> image) {
   gradient_.reset();
 }
 
-void SceneData::setTrainingImage(std::shared_ptr<const Image3D> image) { training_ = std::move(image); }
+void SceneData::setTrainingImage(std::shared_ptr<const Image3D> image) {
+  training_ = std::move(image);
+  trainingReleased_ = false;
+}
+
+void SceneData::releaseTrainingImage() {
+  training_.reset();
+  trainingReleased_ = true;
+}
 
 const Image3D& SceneData::targetImage() const {
   if (!target_) throw InputError("the scene has no image, but an image force is active");
   return *target_;
 }
 
-const Image3D& SceneData::trainingImage() const { return training_ ? *training_ : targetImage(); }
+const Image3D& SceneData::trainingImage() const {
+  // Not the target in its place: a force training after the release would learn the wrong image.
+  if (trainingReleased_) throw std::logic_error("the training image was released before a force trained on it");
+  return training_ ? *training_ : targetImage();
+}
 
 const VectorVolume& SceneData::targetGradient(float sigmaMm) {
   if (!gradient_ || gradientSigma_ != sigmaMm) {

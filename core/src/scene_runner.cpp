@@ -344,10 +344,7 @@ void SceneRunner::load() {
     for (const auto& p : d.excludePointsMm)
       L.sim->scene().constraintPoints()[i].push_back({Vec3(float(p[0]), float(p[1]), float(p[2])), false});
   }
-  // The training image: the scene's, else the model's atlas.
-  const std::optional<fs::path> training =
-      scene_.trainingImage ? scene_.trainingImage : L.model ? std::optional<fs::path>(L.model->atlasImage) : std::nullopt;
-  if (training) {
+  if (const std::optional<fs::path> training = trainingImagePath()) {
     log("reading " + training->string());
     L.sim->scene().setTrainingImage(L.image(registry_, *training));
     L.clock.lap("read_training");
@@ -357,6 +354,19 @@ void SceneRunner::load() {
   L.sim->initialize();
   L.clock.lap("prepare_forces");
   log("ready");
+}
+
+std::optional<fs::path> SceneRunner::trainingImagePath() const {
+  // The scene's, else the model's atlas.
+  const Loaded& L = *loaded_;
+  return scene_.trainingImage ? scene_.trainingImage : L.model ? std::optional<fs::path>(L.model->atlasImage) : std::nullopt;
+}
+
+void SceneRunner::releaseTrainingImage() {
+  Loaded& L = *loaded_;
+  L.sim->scene().releaseTrainingImage();
+  const std::optional<fs::path> training = trainingImagePath();
+  if (training && *training != scene_.targetImage) L.images.erase(*training);
 }
 
 const InitialisationResult& SceneRunner::initialisation() const { return loaded_->init; }
@@ -480,6 +490,9 @@ RunReport SceneRunner::run() {
       levelSeconds_.enter = since(t0);
       simSeconds += levelSeconds_.enter;
     }
+    // The finest level's forces are trained: nothing reads the training image again in this run,
+    // and its memory is off the peak that the evaluation and the outputs reach (docs/benchmarks.md).
+    if (level + 1 == levels) releaseTrainingImage();
     report.levelStartSeconds.push_back(simSeconds);
     // Steps run in chunks that end on the sample points; only samples bring state to the host.
     for (int it = 0; it < lv.iterations && report.numericalFailure.empty();) {

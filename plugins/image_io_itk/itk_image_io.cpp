@@ -411,6 +411,37 @@ std::unique_lock<std::mutex> niftiLock(const std::string& extension) {
   return {};
 }
 
+// A NIfTI file's voxels, a slab of slices at a time, each read by ITK straight into its place in the
+// volume. Read whole, ITK would hold two more full copies of the file's voxels beside the volume
+// while it converts them (nifti_image_load's buffer and the reader's own when the file's type is not
+// the volume's): 70 MB for the demo's 0.5 mm training image, at the run's early peak of host memory.
+// A slab is about 256 K voxels: slabs of 4 M voxels kept the peak 36-45 MB higher, since glibc, once
+// it has freed a buffer that large, keeps freed buffers up to that size in its arenas
+// (docs/benchmarks.md, "The demo's host memory"). NiftiImageIO reads a slab alone
+// (nifti_read_subregion_image). False when ITK read more than the slab (the caller then reads the
+// file whole).
+template <class Pixel>
+bool readNiftiInSlabs(itk::ImageFileReader<itk::Image<Pixel, 3>>& reader, Volume<Pixel>& volume) {
+  constexpr std::size_t kSlabVoxels = std::size_t(1) << 18;
+  auto* image = reader.GetOutput();
+  const auto whole = image->GetLargestPossibleRegion();
+  const std::size_t slice = std::size_t(whole.GetSize(0)) * whole.GetSize(1);
+  const auto depth = static_cast<itk::SizeValueType>(std::max<std::size_t>(1, kSlabVoxels / std::max<std::size_t>(slice, 1)));
+  if (depth >= whole.GetSize(2)) return false;  // one slab: the whole read is as small
+  for (itk::SizeValueType z = 0; z < whole.GetSize(2); z += depth) {
+    auto slab = whole;
+    slab.SetIndex(2, whole.GetIndex(2) + static_cast<itk::IndexValueType>(z));
+    slab.SetSize(2, std::min(depth, whole.GetSize(2) - z));
+    Pixel* const at = volume.voxels().data() + z * slice;
+    image->GetPixelContainer()->SetImportPointer(at, slab.GetNumberOfPixels(), false);  // ITK reads into the volume
+    image->SetRequestedRegion(slab);
+    reader.Update();
+    if (image->GetBufferedRegion() != slab) return false;
+    if (image->GetBufferPointer() != at) std::copy_n(image->GetBufferPointer(), slab.GetNumberOfPixels(), at);
+  }
+  return true;
+}
+
 // A single-file image (not a DICOM series), its header checked, read straight into the volume's
 // buffer: no second full-size copy (the training image is 230 MB as floats).
 template <class Pixel>
@@ -461,6 +492,8 @@ Volume<Pixel> readNonSeries(const fs::path& path) {
   }
   ImageType* image = reader->GetOutput();
   Volume<Pixel> volume(geometryOf(*image));
+  if ((extension == ".nii" || extension == ".nii.gz") && readNiftiInSlabs(*reader, volume)) return volume;
+  image->SetRequestedRegionToLargestPossibleRegion();
   image->GetPixelContainer()->SetImportPointer(volume.voxels().data(), volume.voxels().size(), false);
   reader->Update();
   // ITK kept the buffer it was given unless its pipeline chose otherwise; then the voxels are copied.

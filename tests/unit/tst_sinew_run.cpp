@@ -373,6 +373,19 @@ private slots:
     QVERIFY(report.structures[0].assdFinalMm < report.structures[0].assdInitialMm);
   }
 
+  // Once the finest level is trained nothing reads the training image again: run() lets it go (off
+  // the peak of host memory that the evaluation and the outputs reach), and a force training after
+  // that would get an error, not the target image in its place.
+  void trainingImageIsLetGoAfterTheFinestLevel() {
+    SceneRunner runner(builtinRegistry(), readScene(writeScene("release.json")));
+    runner.load();
+    const SceneData& data = runner.simulation().scene();
+    QVERIFY(&data.trainingImage() != &data.targetImage());
+    const RunReport report = runner.run();
+    QVERIFY2(report.numericalFailure.empty(), report.numericalFailure.c_str());
+    QVERIFY_THROWS_EXCEPTION(std::logic_error, data.trainingImage());
+  }
+
   // The swing check as the runner wires it (the chunk's start handed to the shape guard, the chunk
   // undone and the step halved, the backend reloaded): a stand-in backend whose first two chunks end
   // back where they began, each vertex's last step 0.5 mm, is caught twice; then it steps normally.

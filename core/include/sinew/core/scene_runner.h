@@ -189,6 +189,10 @@ private:
   ChunkStart chunkStart_;
   // Copies the host store (which must be current) into chunkStart_; the two guards below undo to it.
   void holdChunkStart();
+  // The image the forces train on (the scene's, else the model's atlas), and letting it go once the
+  // finest level is trained (run() only: the workstation may train again).
+  std::optional<std::filesystem::path> trainingImagePath() const;
+  void releaseTrainingImage();
   void runGuarded(ExecutionBackend& backend, int chunk, RunReport& report);
   // reload: brings the backend (if any) the host state after a rollback.
   void runShapeGuarded(const std::function<void()>& runChunk, int chunk, RunReport& report,
