@@ -350,7 +350,6 @@ __global__ void __launch_bounds__(kThreads, kWarpLeaves ? kRespondBlocks : 0)
   ContactSum sum;
   HoldPlane plane;
   HoldPlane* const holdPlane = hold && settings.hold >= 0.0f ? &plane : nullptr;
-  const float spacing = search && holdPlane ? sqrtf(m.area[i]) : 1.0f;  // how far the hold may move it (respondTo)
   const unsigned mask = 0xffffffffu;
   const int leader = (threadIdx.x % 32) - g;
   constexpr unsigned groupLanes = kGroup >= 32 ? 0xffffffffu : (1u << kGroup) - 1u;
@@ -379,8 +378,7 @@ __global__ void __launch_bounds__(kThreads, kWarpLeaves ? kRespondBlocks : 0)
         c.leaf = __shfl_sync(mask, h.leaf, src);
         c.tri = __shfl_sync(mask, h.tri, src);
         if (pending && g == 0)
-          addContact(c, point, previous, ownNormal, alpha, settings, sum, holdPlane, shareOf(v, own, base + src - leader),
-                     spacing);
+          addContact(c, point, previous, ownNormal, alpha, settings, sum, holdPlane, shareOf(v, own, base + src - leader));
         pending &= pending - 1;
       }
     }
@@ -430,7 +428,8 @@ __global__ void contactSprings(MeshView m, ParamView p, const int* partner, cons
 __device__ void advanceStep(unsigned* motion) { *motion = 0; }
 // The hold (CollisionForce::constrain's arithmetic); then the step's end (advanceStep: the response
 // read both).
-__global__ void holdOut(MeshView m, const HoldPlane* hold, const float* contactShare, unsigned* motion) {
+__global__ void holdOut(MeshView m, const HoldPlane* hold, const float* contactShare, ContactSettings settings,
+                        unsigned* motion) {
   const int i = blockIdx.x * blockDim.x + threadIdx.x;
   if (i == 0) advanceStep(motion);
   if (i >= m.vertices || contactShare[i] < 0.0f) return;  // no contact plane: no hold plane (respondGroup)
@@ -439,14 +438,14 @@ __global__ void holdOut(MeshView m, const HoldPlane* hold, const float* contactS
   P3* x = reinterpret_cast<P3*>(m.x);
   P3* previous = reinterpret_cast<P3*>(m.prev);
   P3 p = x[i], q = previous[i];
-  collision::holdOut(h, p, q);
+  collision::holdOut(h, p, q, collision::holdLimit(settings, m.area, i));
   x[i] = p;
   previous[i] = q;
 }
 // The collision's force added, the damped Verlet move, then the hold (as holdOut; hold null: none,
 // and `advance` ended the step on the branch).
 __global__ void addMoveAndHold(MeshView m, const float3* collisionForce, VerletMove move, const HoldPlane* hold,
-                               unsigned* motion) {
+                               ContactSettings settings, unsigned* motion) {
   const int i = blockIdx.x * blockDim.x + threadIdx.x;
   if (i == 0 && hold) advanceStep(motion);
   if (i >= m.vertices) return;
@@ -455,7 +454,7 @@ __global__ void addMoveAndHold(MeshView m, const float3* collisionForce, VerletM
   const float3 current = m.x[i];  // verletMove's arithmetic, the hold's on the values it writes
   const float3 next = verletStep(current, m.prev[i], f, move.dt, move.keep, m.mass[i]);
   P3 p{next.x, next.y, next.z}, q{current.x, current.y, current.z};
-  if (hold) collision::holdOut(hold[i], p, q);
+  if (hold) collision::holdOut(hold[i], p, q, collision::holdLimit(settings, m.area, i));
   m.x[i] = make_float3(p.x, p.y, p.z);
   m.prev[i] = make_float3(q.x, q.y, q.z);
 }
@@ -510,17 +509,18 @@ void launchCollisionAdd(const MeshView& m, const CollisionDevice& c, cudaStream_
   addCollisionForce<<<(m.vertices + kThreads - 1) / kThreads, kThreads, 0, s>>>(m, c.force);
 }
 
-void launchCollisionMove(const MeshView& m, const CollisionDevice& c, const VerletMove& move, bool hold, cudaStream_t s) {
-  addMoveAndHold<<<(m.vertices + kThreads - 1) / kThreads, kThreads, 0, s>>>(m, c.force, move, hold ? c.hold : nullptr,
-                                                                           c.motion);
+void launchCollisionMove(const MeshView& m, const CollisionDevice& c, const VerletMove& move,
+                         const ContactSettings& settings, cudaStream_t s) {
+  addMoveAndHold<<<(m.vertices + kThreads - 1) / kThreads, kThreads, 0, s>>>(
+      m, c.force, move, settings.hold >= 0.0f ? c.hold : nullptr, settings, c.motion);
 }
 
 void launchCollisionPlanes(const MeshView& m, const ContactPlanes& planes, float3* out, cudaStream_t s) {
   respondPlanes<<<(m.vertices + kThreads - 1) / kThreads, kThreads, 0, s>>>(m, planes, out);
 }
 
-void launchCollisionHold(const MeshView& m, const CollisionDevice& c, cudaStream_t s) {
-  holdOut<<<(m.vertices + kThreads - 1) / kThreads, kThreads, 0, s>>>(m, c.hold, c.contactShare, c.motion);
+void launchCollisionHold(const MeshView& m, const CollisionDevice& c, const ContactSettings& settings, cudaStream_t s) {
+  holdOut<<<(m.vertices + kThreads - 1) / kThreads, kThreads, 0, s>>>(m, c.hold, c.contactShare, settings, c.motion);
 }
 
 }  // namespace sinew::cuda

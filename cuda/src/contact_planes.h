@@ -47,15 +47,14 @@ __device__ inline float3 contactPlaneForce(const MeshView& m, const ContactPlane
   plane = collision::HoldPlane{};
   if (weight > 0.0f && touching) {  // (its weight may have changed since the plane was found: then no hold)
     const collision::ContactPlane contact = c.contact[i];
-    const float area = m.area[i];
-    const float mass = m.mass ? m.mass[i] : massFromArea(m, m.meshOf[i], area);
+    const float mass = m.mass ? m.mass[i] : massFromArea(m, m.meshOf[i], m.area[i]);
     const auto* x = reinterpret_cast<const collision::P3*>(m.x);
     const collision::P3 point = x[i];
     float deepest = 0.0f;
     k = collision::respondTo(collision::contactHit(contact, point, x, reinterpret_cast<const collision::P3*>(m.cellCentre)),
                              point, reinterpret_cast<const collision::P3*>(m.prev)[i],
                              reinterpret_cast<const collision::P3*>(m.normal)[i], weight * mass, c.settings, deepest, force,
-                             &plane, contact.share, sqrtf(area));  // (a local: written out only with a hold)
+                             &plane, contact.share);  // (a local: written out only with a hold)
     c.depth[i] = deepest;
   }
   if (c.stiffness) c.stiffness[i] = k;

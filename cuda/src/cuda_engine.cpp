@@ -408,7 +408,7 @@ struct CudaEngine::Impl {
                            reach, planesAfterProfile ? &planes : nullptr, stream);
         fused.plus = view.force;
         termsAndMove();
-        if (planes.hold) launchCollisionHold(view, collision.view(), stream);
+        if (planes.hold) launchCollisionHold(view, collision.view(), planes.settings, stream);
         return;
       }
     }
@@ -421,16 +421,16 @@ struct CudaEngine::Impl {
     const bool early = search && collision.refitsBeforeGeometry();
     if (early) collision.refit(view, side);
     launchGeometry(view, topology.cellSpans.get(), stream);
-    float hold = -1.0f;  // negative: no hold
+    collision::ContactSettings settings;  // its hold negative: no hold
     if (search) {
       branch.follow(stream);
       if (!early) collision.refit(view, side);
-      hold = collision.respond(view, collisionParams, sim.forceParams(slot->name), side);
+      settings = collision.respond(view, collisionParams, sim.forceParams(slot->name), side);
     } else if (collide) {
       side = branch.begin(stream);
       const ContactPlanes c = collision.contactPlanes(collisionParams, sim.forceParams(slot->name));
       launchCollisionPlanes(view, c, collision.view().force, side);
-      hold = c.settings.hold;
+      settings = c.settings;
     }
     bool joined = !collide, held = false, moved = false;
     const auto joinCollision = [&](size_t at) {
@@ -438,7 +438,7 @@ struct CudaEngine::Impl {
       branch.join(stream);
       joined = true;
       if (moveAlone || activeAfter(at) || anyPluginActive(forces, sim)) return launchCollisionAdd(view, collision.view(), stream);
-      launchCollisionMove(view, collision.view(), move, hold >= 0.0f, stream);
+      launchCollisionMove(view, collision.view(), move, settings, stream);
       moved = held = true;
     };
     launchFusedForces(view, fused, stream);
@@ -479,7 +479,8 @@ struct CudaEngine::Impl {
     if (!moved) enqueueIntegrator();
     // The forces' constraints after the move (Force::constrain), in force order.
     for (const ForceSlot& f : forces) {
-      if (f.kind == Kind::Collision && hold >= 0.0f && !held) launchCollisionHold(view, collision.view(), stream);
+      if (f.kind == Kind::Collision && settings.hold >= 0.0f && !held)
+        launchCollisionHold(view, collision.view(), settings, stream);
       if (f.kind == Kind::Plugin && sim.forceParams(f.name).anyPositive(0))
         checkPlugin(f, f.device->constrain(pluginContext(f)), "constrain");
     }

@@ -60,10 +60,11 @@ void DeviceCollision::buildNodeLists(const CollisionTree& tree, cudaStream_t str
 
 void DeviceCollision::refit(const MeshView& m, cudaStream_t stream) const { launchCollisionRefit(m, view(), stream); }
 
-float DeviceCollision::respond(const MeshView& m, ParamView p, const ParamTable& params, cudaStream_t stream) const {
+collision::ContactSettings DeviceCollision::respond(const MeshView& m, ParamView p, const ParamTable& params,
+                                                   cudaStream_t stream) const {
   const collision::ContactSettings settings = contactSettingsOf(params);
   launchCollisionRespond(m, p, view(), settings, fullSearchEveryOf(params), stream);
-  return settings.hold;
+  return settings;
 }
 
 int DeviceCollision::schedule(const ParamTable& params) const {

@@ -22,11 +22,12 @@ public:
   CollisionDevice view() const;
   const float* stiffness() const { return stiffness_.get(); }
   // launchCollisionRefit and launchCollisionRespond with the force's settings from its parameters
-  // `params` (p: their device copy); respond returns hold_mm (negative: no hold, so no
-  // launchCollisionHold). refitsBeforeGeometry: the refit computes the cells' centres it needs.
+  // `params` (p: their device copy); respond returns those settings (their hold negative: no hold,
+  // so no launchCollisionHold; holdStep for the hold's limit). refitsBeforeGeometry: the refit
+  // computes the cells' centres it needs.
   bool refitsBeforeGeometry() const { return !climb_; }
   void refit(const MeshView& m, cudaStream_t stream) const;
-  float respond(const MeshView& m, ParamView p, const ParamTable& params, cudaStream_t stream) const;
+  collision::ContactSettings respond(const MeshView& m, ParamView p, const ParamTable& params, cudaStream_t stream) const;
   // The full searches' schedule, kept on the host: the steps enqueued at this level (advance), and
   // whether the step `ahead` steps after them searches in full (the level's first does, and its
   // first full_search_first). Between full searches the engine enqueues the contact planes instead

@@ -288,7 +288,8 @@ void launchCollisionRespond(const MeshView& m, ParamView p, const CollisionDevic
 void launchCollisionAdd(const MeshView& m, const CollisionDevice& c, cudaStream_t s);
 // launchCollisionAdd, launchVerlet and (hold: launchCollisionHold) in one pass, the same
 // arithmetic: for a step whose last force is the collision's and whose move follows directly.
-void launchCollisionMove(const MeshView& m, const CollisionDevice& c, const VerletMove& move, bool hold, cudaStream_t s);
+void launchCollisionMove(const MeshView& m, const CollisionDevice& c, const VerletMove& move,
+                         const collision::ContactSettings& settings, cudaStream_t s);
 // A step between full searches (collision::contactResponse), which the engine schedules itself:
 // instead of the refit and the response, each vertex's contact plane writes its response to `out`,
 // and its depth, hold and stiffness as launchCollisionRespond would (reads
@@ -300,7 +301,8 @@ void launchCollisionPlanes(const MeshView& m, const ContactPlanes& planes, float
 // launchCollisionRespond when settings.hold >= 0) moves out along its normal onto it
 // (CollisionForce::constrain). Every launchCollisionRespond with settings.hold >= 0 must be followed
 // by it or by launchCollisionMove with hold true: they also end the collision's step (its motion).
-void launchCollisionHold(const MeshView& m, const CollisionDevice& c, cudaStream_t s);
+void launchCollisionHold(const MeshView& m, const CollisionDevice& c, const collision::ContactSettings& settings,
+                         cudaStream_t s);
 
 // The radial force (radial_kernels.cu; device_radial.h): the medial surfaces of the structures
 // laid out globally. Surface vertex v: its medial points surfaceMedial[surfaceOffsets[v] ..

@@ -185,7 +185,7 @@ __global__ void __launch_bounds__(128, kLanes == 1 ? 0 : kLanes == 2 ? 6 : 8) pr
     if (kPlanes && planes.heldPrevious) {  // verletMoveAside and the hold (launchCollisionMove's arithmetic)
       const float3 current = m.x[v], next = verletStep(current, m.prev[v], f, move.dt, move.keep, m.mass[v]);
       collision::P3 p{next.x, next.y, next.z}, q{current.x, current.y, current.z};
-      collision::holdOut(hold, p, q);
+      collision::holdOut(hold, p, q, collision::holdLimit(planes.settings, m.area, v));
       m.prev[v] = make_float3(p.x, p.y, p.z);
       planes.heldPrevious[v] = make_float3(q.x, q.y, q.z);
     } else {

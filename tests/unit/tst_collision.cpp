@@ -261,8 +261,9 @@ private slots:
       float deepest = 0.0f;
       collision::P3 force{0, 0, 0}, x = p, previous = p;
       collision::HoldPlane plane;
-      collision::respondTo(inside, p, p, ownNormal, 1.0f, s, deepest, force, &plane, 1.0f, 0.5f);
-      collision::holdOut(plane, x, previous);
+      collision::respondTo(inside, p, p, ownNormal, 1.0f, s, deepest, force, &plane, 1.0f);
+      const float area = 0.25f;  // a spacing of 0.5
+      collision::holdOut(plane, x, previous, collision::holdLimit(s, &area, 0));
       return x.x;
     };
     QCOMPARE(heldTo(3.0e38f), 0.1f);  // no limit: onto the plane at once

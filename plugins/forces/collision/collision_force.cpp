@@ -50,18 +50,21 @@ public:
     const auto previous = s.previousPositions();
     const auto meshOf = s.meshOfVertex();
     const auto mass = s.masses();
-    const auto area = s.areas();
     const auto normals = s.normals();
+    const auto area = s.areas();
     const float motion = full ? trackMotion(s.positions(), ctx.executor) : 0.0f;  // paid at full searches
     stiffness_.assign(s.vertexCount(), 0.0f);
     const bool holding = settings.hold >= 0.0f;
     hold_.assign(holding ? s.vertexCount() : 0, collision::HoldPlane{});
+    // The hold's limit a step from the areas as the step found them (constrain comes after the move).
+    holdLimit_.assign(holding && settings.holdStep < 3.0e38f ? s.vertexCount() : 0, 3.0e38f);
+    if (!holdLimit_.empty())
+      for (Index v = 0; v < s.vertexCount(); ++v) holdLimit_[v] = collision::holdLimit(settings, area.data(), v);
     forActiveVertices(ctx, [&](Index v, float alpha) {
       collision::P3 f{0, 0, 0};
       stiffness_[v] = collision::contactResponse(view, int(meshOf[v]), x[v], asP3(previous[v]), asP3(normals[v]),
                                                  alpha * mass[v], settings, full, every, moved_[v], motion, depth_[v],
-                                                 hint_[v], slack_[v], plane_[v], x, centres, f, holding ? &hold_[v] : nullptr,
-                                                 std::sqrt(area[v]));
+                                                 hint_[v], slack_[v], plane_[v], x, centres, f, holding ? &hold_[v] : nullptr);
       forces[v] += asVec3(f);
     });
   }
@@ -89,7 +92,7 @@ public:
     auto previous = ctx.store.previousPositions();
     ctx.executor.forEach(ctx.store.vertexCount(), [&](Index v) {
       collision::P3 p = asP3(x[v]), q = asP3(previous[v]);
-      collision::holdOut(hold_[v], p, q);
+      collision::holdOut(hold_[v], p, q, holdLimit_.empty() ? 3.0e38f : holdLimit_[v]);
       x[v] = asVec3(p);
       previous[v] = asVec3(q);
     }, 4096);
@@ -135,6 +138,7 @@ private:
   bool checked_ = false;
   std::vector<float> stiffness_;
   std::vector<collision::HoldPlane> hold_;  // per vertex, from the last step's contacts (empty: no hold)
+  std::vector<float> holdLimit_;             // per vertex, the hold's limit a step (empty: none)
   std::vector<float> depth_;  // each vertex's last penetration (collision::contactResponse)
   std::vector<int> hint_;     // each vertex's last nearest contact leaf
   std::vector<float> slack_;  // each vertex's clearance of the other structures beyond the margin

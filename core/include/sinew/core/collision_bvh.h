@@ -256,20 +256,19 @@ struct HoldPlane {
   float offset = 0.0f;   // x is held to dot(normal, x) >= offset
   float side = 3.0e38f;  // the vertex's side of the contact when found; 3e38: no plane
   float weight = 0.0f;   // the share of the way back to the plane that the hold moves x
-  float limit = 3.0e38f; // the most the hold moves x in one step (ContactSettings::holdStep x spacing)
 };
-// `spacing`: the vertex's spacing on its own surface (the square root of its area), which sets how
-// far the hold may move it in one step (ContactSettings::holdStep).
+// 24 bytes: the limit a step (holdLimit) is not stored with the plane but computed where the hold is
+// applied. Stored, it made every vertex's plane 28 bytes, set or not, and the 100 AAL regions' step
+// with collisions 13 us longer (docs/benchmarks.md, "The 100 regions' 1.83").
 SINEW_HD float respondTo(const Hit& h, P3 p, P3 previous, P3 ownNormal, float alpha, const ContactSettings& s,
-                         float& deepest, P3& force, HoldPlane* hold = nullptr, float share = 1.0f, float spacing = 1.0f) {
+                         float& deepest, P3& force, HoldPlane* hold = nullptr, float share = 1.0f) {
   if (h.side >= s.margin) return 0.0f;
   deepest = fmax3(deepest, s.margin - h.side);
   const float passed = fmin3(fmax3(dot3(h.normal, ownNormal) / kFacingBlend, 0.0f), 1.0f);
   alpha *= share;  // the pull, the retreat and (below) the hold alike
   const float pull = alpha * (1.0f - passed);
   if (hold && pull > 0.0f && h.side < hold->side)
-    *hold = {h.normal, dot3(h.normal, h.point) + s.hold, h.side, share * (1.0f - passed),
-             s.holdStep < 3.0e38f ? s.holdStep * spacing : 3.0e38f};
+    *hold = {h.normal, dot3(h.normal, h.point) + s.hold, h.side, share * (1.0f - passed)};
   if (pull > 0.0f) {
     const P3 target = add(h.point, scale(h.normal, s.margin));
     force = add(force, sub(scale(sub(target, p), pull), scale(sub(p, previous), pull * s.damping)));
@@ -278,18 +277,25 @@ SINEW_HD float respondTo(const Hit& h, P3 p, P3 previous, P3 ownNormal, float al
   return pull;
 }
 
+// How far the hold may move vertex i in one step: ContactSettings::holdStep times its spacing on its
+// own surface (the square root of its area, the same within a step wherever the hold is applied).
+// The area is read only when there is a limit.
+SINEW_HD float holdLimit(const ContactSettings& s, const float* area, long i) {
+  return s.holdStep < 3.0e38f ? s.holdStep * sqrtf(area[i]) : 3.0e38f;
+}
+
 // The hold itself: x moves out along the plane's normal onto it (the weight's share of the way, of
-// at most the plane's limit a step).
+// at most `limit`, holdLimit's, a step).
 // The previous position moves by as much, less the step's motion into the plane (the normal part
 // of x - previous, when negative), in the same share: the hold takes the motion inward out of the
 // velocity and adds none outward (the new normal velocity is max(v.n, 0) at weight 1). With the
 // previous position left where it was, a vertex moved out of a deep contact at once kept that jump
 // as velocity, and a small sphere half inside another trembled by 0.1 mm a step.
-SINEW_HD void holdOut(const HoldPlane& h, P3& x, P3& previous) {
+SINEW_HD void holdOut(const HoldPlane& h, P3& x, P3& previous, float limit = 3.0e38f) {
   if (!(h.side < 3.0e38f)) return;
   const float gap = h.offset - dot3(h.normal, x);
   if (!(gap > 0.0f)) return;
-  const float below = fmin3(gap, h.limit);
+  const float below = fmin3(gap, limit);
   const float inward = fmin3(dot3(h.normal, sub(x, previous)), 0.0f);
   x = add(x, scale(h.normal, h.weight * below));
   previous = add(previous, scale(h.normal, h.weight * (below + inward)));
@@ -372,10 +378,10 @@ struct ContactSum {
   float deepestShare = -1.0f;
 };
 SINEW_HD void addContact(const Hit& h, P3 p, P3 previous, P3 ownNormal, float alpha, const ContactSettings& s,
-                         ContactSum& sum, HoldPlane* hold = nullptr, float share = 1.0f, float spacing = 1.0f) {
+                         ContactSum& sum, HoldPlane* hold = nullptr, float share = 1.0f) {
   if (h.d2 < sum.nearest) sum.nearest = h.d2, sum.nearestLeaf = h.leaf;
   if (h.side < sum.deepestHit.side) sum.deepestHit = h, sum.deepestShare = share;
-  sum.stiffness += respondTo(h, p, previous, ownNormal, alpha, s, sum.deepest, sum.force, hold, share, spacing);
+  sum.stiffness += respondTo(h, p, previous, ownNormal, alpha, s, sum.deepest, sum.force, hold, share);
 }
 
 // Clearance. A vertex that touched nothing at its last search knows how far every other surface
@@ -421,12 +427,12 @@ SINEW_HD float slackAfterSearch(float depth, float clearance2, float margin) {
 SINEW_HD float contactResponse(const BvhView& v, int own, P3 p, P3 previous, P3 ownNormal, float alpha,
                                const ContactSettings& s, bool full, int every, float ownMotion, float motion,
                                float& depth, int& hint, float& slack, ContactPlane& plane, const P3* x,
-                               const P3* centres, P3& force, HoldPlane* hold = nullptr, float spacing = 1.0f) {
+                               const P3* centres, P3& force, HoldPlane* hold = nullptr) {
   if (!full && depth < kUnknownDepth) {
     float deepest = 0.0f, stiffness = 0.0f;
     if (plane.share >= 0.0f)
       stiffness = respondTo(contactHit(plane, p, x, centres), p, previous, ownNormal, alpha, s, deepest, force, hold,
-                            plane.share, spacing);
+                            plane.share);
     depth = deepest;
     return stiffness;
   }
@@ -440,7 +446,7 @@ SINEW_HD float contactResponse(const BvhView& v, int own, P3 p, P3 previous, P3 
   for (int other = 0; other < v.meshes; ++other) {
     Hit h{};
     if (contactWith(v, own, other, p, s.margin, maxD2, hint, x, centres, h, sum.clearance2))
-      addContact(h, p, previous, ownNormal, alpha, s, sum, hold, shareOf(v, own, other), spacing);
+      addContact(h, p, previous, ownNormal, alpha, s, sum, hold, shareOf(v, own, other));
   }
   depth = sum.deepest;
   hint = sum.nearestLeaf;
