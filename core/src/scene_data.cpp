@@ -26,7 +26,9 @@ const Image3D& SceneData::targetImage() const {
 
 const Image3D& SceneData::trainingImage() const {
   // Not the target in its place: a force training after the release would learn the wrong image.
-  if (trainingReleased_) throw std::logic_error("the training image was released before a force trained on it");
+  if (trainingReleased_) throw std::logic_error(
+        "a force read the training image after it was released (SceneRunner lets it go once the finest level "
+        "is trained; a force must train by then)");
   return training_ ? *training_ : targetImage();
 }
 
