@@ -32,6 +32,14 @@ __device__ __forceinline__ float3 smoothingTerm(const MeshView& m, const ParamVi
   return smoothingFrom(m.x[v], normal, x, a, e, param(p, mesh, kElevation), alpha);
 }
 
+// sinew::limitedPriorPull: the pull held to kPriorReach (4) times the neighbours' longest edge.
+__device__ __forceinline__ float3 limitedPriorPull(float3 pull, float3 p1, float3 p2, float3 p3) {
+  const float longest2 = fmaxf(fmaxf(squaredNorm(p1 - p2), squaredNorm(p2 - p3)), squaredNorm(p3 - p1));
+  const float limit2 = 16.0f * longest2;
+  const float pull2 = squaredNorm(pull);
+  return pull2 > limit2 ? sqrtf(limit2 / pull2) * pull : pull;
+}
+
 // The shape prior's term from v's position x, its neighbours' p1..p3 and its reference r.
 __device__ __forceinline__ float3 shapePriorFrom(float3 x, float3 p1, float3 p2, float3 p3, float4 r, float alpha) {
   const Frame f = neighbourFrame(p1, p2, p3);
@@ -42,7 +50,7 @@ __device__ __forceinline__ float3 shapePriorFrom(float3 x, float3 p1, float3 p2,
     const float d2 = squaredNorm(foot - f.centre);
     target = foot + elevationFromSinCos(f.radius, d2, r.z, r.w, dot(x - p1, f.normal)) * f.normal;
   }
-  return alpha * (target - x);
+  return alpha * limitedPriorPull(target - x, p1, p2, p3);
 }
 __device__ __forceinline__ float3 shapePriorTerm(const MeshView& m, const float4* __restrict__ ref, int v, int3 n,
                                                  float alpha) {

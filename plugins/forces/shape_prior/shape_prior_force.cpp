@@ -19,7 +19,7 @@ public:
       const auto& n = nb[v];
       const Vec3 &p1 = x[n[0]], &p2 = x[n[1]], &p3 = x[n[2]];
       const NeighbourFrame f = neighbourFrame(p1, p2, p3);
-      forces[v] += alpha * (positionFromParams(p1, p2, p3, f, ref[v], elevation(x[v], p1, f)) - x[v]);
+      forces[v] += alpha * limitedPriorPull(Vec3(positionFromParams(p1, p2, p3, f, ref[v], elevation(x[v], p1, f)) - x[v]), p1, p2, p3);
     });
   }
 

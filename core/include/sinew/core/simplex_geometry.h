@@ -9,6 +9,7 @@
 
 #include <Eigen/Geometry>
 
+#include <algorithm>
 #include <cmath>
 
 namespace sinew {
@@ -111,6 +112,23 @@ V positionFromParams(const V& p1, const V& p2, const V& p3, const NeighbourFrame
   if (!f.valid()) return foot;
   const typename V::Scalar d2 = (foot - f.circumCentre).squaredNorm();
   return foot + elevationFromAngle(f.circumRadius, d2, s.phi, hint) * f.normal;
+}
+
+// The shape prior's pull (target - x) held to kPriorReach times the longest edge of the
+// neighbours' triangle. Where the reference is degenerate at a vertex (an angle near 180 degrees,
+// whose elevation's denominator vanishes), its target lies arbitrarily far away: on new subjects
+// with cortical labels a vertex of Cuneus_R was pulled 130-270 mm in one step, which the stability
+// guard caught by halving the time step for the rest of the level (docs/stability.md). A healthy
+// pull is a fraction of an edge, so the limit leaves it alone. The CUDA terms do the same
+// (force_terms.cuh, limitedPriorPull).
+constexpr float kPriorReach = 4.0f;
+template <class V>
+V limitedPriorPull(const V& pull, const V& p1, const V& p2, const V& p3) {
+  using S = typename V::Scalar;
+  const S longest2 = std::max({(p1 - p2).squaredNorm(), (p2 - p3).squaredNorm(), (p3 - p1).squaredNorm()});
+  const S limit2 = S(kPriorReach * kPriorReach) * longest2;
+  const S pull2 = pull.squaredNorm();
+  return pull2 > limit2 ? V(pull * std::sqrt(limit2 / pull2)) : pull;
 }
 
 }  // namespace sinew
