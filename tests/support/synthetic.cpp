@@ -1,5 +1,7 @@
 #include "synthetic.h"
 
+#include "sinew/core/simplex_geometry.h"
+
 #include <Eigen/Dense>
 
 #include <algorithm>
@@ -24,6 +26,22 @@ std::vector<Vec3> withNoise(std::vector<Vec3> points, float sigma, unsigned seed
   std::normal_distribution<float> n(0.0f, sigma);
   for (Vec3& p : points) p += Vec3(n(rng), n(rng), n(rng));
   return points;
+}
+
+SpikedSphere spikedSphere(float edges) {
+  const SimplexMesh sphere = SimplexMesh::sphere(3, 20.0f);
+  SpikedSphere out;
+  StructureSpec& s = out.spec;
+  s.name = "spiked";
+  s.levels = LevelHierarchy::build(sphere.topology, 1);
+  s.initialPositions = sphere.positions;
+  s.referencePositions = sphere.positions;
+  const auto& n = sphere.topology.neighbours[0];
+  const Vec3 &p1 = sphere.positions[n[0]], &p2 = sphere.positions[n[1]], &p3 = sphere.positions[n[2]];
+  const float edge = ((p1 - sphere.positions[0]).norm() + (p2 - sphere.positions[0]).norm() + (p3 - sphere.positions[0]).norm()) / 3.0f;
+  s.referencePositions[0] = sphere.positions[0] + edges * edge * sphere.positions[0].normalized();
+  out.limit = kPriorReach * std::sqrt(std::max({(p1 - p2).squaredNorm(), (p2 - p3).squaredNorm(), (p3 - p1).squaredNorm()}));
+  return out;
 }
 
 StructureSpec sphereStructure(const std::string& name, int level, float radius, const Vec3& centre,

@@ -1,6 +1,5 @@
 // Acceptance tests of the seed's forces and damped Verlet on shapes and images with known answers.
 #include "sinew/core/image_fit.h"
-#include "sinew/core/simplex_geometry.h"
 #include "synthetic.h"
 
 #include <Eigen/Geometry>
@@ -143,29 +142,17 @@ private slots:
   // most kPriorReach times its neighbours' longest edge, where without the limit its pull is the
   // spike's whole height (new subjects' cortical labels: 130-270 mm in one step).
   void shapePriorPullIsHeldNearTheNeighbours() {
-    const SimplexMesh sphere = SimplexMesh::sphere(3, 20.0f);
-    StructureSpec s;
-    s.name = "spiked";
-    s.levels = LevelHierarchy::build(sphere.topology, 1);
-    s.initialPositions = sphere.positions;
-    s.referencePositions = sphere.positions;
-    const auto& around = sphere.topology.neighbours[0];
-    float edge = 0.0f;
-    for (Index k : around) edge += (sphere.positions[k] - sphere.positions[0]).norm() / 3.0f;
-    s.referencePositions[0] = sphere.positions[0] + 40.0f * edge * sphere.positions[0].normalized();
+    const SpikedSphere spiked = spikedSphere(40.0f);
     Simulation sim(forceRegistry());
-    sim.addStructure(s);
+    sim.addStructure(spiked.spec);
     sim.addForce("shape_prior");
     sim.setIntegrator("damped_verlet");
     sim.initialize();
-    const auto n = sim.store().neighbours()[0];
-    const Vec3 &p1 = sphere.positions[n[0]], &p2 = sphere.positions[n[1]], &p3 = sphere.positions[n[2]];
-    const float longest = std::sqrt(std::max({(p1 - p2).squaredNorm(), (p2 - p3).squaredNorm(), (p3 - p1).squaredNorm()}));
     sim.run(1);  // the forces at the start's positions
     const float pull = sim.store().forces()[0].norm();
-    qInfo("spike 40 edges (%.2f mm each): pull %.2f mm, limit %.2f mm", edge, pull, kPriorReach * longest);
-    QVERIFY(pull <= kPriorReach * longest * 1.0001f);
-    QVERIFY(pull >= 0.99f * kPriorReach * longest);  // held at the limit, not a small pull
+    qInfo("spike 40 edges high: pull %.2f mm, limit %.2f mm", pull, spiked.limit);
+    QVERIFY(pull <= spiked.limit * 1.0001f);
+    QVERIFY(pull >= 0.99f * spiked.limit);  // held at the limit, not a small pull
   }
 
   void gradientForceFindsTheEllipsoid() {
