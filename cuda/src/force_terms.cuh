@@ -32,7 +32,8 @@ __device__ __forceinline__ float3 smoothingTerm(const MeshView& m, const ParamVi
   return smoothingFrom(m.x[v], normal, x, a, e, param(p, mesh, kElevation), alpha);
 }
 
-// sinew::limitedPriorPull: the pull held to kPriorReach (4) times the neighbours' longest edge.
+// sinew::limitedPriorPull: the pull held to kPriorReach (4) times the neighbours' longest edge
+// (16: kPriorReach squared; core's header is not included in device code).
 __device__ __forceinline__ float3 limitedPriorPull(float3 pull, float3 p1, float3 p2, float3 p3) {
   const float longest2 = fmaxf(fmaxf(squaredNorm(p1 - p2), squaredNorm(p2 - p3)), squaredNorm(p3 - p1));
   const float limit2 = 16.0f * longest2;
