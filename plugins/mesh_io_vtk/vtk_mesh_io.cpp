@@ -248,10 +248,11 @@ struct MaskSurface {
   vtkNew<vtkFlyingEdges3D> iso;
   vtkNew<vtkPolyDataConnectivityFilter> largest;
   vtkNew<vtkWindowedSincPolyDataFilter> smooth;
+  vtkIdType cells = 0;  // the iso-surface's triangles, once built
 
-  // The smoothed surface's output port; `cells` gets the iso-surface's triangle count.
+  // The smoothed surface's output port.
   vtkAlgorithmOutput* build(const LabelVolume& labels, std::int32_t label, const int lo[3], const int hi[3],
-                            int smoothingIterations, double sigma, vtkIdType& cells) {
+                            int smoothingIterations, double sigma) {
     const int pad = sigma > 0.0 ? 1 + int(std::ceil(3.0 * sigma)) : 1;
     const int px = hi[0] - lo[0] + 1 + 2 * pad, py = hi[1] - lo[1] + 1 + 2 * pad, pz = hi[2] - lo[2] + 1 + 2 * pad;
     mask->SetDimensions(px, py, pz);
@@ -329,11 +330,9 @@ TriangleMesh labelSurface(const LabelVolume& labels, std::int32_t label, const L
     return fromPolyData(clean->GetOutput());
   };
   MaskSurface surface;
-  vtkIdType cells = 0;
-  vtkAlgorithmOutput* const plain = surface.build(labels, label, lo, hi, opt.smoothingIterations, 0.0, cells);
-  const vtkIdType plainCells = cells;
+  vtkAlgorithmOutput* const plain = surface.build(labels, label, lo, hi, opt.smoothingIterations, 0.0);
   TriangleMesh m;
-  if (opt.targetTriangles <= 0 || cells <= opt.targetTriangles) {
+  if (opt.targetTriangles <= 0 || surface.cells <= opt.targetTriangles) {
     m = run(plain);
   } else {
     // Quadric decimation is smooth but folds now and then; a slightly different target usually
@@ -348,7 +347,8 @@ TriangleMesh labelSurface(const LabelVolume& labels, std::int32_t label, const L
     MaskSurface blurred;
     bool valid = false;
     for (const double sigma : {0.0, 1.0, 2.0}) {
-      quadric->SetInputConnection(sigma > 0.0 ? blurred.build(labels, label, lo, hi, opt.smoothingIterations, sigma, cells) : plain);
+      quadric->SetInputConnection(sigma > 0.0 ? blurred.build(labels, label, lo, hi, opt.smoothingIterations, sigma) : plain);
+      const vtkIdType cells = sigma > 0.0 ? blurred.cells : surface.cells;
       for (double f : {1.0, 1.07, 0.94, 1.15, 0.87, 1.25, 0.8}) {
         quadric->SetTargetReduction(std::clamp(1.0 - f * double(opt.targetTriangles) / double(cells), 0.0, 0.99));
         m = run(quadric->GetOutputPort());
@@ -364,7 +364,7 @@ TriangleMesh labelSurface(const LabelVolume& labels, std::int32_t label, const L
     if (!valid) {
       vtkNew<vtkDecimatePro> pro;
       pro->SetInputConnection(plain);
-      pro->SetTargetReduction(1.0 - double(opt.targetTriangles) / double(plainCells));
+      pro->SetTargetReduction(1.0 - double(opt.targetTriangles) / double(surface.cells));
       pro->PreserveTopologyOn();
       pro->SplittingOff();
       pro->BoundaryVertexDeletionOff();

@@ -50,17 +50,17 @@ public:
     const auto previous = s.previousPositions();
     const auto meshOf = s.meshOfVertex();
     const auto mass = s.masses();
-    const auto normals = s.normals();
     const auto area = s.areas();
+    const auto normals = s.normals();
     const float motion = full ? trackMotion(s.positions(), ctx.executor) : 0.0f;  // paid at full searches
     stiffness_.assign(s.vertexCount(), 0.0f);
     const bool holding = settings.hold >= 0.0f;
     hold_.assign(holding ? s.vertexCount() : 0, collision::HoldPlane{});
-    // The hold's limit a step from the areas as the step found them (constrain comes after the move).
+    // The hold's limit a step from the areas as the step found them (constrain comes after the move;
+    // only active vertices get a hold plane, so only theirs is needed).
     holdLimit_.assign(holding && settings.holdStep < 3.0e38f ? s.vertexCount() : 0, 3.0e38f);
-    if (!holdLimit_.empty())
-      for (Index v = 0; v < s.vertexCount(); ++v) holdLimit_[v] = collision::holdLimit(settings, area.data(), v);
     forActiveVertices(ctx, [&](Index v, float alpha) {
+      if (!holdLimit_.empty()) holdLimit_[v] = collision::holdLimit(settings, area.data(), v);
       collision::P3 f{0, 0, 0};
       stiffness_[v] = collision::contactResponse(view, int(meshOf[v]), x[v], asP3(previous[v]), asP3(normals[v]),
                                                  alpha * mass[v], settings, full, every, moved_[v], motion, depth_[v],
