@@ -404,7 +404,7 @@ SceneDesc parseScene(const std::string& text, const fs::path& file) {
   if (root.has("stability")) {
     const Node g = root.at("stability");
     g.expectObject({"guard", "max_step_mm", "max_retries", "min_volume_ratio", "max_volume_ratio", "max_drift_mm",
-                    "max_outside_fraction", "max_inverted_fraction", "max_collapsed_fraction",
+                    "max_outside_fraction", "outside_band_mm", "max_inverted_fraction", "max_collapsed_fraction",
                     "max_self_intersecting_fraction", "max_swinging_fraction"});
     if (g.has("guard")) s.stability.enabled = g.at("guard").boolean();
     if (g.has("max_step_mm")) s.stability.maxStepMm = g.at("max_step_mm").number();
@@ -419,6 +419,8 @@ SceneDesc parseScene(const std::string& text, const fs::path& file) {
     if (!(shape.maxVolumeRatio > 1.0)) g.at("max_volume_ratio").fail("must be above 1");
     if (g.has("max_drift_mm")) shape.maxDriftMm = g.at("max_drift_mm").number();
     if (!(shape.maxDriftMm > 0.0)) g.at("max_drift_mm").fail("must be positive");
+    if (g.has("outside_band_mm")) shape.outsideBandMm = g.at("outside_band_mm").number();
+    if (!(shape.outsideBandMm >= 0.0 && shape.outsideBandMm <= 1000.0)) g.at("outside_band_mm").fail("must be in [0, 1000] mm");
     // Shares of a structure's vertices, cells or sampled triangles.
     const auto fraction = [&](const char* key, double& value) {
       if (g.has(key)) value = g.at(key).number();
@@ -544,6 +546,7 @@ std::string sceneToJson(const SceneDesc& s) {
                     {"max_volume_ratio", s.stability.shape.maxVolumeRatio},
                     {"max_drift_mm", s.stability.shape.maxDriftMm},
                     {"max_outside_fraction", s.stability.shape.maxOutsideFraction},
+                    {"outside_band_mm", s.stability.shape.outsideBandMm},
                     {"max_inverted_fraction", s.stability.shape.maxInvertedFraction},
                     {"max_collapsed_fraction", s.stability.shape.maxCollapsedFraction},
                     {"max_self_intersecting_fraction", s.stability.shape.maxSelfIntersectingFraction},

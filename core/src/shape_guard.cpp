@@ -7,6 +7,8 @@
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_reduce.h>
 
+#include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <stdexcept>
 
@@ -95,11 +97,21 @@ Vec3 cellVectorArea(const MeshStore& store, std::span<const Vec3> x, Index cell)
 }
 
 namespace {
-// Whether p lies within the image: its index within the outer faces of the border voxels.
-struct InsideImage {
-  explicit InsideImage(const ImageGeometry& image)
+// How far p lies outside the image (mm): past the outer faces of its border voxels, along each of
+// its axes, combined; 0 inside.
+struct ImageExtent {
+  explicit ImageExtent(const ImageGeometry& image)
       : image(image), toIndex(image.indexToWorldMatrix().inverse().cast<float>()), origin(image.origin.cast<float>()) {}
-  bool operator()(const Vec3& p) const { return image.containsIndex(toIndex * (p - origin)); }
+  float distanceOutside(const Vec3& p) const {
+    const Vec3 idx = toIndex * (p - origin);
+    float d2 = 0.0f;
+    for (int a = 0; a < 3; ++a) {
+      const float past = std::max({-0.5f - idx[a], idx[a] - (float(image.size[a]) - 0.5f), 0.0f}) * float(image.spacing[a]);
+      d2 += past * past;
+    }
+    return std::sqrt(d2);
+  }
+  bool contains(const Vec3& p) const { return image.containsIndex(toIndex * (p - origin)); }
   const ImageGeometry& image;
   Eigen::Matrix3f toIndex;
   Vec3 origin;
@@ -107,22 +119,29 @@ struct InsideImage {
 }  // namespace
 
 Index pointsOutside(std::span<const Vec3> points, const ImageGeometry& image) {
-  const InsideImage inside(image);
-  return deterministicSum(Index(0), Index(points.size()), Index(0), [&](Index& n, Index v) { n += !inside(points[v]); });
+  const ImageExtent extent(image);
+  return deterministicSum(Index(0), Index(points.size()), Index(0), [&](Index& n, Index v) { n += !extent.contains(points[v]); });
 }
 
 Index verticesOutside(MeshStore& store, Index mesh, const ImageGeometry& image) {
   return pointsOutside(store.mesh(store.positions(), mesh), image);
 }
 
+float farthestOutside(std::span<const Vec3> points, const ImageGeometry& image) {
+  const ImageExtent extent(image);
+  float farthest = 0.0f;
+  for (const Vec3& p : points) farthest = std::max(farthest, extent.distanceOutside(p));
+  return farthest;
+}
+
 void ShapeGuard::capture(MeshStore& store, const ImageGeometry& image) {
   volume_.clear();
   centroid_.clear();
-  outsideShare_.clear();
+  outsideReach_.clear();
   for (Index m = 0; m < store.meshCount(); ++m) {
     volume_.push_back(structureVolume(store, m));
     centroid_.push_back(structureCentroid(store, m));
-    outsideShare_.push_back(double(verticesOutside(store, m, image)) / double(std::max<Index>(1, store.range(m).vertexCount())));
+    outsideReach_.push_back(farthestOutside(store.mesh(store.positions(), m), image));
   }
   cellArea_.clear();
   followLevel(store);
@@ -148,7 +167,8 @@ std::string ShapeGuard::check(MeshStore& store, const ImageGeometry& image, cons
 
 std::string ShapeGuard::checkOne(MeshStore& store, Index m, const ImageGeometry& image, const ShapeLimits& limits,
                                  const std::vector<std::string>& names, std::span<const Vec3> chunkStart) const {
-  const InsideImage inside(image);
+  const ImageExtent extent(image);
+  const float outsideLimit = outsideReach_[m] + float(limits.outsideBandMm);
   char text[256];
   const std::string name = "structure '" + (m < Index(names.size()) ? names[m] : std::to_string(m)) + "'";
   // Two passes, each in parallel: the cells (volume, turned over, collapsed), the vertices (centroid,
@@ -172,7 +192,7 @@ std::string ShapeGuard::checkOne(MeshStore& store, Index m, const ImageGeometry&
     throw std::invalid_argument("ShapeGuard::check: the chunk's start has another vertex count than the store");
   const VertexSums vertexSums = deterministicSum(r.vertexBegin, r.vertexEnd, VertexSums{}, [&](VertexSums& s, Index v) {
     s.position += x[v].cast<double>();
-    s.outside += !inside(x[v]);
+    s.outside += extent.distanceOutside(x[v]) > outsideLimit;
     if (!swingCheck) return;
     const float step = (x[v] - previous[v]).norm();
     s.swinging += step > ShapeLimits::kSwingStepMm && (x[v] - chunkStart[v]).norm() < 2.0f * step;
@@ -192,18 +212,21 @@ std::string ShapeGuard::checkOne(MeshStore& store, Index m, const ImageGeometry&
                   name.c_str(), drift, limits.maxDriftMm);
     return text;
   }
-  // Against the start (as shares: a finer level has more vertices): a structure cut by a small
-  // field of view starts partly outside.
+  // Against how far outside the structure reached at the start: a field of view that cuts it
+  // leaves it partly outside, and the vertices at the cut cross the image's border as it fits.
   const double vertexCount = double(std::max<Index>(1, r.vertexCount()));
-  const double fraction = double(vertexSums.outside) / vertexCount, atStart = outsideShare_[m];
-  if (fraction - atStart > limits.maxOutsideFraction && (fraction - atStart) * vertexCount > ShapeLimits::kMinOutside - 0.5) {
-    if (atStart == 0.0)
-      std::snprintf(text, sizeof text, "shape check: %s has %.3g %% of its vertices outside the image (limit %.3g %%)",
-                    name.c_str(), 100.0 * fraction, 100.0 * limits.maxOutsideFraction);
+  const double fraction = double(vertexSums.outside) / vertexCount;
+  if (fraction > limits.maxOutsideFraction && vertexSums.outside >= ShapeLimits::kMinOutside) {
+    if (outsideReach_[m] == 0.0f)
+      std::snprintf(text, sizeof text,
+                    "shape check: %s has %.3g %% of its vertices more than %.3g mm outside the image (limit %.3g %%)",
+                    name.c_str(), 100.0 * fraction, limits.outsideBandMm, 100.0 * limits.maxOutsideFraction);
     else
       std::snprintf(text, sizeof text,
-                    "shape check: %s has %.3g %% of its vertices outside the image, %.3g %% at the start (limit %.3g %% more)",
-                    name.c_str(), 100.0 * fraction, 100.0 * atStart, 100.0 * limits.maxOutsideFraction);
+                    "shape check: %s has %.3g %% of its vertices more than %.3g mm outside the image, %.3g mm beyond "
+                    "the %.3g mm it reached at the start (limit %.3g %%)",
+                    name.c_str(), 100.0 * fraction, double(outsideLimit), limits.outsideBandMm, double(outsideReach_[m]),
+                    100.0 * limits.maxOutsideFraction);
     return text;
   }
   const Index inverted = cellSums.inverted, collapsed = cellSums.collapsed;

@@ -103,6 +103,8 @@ private slots:
                                   << "/attachments/0/fixed_within_mm/radius: must be in (0, 1000] mm";
     QTest::newRow("shape limit") << R"("version": 1,)" << R"("version": 1, "stability": {"min_volume_ratio": 1.5},)"
                                  << "/stability/min_volume_ratio: must be in [0, 1)";
+    QTest::newRow("outside band") << R"("version": 1,)" << R"("version": 1, "stability": {"outside_band_mm": -1},)"
+                                  << "/stability/outside_band_mm: must be in [0, 1000] mm";
     QTest::newRow("not json") << R"("version": 1,)" << R"("version": 1,,)" << "/data/scene.json: not valid JSON";
     QTest::newRow("mass floor") << R"("scale": 1.05})" << R"("scale": 1.05}, "mass_floor": 1.5)"
                                 << "/structures/0/mass_floor: the mass floor must be between 0 and 1";
@@ -139,14 +141,15 @@ private slots:
     QVERIFY(b.forces == a.forces);
     QCOMPARE(b.integrator, a.integrator);
     QCOMPARE(y.massFloor, 0.0);  // off unless asked for
-    // Attachments, the thickness output and a mass floor too.
+    // Attachments, the thickness output, a shape limit and a mass floor too.
     SceneDesc c = parseScene(replaced(replaced(kValid, R"("version": 1,)",
-                                               R"("version": 1, "outputs": {"thickness": true}, "attachments": [{"structure": "a", "fixed_within_mm": {"centre": [1, 2, 3], "radius": 4}}],)"),
+                                               R"("version": 1, "outputs": {"thickness": true}, "stability": {"outside_band_mm": 3.5}, "attachments": [{"structure": "a", "fixed_within_mm": {"centre": [1, 2, 3], "radius": 4}}],)"),
                                       R"("scale": 1.05})", R"("scale": 1.05}, "mass_floor": 0.3)"),
                              "/data/scene.json");
     writeScene(c, file);
     const SceneDesc d = readScene(file);
     QVERIFY(d.thickness);
+    QCOMPARE(d.stability.shape.outsideBandMm, 3.5);
     QCOMPARE(d.structures[0].massFloor, 0.3);
     QCOMPARE(d.attachments.size(), std::size_t(1));
     QCOMPARE(d.attachments[0].kind, std::string("fixed"));

@@ -19,7 +19,7 @@ namespace sinew {
 
 class ShapeGuard {
 public:
-  // Each structure's volume, centroid and vertices outside `image` now become the reference.
+  // Each structure's volume, centroid and how far outside `image` it reaches now become the reference.
   void capture(MeshStore& store, const ImageGeometry& image);
   bool captured() const { return !volume_.empty(); }
   // At a new level of detail (other cells): its cells' orientation and area now become the
@@ -37,7 +37,7 @@ private:
 
   std::vector<double> volume_;
   std::vector<Vec3> centroid_;
-  std::vector<double> outsideShare_;  // per structure, the share of its vertices outside the image at the start
+  std::vector<float> outsideReach_;  // per structure, how far outside the image it reached at the start (mm; 0: inside)
   std::vector<Vec3> cellArea_;  // per cell of the store, its vector area at the start
 };
 
@@ -45,6 +45,8 @@ private:
 // voxels' outer faces).
 Index pointsOutside(std::span<const Vec3> points, const ImageGeometry& image);
 Index verticesOutside(MeshStore& store, Index mesh, const ImageGeometry& image);
+// How far (mm) the farthest of the points lies outside the image; 0 when none does.
+float farthestOutside(std::span<const Vec3> points, const ImageGeometry& image);
 // A structure's enclosed volume (mm^3) and its vertices' centroid.
 double structureVolume(MeshStore& store, Index mesh);
 Vec3 structureCentroid(MeshStore& store, Index mesh);
