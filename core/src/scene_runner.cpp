@@ -308,14 +308,24 @@ void SceneRunner::load() {
 
   initialise(specs, log);
   L.clock.lap("initialisation");
+  // A structure entirely outside the target image: where the image's field of view leaves it out
+  // (a scan that does not cover the cerebellum), the others are still segmented and the model alone
+  // places it, as it shapes the parts of structures past the field of view (outside_image_share in
+  // the report). Every structure outside is a wrong image or a wrong placement: bad input.
+  std::vector<size_t> outside;
   for (size_t i = 0; i < specs.size(); ++i) {
     int inside = 0;
     for (const Vec3& p : specs[i].initialPositions) inside += L.target->containsIndex(L.target->worldToIndex(p));
-    if (inside == 0)
-      sceneError(scene_, "/structures/" + std::to_string(i),
-                 "structure '" + specs[i].name + "' lies entirely outside the target image " + scene_.targetImage.string());
-    L.sim->addStructure(std::move(specs[i]));
+    if (inside == 0) outside.push_back(i);
   }
+  if (!outside.empty() && outside.size() == specs.size())
+    sceneError(scene_, "/structures/" + std::to_string(outside.front()),
+               "structure '" + specs[outside.front()].name + "' lies entirely outside the target image " +
+                   scene_.targetImage.string() + (specs.size() > 1 ? ", as does every other structure" : ""));
+  for (size_t i : outside)
+    log("structure '" + specs[i].name + "' lies entirely outside the target image " + scene_.targetImage.string() +
+         ": the model alone places it");
+  for (auto& spec : specs) L.sim->addStructure(std::move(spec));
 
   for (size_t f = 0; f < scene_.forces.size(); ++f) {
     const auto& [name, values] = scene_.forces[f];

@@ -459,6 +459,33 @@ private slots:
       QVERIFY2(e.path().filename().string()[0] != '.', qPrintable(QString::fromStdString(e.path().string())));
   }
 
+  // A structure that the target image's field of view leaves out entirely: the others are
+  // segmented, the model alone places it, and the report says it lies past the field of view.
+  // Every structure outside is bad input (refusesBadInputs).
+  void structureOutsideTheFieldOfViewIsPlacedByTheModel() {
+    const fs::path scene = writeScene("one_outside.json", [](std::string& t) {
+      replace(t, R"(  }],)", R"(  }, {
+    "name": "stray", "label": 7,
+    "reference": {"label_map": "labels.nii.gz", "label": 7},
+    "initial": {"translation_mm": [500, 0, 0]}
+  }],)");
+    });
+    const fs::path out = path("out_one_outside");
+    const Result r = sinewRun({QString::fromStdString(scene.string()), "-o", QString::fromStdString(out.string())});
+    QVERIFY2(r.code == 0, qPrintable(r.err));
+    QVERIFY2(r.err.contains("structure 'stray' lies entirely outside the target image") && r.err.contains("the model alone places it"),
+             qPrintable(r.err));
+    QVERIFY2(r.out.contains("past the image's field of view (share of vertices): stray 100.0 %"), qPrintable(r.out));
+    const QJsonObject report = readJson(out / "report.json");
+    QCOMPARE(report["status"].toString(), QString("completed"));
+    const QJsonArray structures = report["structures"].toArray();
+    QCOMPARE(structures.size(), 2);
+    QCOMPARE(structures[1].toObject()["outside_image_share"].toDouble(), 1.0);
+    QCOMPARE(structures[0].toObject()["outside_image_share"].toDouble(), 0.0);
+    QVERIFY(structures[0].toObject()["assd_mm"].toObject()["final"].toDouble() < 1.0);
+    QVERIFY(fs::exists(out / "stray.vtp") && fs::exists(out / "ellipsoid.vtp"));
+  }
+
   void refusesBadInputs() {
     expectBadInput(writeScene("missing_image.json", [](std::string& t) { replace(t, "image.nii.gz", "nothere.nii.gz"); }),
                    "nothere.nii.gz", "no such file");
