@@ -6,6 +6,7 @@
 #include <Eigen/Geometry>
 
 #include <algorithm>
+#include <limits>
 #include <array>
 #include <cmath>
 #include <numeric>
@@ -282,6 +283,14 @@ SurfaceDistanceQuery::Closest SurfaceDistanceQuery::closest(const Vec3& p) const
   collision::P3 q = asP3(p);
   int t = 0;
   const float d2 = trianglebvh::closestSquaredDistance(bvh_.wideView(), bvh_.wideRoot(0), asP3(p), 3.0e38f, &q, &t);
+  return {asVec3(q), std::sqrt(d2), bvh_.triangles[std::size_t(t)]};
+}
+SurfaceDistanceQuery::Closest SurfaceDistanceQuery::closestFacing(const Vec3& p, const Vec3& direction, float within) const {
+  collision::P3 q = asP3(p);
+  const collision::P3 facing = asP3(direction);
+  int t = -1;
+  const float d2 = trianglebvh::closestSquaredDistance(bvh_.view(), 0, asP3(p), within * within, &q, &t, &facing);
+  if (t < 0) return {p, std::numeric_limits<float>::infinity(), {0, 0, 0}};
   return {asVec3(q), std::sqrt(d2), bvh_.triangles[std::size_t(t)]};
 }
 Vec3 SurfaceDistanceQuery::closestPoint(const Vec3& p) const {

@@ -54,6 +54,18 @@ private slots:
     QVERIFY(std::abs(q.distance(Vec3(0.5f, 0.5f, 0.4f)) - 0.4f) < 1e-6f);
     QVERIFY(std::abs(q.distance(Vec3(2, 2, 2)) - std::sqrt(3.0f)) < 1e-6f);
     QVERIFY(std::abs(q.distance(Vec3(2, 0.5f, 2)) - std::sqrt(2.0f)) < 1e-6f);
+    // Among the faces facing a direction (a thin part's far side): over the middle of a slab 10 mm
+    // wide and 1 mm thick, the closest face facing down is the bottom, 1 mm below the top; facing
+    // up, the top itself; a plain search finds the top. Within 1 mm nothing faces down.
+    TriangleMesh slabMesh = cube;
+    for (Vec3& p : slabMesh.points) p = Vec3(10 * p.x(), 10 * p.y(), p.z());
+    const SurfaceDistanceQuery slab(slabMesh);
+    const Vec3 above(5, 5, 1.2f);
+    QVERIFY(std::abs(slab.closest(above).point.z() - 1.0f) < 1e-6f);
+    QVERIFY(std::abs(slab.closestFacing(above, Vec3(0, 0, 1), 10.0f).point.z() - 1.0f) < 1e-6f);
+    const SurfaceDistanceQuery::Closest down = slab.closestFacing(above, Vec3(0, 0, -1), 10.0f);
+    QVERIFY(std::abs(down.point.z()) < 1e-6f && std::abs(down.distance - 1.2f) < 1e-5f);
+    QVERIFY(std::isinf(slab.closestFacing(above, Vec3(0, 0, -1), 1.0f).distance));
   }
 
   // The hierarchy's search (surface-area-heuristic splits) against every triangle, on a smooth

@@ -62,6 +62,10 @@ public:
     std::array<Index, 3> triangle;
   };
   Closest closest(const Vec3& p) const;
+  // The same among the triangles that face `direction`'s way (normal . direction >= 0) and lie
+  // within `within` of p: across a thin part, the closest point of the whole surface can be its far
+  // side. `distance` is infinite when no such triangle is that near.
+  Closest closestFacing(const Vec3& p, const Vec3& direction, float within) const;
   const TriangleBvh& bvh() const { return bvh_; }
 
 private:

@@ -28,9 +28,10 @@ struct View {
 
 // The squared distance from p to the closest point of the mesh under `root`, or maxD2 when it is
 // farther (branch and bound, nearer child first). `closest` receives the point and `triangle` its
-// triangle (in leaf order) when not null.
+// triangle (in leaf order) when not null. `facing` (not null): only the triangles whose normal
+// (corners counter-clockwise) has a non-negative dot product with it.
 SINEW_HD float closestSquaredDistance(const View& v, int root, P3 p, float maxD2, P3* closest = nullptr,
-                                      int* triangle = nullptr) {
+                                      int* triangle = nullptr, const P3* facing = nullptr) {
   float best = maxD2;
   // A node is kept with its box's distance, so that one no longer nearer than the best is dropped
   // without loading it.
@@ -50,6 +51,7 @@ SINEW_HD float closestSquaredDistance(const View& v, int root, P3 p, float maxD2
         // a tight bound). Equal distances only to rounding, which can change the pick between two
         // triangles equally near; degenerate triangles (no plane) are always tested.
         const P3 normal = collision::cross3(collision::sub(b, a), collision::sub(c, a));
+        if (facing && collision::dot3(normal, *facing) < 0.0f) continue;
         const float height = collision::dot3(normal, collision::sub(p, a)), normal2 = collision::dot3(normal, normal);
         if (normal2 > 0.0f && height * height >= best * normal2) continue;
         const P3 q = collision::closestOnTriangle(p, a, b, c);
