@@ -6,9 +6,9 @@
 #include <Eigen/Geometry>
 
 #include <algorithm>
-#include <limits>
 #include <array>
 #include <cmath>
+#include <limits>
 #include <numeric>
 
 namespace sinew {
@@ -285,6 +285,8 @@ SurfaceDistanceQuery::Closest SurfaceDistanceQuery::closest(const Vec3& p) const
   const float d2 = trianglebvh::closestSquaredDistance(bvh_.wideView(), bvh_.wideRoot(0), asP3(p), 3.0e38f, &q, &t);
   return {asVec3(q), std::sqrt(d2), bvh_.triangles[std::size_t(t)]};
 }
+// On the binary tree: the wide walk has no facing filter, and this search runs only where a model
+// is built.
 SurfaceDistanceQuery::Closest SurfaceDistanceQuery::closestFacing(const Vec3& p, const Vec3& direction, float within) const {
   collision::P3 q = asP3(p);
   const collision::P3 facing = asP3(direction);

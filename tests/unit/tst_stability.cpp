@@ -265,10 +265,11 @@ private Q_SLOTS:
     const QString escaped = moveBall([&](const Vec3& p) -> Vec3 { return p + Vec3(45, 0, 0); }, onlyInside);
     QVERIFY2(escaped.contains("vertices more than 2 mm outside the image (limit 1 %)"), qPrintable(escaped));
     // A structure that starts partly outside (a field of view that cuts it) is held to how far
-    // outside it reached at the start (5.34 mm: its vertices lie inside the radius) plus the band (2 mm): as it started it passes, and
-    // so does the ball grown by 1 mm (its vertices at the cut cross the border: 25 -> 29.5 % of the
-    // ball's surface outside, which a share against the start's counted); 3 mm further out it
-    // does not. The guard that saw it wholly inside names the cut as before.
+    // outside it reached at the start (about 5.3 mm: its vertices lie inside the radius) plus the
+    // band (2 mm): as it started it passes, and so does the ball grown by 1 mm (its vertices at the
+    // cut cross the border: 25 -> 29.5 % of the ball's surface outside, which a share against the
+    // start's counted); 3 mm further out it does not. The guard that saw it wholly inside names
+    // the cut as before.
     {
       ImageGeometry cut = image;
       cut.size = {55, 100, 100};  // x up to 54.5 mm: the ball (centre x 50, radius 10) sticks out
