@@ -214,7 +214,7 @@ void MeshStore::refreshReference() {
       const auto& n = neighbours_[v];
       const NeighbourFrame f = neighbourFrame(x[n[0]], x[n[1]], x[n[2]]);
       if (normal) normal[v] = f.normal;
-      if (par) par[v] = sinew::simplexParams(x[v], x[n[0]], x[n[1]], x[n[2]], f);
+      if (par) par[v] = followableReference(sinew::simplexParams(x[v], x[n[0]], x[n[1]], x[n[2]], f));
     });
   }
   referenceComputedAt_ = referenceVersion_;

@@ -28,7 +28,7 @@ std::vector<Vec3> withNoise(std::vector<Vec3> points, float sigma, unsigned seed
   return points;
 }
 
-SpikedSphere spikedSphere(float edges) {
+SpikedSphere spikedSphere(float edges, bool inReference) {
   const SimplexMesh sphere = SimplexMesh::sphere(3, 20.0f);
   SpikedSphere out;
   StructureSpec& s = out.spec;
@@ -39,7 +39,8 @@ SpikedSphere spikedSphere(float edges) {
   const auto& n = sphere.topology.neighbours[0];
   const Vec3 &p1 = sphere.positions[n[0]], &p2 = sphere.positions[n[1]], &p3 = sphere.positions[n[2]];
   const float edge = ((p1 - sphere.positions[0]).norm() + (p2 - sphere.positions[0]).norm() + (p3 - sphere.positions[0]).norm()) / 3.0f;
-  s.referencePositions[0] = sphere.positions[0] + edges * edge * sphere.positions[0].normalized();
+  (inReference ? s.referencePositions : s.initialPositions)[0] =
+      sphere.positions[0] + edges * edge * sphere.positions[0].normalized();
   out.limit = kPriorReach * std::sqrt(std::max({(p1 - p2).squaredNorm(), (p2 - p3).squaredNorm(), (p3 - p1).squaredNorm()}));
   return out;
 }

@@ -22,14 +22,15 @@ std::vector<Vec3> withNoise(std::vector<Vec3> points, float sigma, unsigned seed
 StructureSpec sphereStructure(const std::string& name, int level, float radius, const Vec3& centre,
                               int levels = 1);
 
-// A 20 mm sphere (the dual of a level-3 icosphere) whose reference has a spike: vertex 0 pushed
-// `edges` of its mean edge lengths outward. `limit`: the shape prior's largest pull there at the
-// start, kPriorReach times the longest edge of vertex 0's neighbours' triangle (limitedPriorPull).
+// A 20 mm sphere (the dual of a level-3 icosphere), its own reference shape, with a spike: vertex 0
+// pushed `edges` of its mean edge lengths outward at the start, or in the reference. `limit`: the
+// shape prior's largest pull there at the start, kPriorReach times the longest edge of vertex 0's
+// neighbours' triangle (limitedPriorPull).
 struct SpikedSphere {
   StructureSpec spec;
   float limit = 0.0f;
 };
-SpikedSphere spikedSphere(float edges);
+SpikedSphere spikedSphere(float edges, bool inReference = false);
 
 // Two spheres (level-3 icosphere duals), "a" of radius 10 mm at the origin and "b" of `radiusB`
 // `gap` mm along +x, each its own reference shape, added to `sim` in that order (the collision

@@ -148,8 +148,8 @@ private slots:
   }
 
   // The shape prior's pull held to kPriorReach times the neighbours' longest edge
-  // (limitedPriorPull), where a reference spike (one vertex 40 edge lengths out) puts its target far
-  // away: the device holds it as the CPU does, to the bit, and the spike's vertex is held at the limit.
+  // (limitedPriorPull), where a vertex starts 40 edge lengths out of its place: the device holds it
+  // as the CPU does, to the bit, and the spike's vertex is held at the limit.
   void spikedShapePriorMatchesTheCpu() {
     const SpikedSphere spiked = spikedSphere(40.0f);
     const auto make = [&] {

@@ -138,9 +138,9 @@ private slots:
     QVERIFY(after <= 0.05);
   }
 
-  // A reference with a spike (one vertex 40 edge lengths out): the shape prior pulls that vertex at
-  // most kPriorReach times its neighbours' longest edge, where without the limit its pull is the
-  // spike's whole height (new subjects' cortical labels: 130-270 mm in one step).
+  // A vertex 40 edge lengths out of its place: the shape prior pulls it at most kPriorReach times
+  // its neighbours' longest edge, where without the limit its pull is the spike's whole height (on
+  // new subjects' cortical labels, a reference folded at a vertex pulled it 130-270 mm in one step).
   void shapePriorPullIsHeldNearTheNeighbours() {
     const SpikedSphere spiked = spikedSphere(40.0f);
     Simulation sim(forceRegistry());
@@ -153,6 +153,29 @@ private slots:
     qInfo("spike 40 edges high: pull %.2f mm, limit %.2f mm", pull, spiked.limit);
     QVERIFY(pull <= spiked.limit * 1.0001f);
     QVERIFY(pull >= 0.99f * spiked.limit);  // held at the limit, not a small pull
+  }
+
+  // A reference folded at a vertex (here a spike 40 edge lengths out) gives that vertex neutral
+  // parameters (isFoldedReference): it stays with its neighbours instead of being pulled, at the
+  // limit every step, to the spike (on a new subject, a vertex of Lingual_L ended 15 mm out; here,
+  // without the neutral parameters, 59 mm). The neighbours' own references still include the spike
+  // and dent the surface there (2.5 edge lengths measured), so the bound is 3.
+  void shapePriorIgnoresAReferenceFoldedAtAVertex() {
+    const SpikedSphere spiked = spikedSphere(40.0f, true);
+    Simulation sim(forceRegistry());
+    sim.addStructure(spiked.spec);
+    sim.addForce("shape_prior");
+    sim.setIntegrator("damped_verlet");
+    sim.initialize();
+    const double edge = meanEdgeLength(sim.store());
+    sim.run(1);
+    const float pull = sim.store().forces()[0].norm();
+    sim.run(299);
+    const float out = sim.store().positions()[0].norm() - 20.0f;  // the sphere's radius
+    qInfo("reference spike 40 edges high: pull %.3f mm at the start, vertex %.3f mm off the sphere after 300 steps "
+          "(edge %.2f mm, limit %.2f mm)", pull, out, edge, spiked.limit);
+    QVERIFY(pull < 0.5 * edge);
+    QVERIFY(std::abs(out) < 3.0 * edge);
   }
 
   void gradientForceFindsTheEllipsoid() {

@@ -77,6 +77,28 @@ private slots:
     }
   }
 
+  // isFoldedReference: no vertex of a slightly noisy sphere; a vertex carried past its neighbours' triangle
+  // (its foot 3 triangle sizes out) or raised into a spike; followableReference neutralises those.
+  void foldedReferencesAreToldFromHealthyOnes() {
+    const SimplexMesh m = SimplexMesh::sphere(3, 10.0f);
+    std::vector<V3d> x;
+    for (const Vec3& p : withNoise(m.positions, 0.1f, 7)) x.push_back(p.cast<double>());
+    for (Index v = 0; v < m.topology.vertexCount(); ++v) QVERIFY(!isFoldedReference(paramsAt(x, m.topology, v)));
+    const auto& n = m.topology.neighbours[0];
+    const V3d centroid = (x[n[0]] + x[n[1]] + x[n[2]]) / 3.0;
+    std::vector<V3d> slid = x, spiked = x;
+    slid[0] = centroid + 3.0 * (x[n[0]] - centroid);
+    spiked[0] = centroid + 20.0 * (x[n[0]] - x[n[1]]).norm() * x[0].normalized();
+    const auto a = paramsAt(slid, m.topology, 0), b = paramsAt(spiked, m.topology, 0);
+    qInfo("slid: eps %.2f %.2f %.2f; spike: phi %.1f degrees", a.eps1, a.eps2, a.eps3(), b.phi * 180 / M_PI);
+    QVERIFY(isFoldedReference(a));
+    QVERIFY(isFoldedReference(b));
+    const auto neutral = followableReference(a);
+    QCOMPARE(neutral.eps1, 1.0 / 3.0);
+    QCOMPARE(neutral.phi, 0.0);
+    QCOMPARE(followableReference(paramsAt(x, m.topology, 0)).eps1, paramsAt(x, m.topology, 0).eps1);
+  }
+
   void flatNeighbourhoodHasZeroAngleAndElevation() {
     const Vec3 p1(0, 0, 0), p2(1, 0, 0), p3(0, 1, 0);
     const auto f = neighbourFrame(p1, p2, p3);

@@ -77,6 +77,25 @@ SimplexParamsT<typename V::Scalar> simplexParams(const V& p, const V& p1, const 
   return s;
 }
 
+// Reference parameters the shape prior can follow. Where the reference shape is folded at a
+// vertex, its foot point lies far outside the neighbours' triangle (a barycentric coordinate beyond
+// +-2; a healthy vertex keeps them within about [-1, 1]) or its angle is a spike (beyond 150
+// degrees): the target then swings with any small change of the neighbours, and on new subjects
+// such a vertex of Lingual_L ended 15 mm from its neighbours, its long triangles crossing the
+// structure beside it (docs/accuracy.md). Such a vertex takes neutral parameters instead (its
+// neighbours' centroid, flat): smoothing there, the reference everywhere else. 1 to 16 vertices
+// of an atlas model of 12 regions (docs/stability.md).
+template <class S>
+bool isFoldedReference(const SimplexParamsT<S>& s) {
+  constexpr S kMaxEps = S(2), kMaxPhi = S(2.618);  // 150 degrees
+  return std::fabs(s.eps1) > kMaxEps || std::fabs(s.eps2) > kMaxEps || std::fabs(s.eps3()) > kMaxEps ||
+         std::fabs(s.phi) > kMaxPhi;
+}
+template <class S>
+SimplexParamsT<S> followableReference(const SimplexParamsT<S>& s) {
+  return isFoldedReference(s) ? SimplexParamsT<S>{} : s;
+}
+
 // Elevation L(r, d, phi) of Delingette's equation, written with sin/cos so it has no branch:
 // L = (r^2 - d^2) sin(phi) / (sqrt(r^2 cos^2(phi) + (r^2 - d^2) sin^2(phi)) + r cos(phi)).
 // tan(phi) = 2 L r / (r^2 - d^2 - L^2) has two roots in L with product -(r^2 - d^2). When the foot
@@ -118,9 +137,11 @@ V positionFromParams(const V& p1, const V& p2, const V& p3, const NeighbourFrame
 // neighbours' triangle. Where the reference is degenerate at a vertex (an angle near 180 degrees,
 // whose elevation's denominator vanishes), its target lies arbitrarily far away: on new subjects
 // with cortical labels a vertex of Cuneus_R was pulled 130-270 mm in one step, which the stability
-// guard caught by halving the time step for the rest of the level (docs/stability.md). A healthy
-// pull is a fraction of an edge, so the limit leaves it alone. The CUDA terms do the same
-// (force_terms.cuh, limitedPriorPull).
+// guard caught by halving the time step for the rest of the level (docs/stability.md). Such
+// references are now neutralised (isFoldedReference); the limit still holds a vertex far from its
+// target, or over a neighbours' triangle that has nearly collapsed. A healthy pull is a fraction
+// of an edge, so the limit leaves it alone. The CUDA terms do the same (force_terms.cuh,
+// limitedPriorPull).
 constexpr float kPriorReach = 4.0f;
 template <class V>
 V limitedPriorPull(const V& pull, const V& p1, const V& p2, const V& p3) {
