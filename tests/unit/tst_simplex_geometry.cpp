@@ -77,8 +77,9 @@ private slots:
     }
   }
 
-  // isFoldedReference: no vertex of a slightly noisy sphere; a vertex carried past its neighbours' triangle
-  // (its foot 3 triangle sizes out) or raised into a spike; followableReference neutralises those.
+  // isFoldedReference: no vertex of a slightly noisy sphere; a vertex carried past its neighbours'
+  // triangle (its foot 3 triangle sizes out) or raised into a spike. followableReference
+  // neutralises those.
   void foldedReferencesAreToldFromHealthyOnes() {
     const SimplexMesh m = SimplexMesh::sphere(3, 10.0f);
     std::vector<V3d> x;

@@ -84,7 +84,7 @@ SimplexParamsT<typename V::Scalar> simplexParams(const V& p, const V& p1, const 
 // such a vertex of Lingual_L ended 15 mm from its neighbours, its long triangles crossing the
 // structure beside it (docs/accuracy.md). Such a vertex takes neutral parameters instead (its
 // neighbours' centroid, flat): smoothing there, the reference everywhere else. 1 to 16 vertices
-// of an atlas model of 12 regions (docs/stability.md).
+// in each atlas model of 10-12 regions measured (docs/stability.md).
 template <class S>
 bool isFoldedReference(const SimplexParamsT<S>& s) {
   constexpr S kMaxEps = S(2), kMaxPhi = S(2.618);  // 150 degrees
