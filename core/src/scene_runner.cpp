@@ -174,6 +174,7 @@ void SceneRunner::load() {
   std::vector<std::optional<BuiltModel>> builtFromLabel(n);
   std::vector<std::unique_ptr<ReferenceSurface>> truthSurfaces(n);
   std::vector<std::size_t> truthCounts(n, 0);
+  std::vector<char> truthAbsent(n, 0);  // the label map has no voxel of the label: decided once placed (below)
   // Every label's extent, one pass over each label map (which the surfaces then need not scan, each
   // for its own label, twice for a reference): its own task, beside each other's.
   std::map<fs::path, std::unordered_map<std::int32_t, LabelExtent>> extents;
@@ -201,6 +202,10 @@ void SceneRunner::load() {
     const StructureDesc& d = scene_.structures[i];
     if (!d.groundTruth) return;
     const LabelExtent* extent = extentOf(d.groundTruth->labelMap, d.groundTruth->label);
+    if (!extent || extent->count == 0) {
+      truthAbsent[i] = 1;
+      return;
+    }
     try {
       truthSurfaces[i] = std::make_unique<ReferenceSurface>(
           registry_.labelSurfaceBuilder().labelSurface(*labelMap.at(d.groundTruth->labelMap), d.groundTruth->label,
@@ -313,10 +318,12 @@ void SceneRunner::load() {
   // places it, as it shapes the parts of structures past the field of view (outside_image_share in
   // the report). Every structure outside is a wrong image or a wrong placement: bad input.
   std::vector<size_t> outside;
+  std::vector<char> whollyInside(specs.size(), 0);
   for (size_t i = 0; i < specs.size(); ++i) {
-    int inside = 0;
+    size_t inside = 0;
     for (const Vec3& p : specs[i].initialPositions) inside += L.target->containsIndex(L.target->worldToIndex(p));
     if (inside == 0) outside.push_back(i);
+    whollyInside[i] = inside == specs[i].initialPositions.size();
   }
   if (!outside.empty() && outside.size() == specs.size())
     sceneError(scene_, "/structures/" + std::to_string(outside.front()),
@@ -325,6 +332,19 @@ void SceneRunner::load() {
   for (size_t i : outside)
     log("structure '" + specs[i].name + "' lies entirely outside the target image " + scene_.targetImage.string() +
          ": the model alone places it");
+  // A ground truth without a voxel of its label: where the structure reaches past the field of view,
+  // the label map (cut as the image is) can leave it out entirely, and then there is nothing to
+  // score it against; the run goes on and the structure is not scored. Placed wholly inside the
+  // image, the label's absence is a wrong label: bad input, as before.
+  for (size_t i = 0; i < specs.size(); ++i) {
+    if (!truthAbsent[i]) continue;
+    const auto& truth = *scene_.structures[i].groundTruth;
+    const std::string label = "label " + std::to_string(truth.label) + " is absent from ";
+    if (whollyInside[i])
+      throw InputError(truth.labelMap.string() + ": ground truth of '" + specs[i].name + "': " + label + "the label map");
+    log("structure '" + specs[i].name + "' reaches past the target image's field of view, and its ground-truth " + label +
+        truth.labelMap.string() + ": not scored");
+  }
   for (auto& spec : specs) L.sim->addStructure(std::move(spec));
 
   for (size_t f = 0; f < scene_.forces.size(); ++f) {

@@ -486,6 +486,33 @@ private slots:
     QVERIFY(fs::exists(out / "stray.vtp") && fs::exists(out / "ellipsoid.vtp"));
   }
 
+  // A structure past the field of view whose ground-truth label the label map lacks (a map cut as
+  // the image is, on a new subject: Frontal_Mid_Orb_L under --fov 1 1 0.6) is placed and not
+  // scored; the run used to be refused (exit 3). Wholly inside the image, an absent ground-truth
+  // label is still bad input (refusesBadInputs).
+  void groundTruthAbsentPastTheFieldOfViewIsNotScored() {
+    const fs::path scene = writeScene("truth_outside.json", [](std::string& t) {
+      replace(t, R"(  }],)", R"(  }, {
+    "name": "stray", "label": 9,
+    "reference": {"label_map": "labels.nii.gz", "label": 7},
+    "initial": {"translation_mm": [500, 0, 0]},
+    "ground_truth": {"label_map": "labels.nii.gz", "label": 9}
+  }],)");
+    });
+    const fs::path out = path("out_truth_outside");
+    const Result r = sinewRun({QString::fromStdString(scene.string()), "-o", QString::fromStdString(out.string())});
+    QVERIFY2(r.code == 0, qPrintable(r.err));
+    QVERIFY2(r.err.contains("structure 'stray' reaches past the target image's field of view, and its ground-truth label 9 "
+                            "is absent from") && r.err.contains("not scored"),
+             qPrintable(r.err));
+    const QJsonObject report = readJson(out / "report.json");
+    QCOMPARE(report["status"].toString(), QString("completed"));
+    const QJsonArray structures = report["structures"].toArray();
+    QCOMPARE(structures.size(), 2);
+    QVERIFY(structures[1].toObject()["assd_mm"].toObject()["final"].isNull());
+    QVERIFY(structures[0].toObject()["assd_mm"].toObject()["final"].toDouble() < 1.0);
+  }
+
   void refusesBadInputs() {
     expectBadInput(writeScene("missing_image.json", [](std::string& t) { replace(t, "image.nii.gz", "nothere.nii.gz"); }),
                    "nothere.nii.gz", "no such file");
@@ -519,6 +546,12 @@ private slots:
     expectBadInput(writeScene("absent_label.json",
                               [](std::string& t) { replace(t, R"("labels.nii.gz", "label": 7},)", R"("labels.nii.gz", "label": 9},)"); }),
                    "labels.nii.gz", "label 9 is absent");
+    expectBadInput(writeScene("absent_truth.json",
+                              [](std::string& t) {
+                                replace(t, R"("ground_truth": {"label_map": "labels.nii.gz", "label": 7})",
+                                        R"("ground_truth": {"label_map": "labels.nii.gz", "label": 9})");
+                              }),
+                   "labels.nii.gz", "ground truth of 'ellipsoid': label 9 is absent");
     expectBadInput(writeScene("scene_error.json", [](std::string& t) { replace(t, R"("scale": 0.93)", R"("scale": 0.93, "skale": 1)"); }),
                    "scene_error.json", "/structures/0/initial/skale: unknown key");
     expectBadInput(writeScene("bad_param.json", [](std::string& t) { replace(t, R"("weight": 1.0)", R"("weight": 3.0)"); }),
