@@ -214,7 +214,7 @@ void SceneRunner::load() {
     } catch (const InputError& e) {
       throw InputError(d.groundTruth->labelMap.string() + ": ground truth of '" + d.name + "': " + e.what());
     }
-    truthCounts[i] = extent ? extent->count : 0;
+    truthCounts[i] = extent->count;
   };
   if (std::any_of(scene_.structures.begin(), scene_.structures.end(),
                   [](const StructureDesc& d) { return (d.reference.label && !d.reference.mesh) || d.groundTruth; }))
