@@ -54,18 +54,24 @@ bool trianglesIntersect(const Eigen::Vector3d a[3], const Eigen::Vector3d b[3]) 
   return false;
 }
 
-SelfIntersectionSample sampleSelfIntersections(const MeshStore& store, std::span<const Vec3> x, Index mesh,
-                                               Index maxSamples) {
-  const MeshRange& r = store.range(mesh);
-  const auto offsets = store.cellOffsets();
-  const auto vertices = store.cellVertices();
-  SelfIntersectionSample out;
-  const Index cells = r.cellEnd - r.cellBegin;
+namespace {
+
+// The crossing test over one structure's cells [cellBegin, cellEnd) of the given cell arrays: at
+// most maxSamples of its fan triangles, evenly spread, each tested against every triangle of the
+// structure that shares no vertex and no cell with it. Returns the number sampled and, for each
+// sample that crosses, its two simplex vertices (the cell's corner and the next corner).
+struct Crossings {
+  Index sampled = 0;
+  std::vector<std::array<Index, 2>> crossing;
+};
+
+Crossings findCrossings(std::span<const Index> offsets, std::span<const Index> vertices, Index cellBegin,
+                        Index cellEnd, std::span<const Vec3> x, Index maxSamples) {
+  Crossings out;
+  const Index cells = cellEnd - cellBegin;
   if (cells <= 0) return out;
-  for (Index v = r.vertexBegin; v < r.vertexEnd; ++v)
-    if (!x[v].allFinite()) return out;  // the numerical guard's business
   const auto centreOf = [&](Index c) {
-    const Index begin = offsets[r.cellBegin + c], end = offsets[r.cellBegin + c + 1];
+    const Index begin = offsets[cellBegin + c], end = offsets[cellBegin + c + 1];
     Vec3 sum = Vec3::Zero();
     for (Index i = begin; i < end; ++i) sum += x[vertices[i]];
     return Vec3(sum / float(end - begin));
@@ -78,18 +84,18 @@ SelfIntersectionSample sampleSelfIntersections(const MeshStore& store, std::span
     Eigen::Vector3d corner[3];
     Eigen::AlignedBox3f box;
   };
-  const Index triangles = offsets[r.cellEnd] - offsets[r.cellBegin];
+  const Index triangles = offsets[cellEnd] - offsets[cellBegin];
   const Index stride = std::max<Index>(1, (triangles + maxSamples - 1) / std::max<Index>(1, maxSamples));
   const Index sampleCount = (triangles + stride - 1) / stride;
   std::vector<Sample> samples(static_cast<std::size_t>(sampleCount));
-  const auto firstCorner = offsets.begin() + r.cellBegin, lastCorner = offsets.begin() + r.cellEnd + 1;
+  const auto firstCorner = offsets.begin() + cellBegin, lastCorner = offsets.begin() + cellEnd + 1;
   Eigen::AlignedBox3f all;
   std::vector<float> extents;
   for (Index k = 0; k < sampleCount; ++k) {
     Sample& s = samples[std::size_t(k)];
-    const Index i = offsets[r.cellBegin] + k * stride;
+    const Index i = offsets[cellBegin] + k * stride;
     s.cell = Index(std::upper_bound(firstCorner, lastCorner, i) - firstCorner) - 1;
-    const Index begin = offsets[r.cellBegin + s.cell], end = offsets[r.cellBegin + s.cell + 1];
+    const Index begin = offsets[cellBegin + s.cell], end = offsets[cellBegin + s.cell + 1];
     s.u = vertices[i];
     s.v = vertices[i + 1 == end ? begin : i + 1];
     const Vec3 corners[3] = {x[s.u], x[s.v], centreOf(s.cell)};
@@ -140,7 +146,7 @@ SelfIntersectionSample sampleSelfIntersections(const MeshStore& store, std::span
   std::vector<std::atomic<bool>> crossed(static_cast<std::size_t>(sampleCount));
   tbb::parallel_for(tbb::blocked_range<Index>(0, cells, 1024), [&](const tbb::blocked_range<Index>& range) {
     for (Index c = range.begin(); c < range.end(); ++c) {
-      const Index begin = offsets[r.cellBegin + c], end = offsets[r.cellBegin + c + 1];
+      const Index begin = offsets[cellBegin + c], end = offsets[cellBegin + c + 1];
       Eigen::AlignedBox3f box;
       Vec3 sum = Vec3::Zero();
       for (Index i = begin; i < end; ++i) {
@@ -177,7 +183,30 @@ SelfIntersectionSample sampleSelfIntersections(const MeshStore& store, std::span
     }
   });
   out.sampled = sampleCount;
-  for (const auto& c : crossed) out.intersecting += c.load(std::memory_order_relaxed);
+  for (Index k = 0; k < sampleCount; ++k)
+    if (crossed[std::size_t(k)].load(std::memory_order_relaxed))
+      out.crossing.push_back({samples[std::size_t(k)].u, samples[std::size_t(k)].v});
+  return out;
+}
+
+}  // namespace
+
+SelfIntersectionSample sampleSelfIntersections(const MeshStore& store, std::span<const Vec3> x, Index mesh,
+                                               Index maxSamples) {
+  const MeshRange& r = store.range(mesh);
+  for (Index v = r.vertexBegin; v < r.vertexEnd; ++v)
+    if (!x[v].allFinite()) return {};  // the numerical guard's business
+  const Crossings c = findCrossings(store.cellOffsets(), store.cellVertices(), r.cellBegin, r.cellEnd, x, maxSamples);
+  return {c.sampled, Index(c.crossing.size())};
+}
+
+std::vector<Index> crossingVertices(const SimplexTopology& topology, std::span<const Vec3> x) {
+  const Index triangles = Index(topology.cellVertices.size());
+  const Crossings c = findCrossings(topology.cellOffsets, topology.cellVertices, 0, topology.cellCount(), x, triangles);
+  std::vector<Index> out;
+  for (const auto& [u, v] : c.crossing) out.insert(out.end(), {u, v});
+  std::sort(out.begin(), out.end());
+  out.erase(std::unique(out.begin(), out.end()), out.end());
   return out;
 }
 

@@ -169,17 +169,21 @@ private slots:
   // A model's finer levels (prolongation, then each vertex moved along the label's surface) do not
   // cross themselves where the label is thin and folded: the closest point of the whole surface can
   // lie across a fold, on its far side. Taken there, level 2 crossed itself on 259 of Cuneus_R's
-  // 11,616 triangles, 169 of Rolandic_Oper_L's 7,680 and 96 of Hippocampus_L's 7,296.
+  // 11,616 triangles, 169 of Rolandic_Oper_L's 7,680 and 96 of Hippocampus_L's 7,296. With the
+  // facing point taken instead, triangles between points of a fold thinner than the spacing still
+  // cut through its other side (Cuneus_R 20, ParaHippocampal_R 12, Frontal_Inf_Orb_R 26,
+  // Temporal_Pole_Sup_R 51); untangling leaves none.
   void finerLevelsDoNotCrossThemselves_data() {
     QTest::addColumn<int>("label");
-    QTest::addColumn<int>("most");  // crossing triangles allowed
-    QTest::newRow("Cuneus_R") << 46 << 58;  // 0.5 %
-    QTest::newRow("Rolandic_Oper_L") << 17 << 38;
-    QTest::newRow("Hippocampus_L") << 37 << 36;
+    QTest::newRow("Cuneus_R") << 46;
+    QTest::newRow("Rolandic_Oper_L") << 17;
+    QTest::newRow("Hippocampus_L") << 37;
+    QTest::newRow("ParaHippocampal_R") << 40;
+    QTest::newRow("Frontal_Inf_Orb_R") << 16;
+    QTest::newRow("Temporal_Pole_Sup_R") << 84;
   }
   void finerLevelsDoNotCrossThemselves() {
     QFETCH(int, label);
-    QFETCH(int, most);
     const fs::path atlas = "/usr/share/mricron/templates/aal.nii.gz";
     if (!fs::exists(atlas)) QSKIP("Debian package mricron-data is not installed");
     const LabelVolume labels = builtinRegistry().imageIOFor(atlas).readLabels(atlas);
@@ -202,7 +206,7 @@ private slots:
       }
     const auto crossed = std::count(crossing.begin(), crossing.end(), 1);
     qInfo("label %d: %lld of %zu triangles at level 2 cross another", label, static_cast<long long>(crossed), n);
-    QVERIFY(crossed <= most);
+    QCOMPARE(crossed, std::ptrdiff_t(0));
   }
 
   // labelExtents: every label's box and count in one pass, the same as each label's own scan; a

@@ -7,8 +7,10 @@
 #pragma once
 
 #include "sinew/core/mesh_store.h"
+#include "sinew/core/simplex_mesh.h"
 
 #include <span>
+#include <vector>
 
 namespace sinew {
 
@@ -21,6 +23,11 @@ struct SelfIntersectionSample {
 // At most maxSamples triangles, evenly spread over the structure's (deterministic).
 SelfIntersectionSample sampleSelfIntersections(const MeshStore& store, std::span<const Vec3> positions, Index mesh,
                                                Index maxSamples = 512);
+
+// Every triangle of the tessellation tested: the simplex vertices of those that cross a triangle
+// they are not joined to (a fan triangle's two simplex vertices), sorted, each once. For model
+// building, where there is one mesh and no store.
+std::vector<Index> crossingVertices(const SimplexTopology& topology, std::span<const Vec3> positions);
 
 // Whether two triangles cross (an edge of one passes through the other); coplanar overlaps are
 // not counted.
