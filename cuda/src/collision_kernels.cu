@@ -19,11 +19,15 @@ using namespace sinew::collision;
 // Each vertex's move since the last full search, and the largest into motion (each full search:
 // the clearance pays for it; collision::clearOfContacts). Grid-stride by vertex index (coalesced);
 // one atomic per block (one per warp of a thread per vertex on the one address cost the climb 16 us
-// at 325,632 vertices). Every thread of the block calls it.
-__device__ void trackMotion(int vertices, const P3* x, float3* last, float* moved, unsigned* motion) {
+// at 325,632 vertices). Every thread of the block calls it. It also copies each vertex's depth as
+// the search begins (lastDepth, null: none; collision::shareAt): a copy of its own cost 1.7 us a
+// step at 20,352 vertices with a full search every step, 11.5 at 81,408 (H200).
+__device__ void trackMotion(int vertices, const P3* x, float3* last, float* moved, unsigned* motion,
+                            const float* depth, float* lastDepth) {
   __shared__ float warpLargest[kThreads / 32];
   float largest = 0.0f;
   for (int i = blockIdx.x * blockDim.x + threadIdx.x; i < vertices; i += gridDim.x * blockDim.x) {
+    if (lastDepth) lastDepth[i] = depth[i];
     const float3 now = make_float3(x[i].x, x[i].y, x[i].z);
     const float3 d = now - last[i];
     moved[i] = sqrtf(dot(d, d));
@@ -51,9 +55,10 @@ __device__ Box coherentBox(const Box* boxes, int id) {
 // merging its inner nodes height by height took longer: 19.6 against 32 us for the whole climb at
 // 20,352 vertices, 120 against about 70 us at 325,632.)
 __global__ void climbRefit(BvhView v, const int* leaves, int leafCount, int* visits, const P3* x, const P3* centres,
-                           int vertices, float3* last, float* moved, unsigned* motion) {
+                           int vertices, float3* last, float* moved, unsigned* motion, const float* depth,
+                           float* lastDepth) {
   const int l = blockIdx.x * blockDim.x + threadIdx.x;
-  trackMotion(vertices, x, last, moved, motion);
+  trackMotion(vertices, x, last, moved, motion, depth, lastDepth);
   if (l >= leafCount) return;
   int id = leaves[l];
   v.boxes[id] = leafBox(v, v.nodes[id], x, centres);
@@ -72,10 +77,11 @@ __global__ void climbRefit(BvhView v, const int* leaves, int leafCount, int* vis
 // time: the motion, then each vertex's box in tree order (thread i: vertex i's move, tree position
 // i's box) ... Its cells' centres computed here, as the geometry kernel computes them (centreOf,
 // the same values): so the refit does not wait for that kernel, and runs beside it.
-__global__ void vertexBoxes(BvhView v, MeshView m, float3* last, float* moved, unsigned* motion, Box* boxes) {
+__global__ void vertexBoxes(BvhView v, MeshView m, float3* last, float* moved, unsigned* motion, const float* depth,
+                            float* lastDepth, Box* boxes) {
   const int i = blockIdx.x * blockDim.x + threadIdx.x;
   const P3* x = reinterpret_cast<const P3*>(m.x);
-  trackMotion(m.vertices, x, last, moved, motion);
+  trackMotion(m.vertices, x, last, moved, motion, depth, lastDepth);
   if (i >= m.vertices) return;
   Box b = emptyBox();  // collision::vertexBox with the centres computed
   for (int k = 0; k < 3; ++k) {
@@ -378,7 +384,7 @@ __global__ void __launch_bounds__(kThreads, kWarpLeaves ? kRespondBlocks : 0)
         c.leaf = __shfl_sync(mask, h.leaf, src);
         c.tri = __shfl_sync(mask, h.tri, src);
         if (pending && g == 0)
-          addContact(c, point, previous, ownNormal, alpha, settings, sum, holdPlane, shareOf(v, own, base + src - leader));
+          addContact(c, point, previous, ownNormal, alpha, settings, sum, holdPlane, shareAt(v, own, base + src - leader, c.tri));
         pending &= pending - 1;
       }
     }
@@ -472,10 +478,10 @@ void launchCollisionRefit(const MeshView& m, const CollisionDevice& c, cudaStrea
   if (c.climb) {
     climbRefit<<<(c.leafCount + kThreads - 1) / kThreads, kThreads, 0, s>>>(
         v, c.leaves, c.leafCount, c.visits, reinterpret_cast<const P3*>(m.x), reinterpret_cast<const P3*>(m.cellCentre),
-        m.vertices, c.last, c.moved, c.motion);
+        m.vertices, c.last, c.moved, c.motion, c.depth, c.lastDepth);
     return;
   }
-  vertexBoxes<<<(m.vertices + kThreads - 1) / kThreads, kThreads, 0, s>>>(v, m, c.last, c.moved, c.motion,
+  vertexBoxes<<<(m.vertices + kThreads - 1) / kThreads, kThreads, 0, s>>>(v, m, c.last, c.moved, c.motion, c.depth, c.lastDepth,
                                                                           c.vertexBoxes);
   const NodeLists& l = c.lists;
   const int n = int(kNodeThreads);
@@ -485,7 +491,7 @@ void launchCollisionRefit(const MeshView& m, const CollisionDevice& c, cudaStrea
 
 void launchCollisionRespond(const MeshView& m, ParamView p, const CollisionDevice& c, const ContactSettings& settings,
                             int every, cudaStream_t s) {
-  BvhView v{c.nodes, c.boxes, c.tris, c.order, c.roots, c.exempt, c.meshes, c.nodeCount, c.share};
+  BvhView v{c.nodes, c.boxes, c.tris, c.order, c.roots, c.exempt, c.meshes, c.nodeCount, c.share, c.lastDepth};
   // Lanes a vertex. From 131,072 vertices, 4 where a vertex's structures take at most 4 rounds of
   // them: with two leaves at once that beat a lane a vertex 358.5 against 826.5 us at 325,632
   // vertices (12 structures), but lost 2,433 against 2,114 us with 100 structures (25 rounds;

@@ -29,6 +29,7 @@ void DeviceCollision::build(MeshStore& store, const SceneData& scene, const Para
   stiffness_.resize(withStiffness ? size_t(store.vertexCount()) : 0);
   if (withStiffness) SINEW_CUDA(cudaMemsetAsync(stiffness_.get(), 0, stiffness_.bytes(), stream));
   depth_.upload(std::vector<float>(store.vertexCount(), collision::kUnknownDepth), stream);
+  lastDepth_.resize(tree.share.empty() ? 0 : size_t(store.vertexCount()));  // copied from depth_ by each full search
   hint_.upload(std::vector<int>(store.vertexCount(), -1), stream);
   slack_.resize(store.vertexCount());  // no slack until the first step's (unbounded) search
   SINEW_CUDA(cudaMemsetAsync(slack_.get(), 0, slack_.bytes(), stream));
@@ -104,6 +105,7 @@ CollisionDevice DeviceCollision::view() const {
              int(blockNodes_.size())};
   c.stiffness = stiffness_.get();
   c.depth = depth_.get();
+  c.lastDepth = lastDepth_.size() ? lastDepth_.get() : nullptr;
   c.exempt = exempt_.get();
   c.share = share_.get();
   c.hint = hint_.get();
@@ -123,7 +125,7 @@ CollisionDevice DeviceCollision::view() const {
 std::size_t DeviceCollision::bytes() const {
   return nodes_.bytes() + boxes_.bytes() + tris_.bytes() + order_.bytes() + roots_.bytes() + leaves_.bytes() +
          visits_.bytes() + threadNodes_.bytes() + warpNodes_.bytes() + blockNodes_.bytes() + vertexBoxes_.bytes() +
-         stiffness_.bytes() + depth_.bytes() + hint_.bytes() + exempt_.bytes() + share_.bytes() +
+         stiffness_.bytes() + depth_.bytes() + lastDepth_.bytes() + hint_.bytes() + exempt_.bytes() + share_.bytes() +
          slack_.bytes() + moved_.bytes() + last_.bytes() + motion_.bytes() + hold_.bytes() +
          contact_.bytes() + contactShare_.bytes() + force_.bytes();
 }

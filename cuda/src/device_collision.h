@@ -51,7 +51,7 @@ private:
   DeviceArray<collision::Tri> tris_;
   DeviceArray<collision::Box> vertexBoxes_;
   DeviceArray<int> order_, roots_, leaves_, visits_, threadNodes_, warpNodes_, blockNodes_, hint_;
-  DeviceArray<float> stiffness_, depth_, slack_, moved_, contactShare_;
+  DeviceArray<float> stiffness_, depth_, lastDepth_, slack_, moved_, contactShare_;
   DeviceArray<float3> last_, force_;
   DeviceArray<collision::HoldPlane> hold_;  // CollisionDevice::hold
   DeviceArray<collision::ContactPlane> contact_;  // CollisionDevice::contact

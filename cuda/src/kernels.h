@@ -263,6 +263,7 @@ struct CollisionDevice {
   unsigned* motion = nullptr;  // the step's largest move (a float's bits: atomicMax orders them)
   const unsigned char* exempt = nullptr;  // pairs left out (meshes x meshes), or null
   const float* share = nullptr;           // collision::shareOf's table (meshes x meshes), or null
+  float* lastDepth = nullptr;  // per vertex, depth as a full search begins (collision::shareAt); null without share
   collision::HoldPlane* hold = nullptr;  // per vertex, the plane the hold moves it out of after the step
   // per vertex, its deepest contact at the last full search (valid where contactShare >= 0)
   collision::ContactPlane* contact = nullptr;

@@ -73,13 +73,13 @@ std::vector<double> largestStepPerHundred(Simulation& sim, int blocks) {
   return out;
 }
 
-std::unique_ptr<Simulation> pressedCap(float radiusA, Vec3 centreA, float radiusB, Vec3 centreB, double hold,
-                                       int steps) {
+namespace {
+// Structure a pressed into b (pressedCap), each its own reference shape; b's collision weight given.
+std::unique_ptr<Simulation> pressInto(StructureSpec a, StructureSpec b, double weightB, double hold, int steps) {
   auto sim = std::make_unique<Simulation>(pressRegistry(), 2);
-  for (const auto& [name, radius, centre] : {std::tuple{"a", radiusA, centreA}, std::tuple{"b", radiusB, centreB}}) {
-    StructureSpec s = sphereStructure(name, 3, radius, centre);
-    s.referencePositions = s.initialPositions;
-    sim->addStructure(std::move(s));
+  for (StructureSpec* s : {&a, &b}) {
+    s->referencePositions = s->initialPositions;
+    sim->addStructure(std::move(*s));
   }
   sim->addForce("shape_prior");
   ParamTable& press = sim->addForce("press");
@@ -87,12 +87,26 @@ std::unique_ptr<Simulation> pressedCap(float radiusA, Vec3 centreA, float radius
   press.set(1, "weight", 0.0);
   ParamTable& collision = sim->addForce("collision");
   collision.set(0, "weight", 0.5);
-  collision.set(1, "weight", 0.0);
+  collision.set(1, "weight", weightB);
   collision.setAll("hold_mm", hold);
   sim->setIntegrator("damped_verlet").set(0, "time_step", 0.5);
   sim->initialize();
   sim->run(steps);
   return sim;
+}
+}  // namespace
+
+std::unique_ptr<Simulation> pressedCap(float radiusA, Vec3 centreA, float radiusB, Vec3 centreB, double hold,
+                                       int steps) {
+  return pressInto(sphereStructure("a", 3, radiusA, centreA), sphereStructure("b", 3, radiusB, centreB), 0.0, hold, steps);
+}
+
+std::unique_ptr<Simulation> pressedIntoCell(int steps) {
+  StructureSpec b = sphereStructure("b", 1, 30.0f, Vec3::Zero());
+  const Vec3 facing = cellCentres(b.levels.levels[0], b.initialPositions)[0];
+  const Eigen::Matrix3f turn = Eigen::Quaternionf::FromTwoVectors(facing, Vec3(-1, 0, 0)).toRotationMatrix();
+  for (Vec3& p : b.initialPositions) p = turn * p + Vec3(8.4f + facing.norm(), 0, 0);
+  return pressInto(sphereStructure("a", 3, 5.0f, Vec3(3.5f, 0, 0)), std::move(b), 0.5, 0.1, steps);
 }
 
 double deepestInside(Simulation& sim, Index own, Index other) {

@@ -32,6 +32,12 @@ std::vector<double> largestStepPerHundred(Simulation& sim, int blocks);
 std::unique_ptr<Simulation> pressedCap(float radiusA, Vec3 centreA, float radiusB, Vec3 centreB, double hold,
                                        int steps = 400);
 
+// Structure a (radius 5 mm at 3.5 mm on x) pressed as pressedCap presses it into the middle of a
+// cell of structure b: a coarse sphere of radius 30 mm (the dual of a level-1 icosphere, 80
+// vertices some 12 mm apart) turned so that its cell 0 faces -x, that cell's centre at x = 8.4 mm.
+// Both respond (collision weight 0.5), with the hold (0.1 mm); no vertex of b comes near a.
+std::unique_ptr<Simulation> pressedIntoCell(int steps = 400);
+
 // The deepest any vertex of structure `own` lies inside structure `other` (mm; 0 when none does).
 double deepestInside(Simulation& sim, Index own, Index other);
 

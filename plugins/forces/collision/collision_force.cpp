@@ -44,7 +44,11 @@ public:
     ++levelStep_;
     if (full) tree_.refit(s.positions(), s.cellCentres(), ctx.executor);  // only full searches read the boxes
     const collision::ContactSettings settings = contactSettingsOf(ctx.params);
-    const collision::BvhView view = tree_.view();
+    collision::BvhView view = tree_.view();
+    if (full && view.share) {  // the depths as the search begins (collision::shareAt)
+      lastDepth_ = depth_;
+      view.lastDepth = lastDepth_.data();
+    }
     const collision::P3* x = asP3(s.positions());
     const collision::P3* centres = asP3(s.cellCentres());
     const auto previous = s.previousPositions();
@@ -140,6 +144,7 @@ private:
   std::vector<collision::HoldPlane> hold_;  // per vertex, from the last step's contacts (empty: no hold)
   std::vector<float> holdLimit_;             // per vertex, the hold's limit a step (empty: none)
   std::vector<float> depth_;  // each vertex's last penetration (collision::contactResponse)
+  std::vector<float> lastDepth_;  // depth_ as a full search began (collision::BvhView::lastDepth)
   std::vector<int> hint_;     // each vertex's last nearest contact leaf
   std::vector<float> slack_;  // each vertex's clearance of the other structures beyond the margin
   std::vector<collision::ContactPlane> plane_;  // each vertex's deepest contact at the last full search

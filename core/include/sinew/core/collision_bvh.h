@@ -52,11 +52,26 @@ struct BvhView {
   int meshes = 0;
   int nodeCount = 0;
   const float* share = nullptr;  // meshes x meshes: the share of a contact's correction (shareOf); null: all
+  // Per vertex: its depth (contactResponse) as the full search began, for shareAt; null with no
+  // share table. A copy: the search writes the depths it reads here.
+  const float* lastDepth = nullptr;
 };
 
 // The share of a contact's correction that a vertex of `own` takes against `other`
 // (CollisionTree::setShares: the larger structure gives way more); 1 without a table.
 SINEW_HD float shareOf(const BvhView& v, int own, int other) { return v.share ? v.share[own * v.meshes + other] : 1.0f; }
+// The share of a contact on triangle `tri` (BvhView::tris) of `other`: shareOf, but all of it where
+// neither of that triangle's two vertices touched anything (depth 0) as the search began. There
+// the other surface passes through this structure between its vertices, which feel nothing and do
+// not give way: a vertex taking its share alone came to rest inside (mixed right 6109: 30 of
+// Amygdala_R's vertices up to 0.86 mm inside ParaHippocampal_R, none of whose vertices was inside
+// Amygdala_R; docs/collisions.md, "One-sided contacts").
+SINEW_HD float shareAt(const BvhView& v, int own, int other, int tri) {
+  const float s = shareOf(v, own, other);
+  if (!(s < 1.0f) || !v.lastDepth || tri < 0) return s;
+  const Tri t = v.tris[tri];
+  return v.lastDepth[t.a] == 0.0f && v.lastDepth[t.b] == 0.0f ? 1.0f : s;
+}
 
 SINEW_HD P3 sub(P3 a, P3 b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
 SINEW_HD P3 add(P3 a, P3 b) { return {a.x + b.x, a.y + b.y, a.z + b.z}; }
@@ -446,7 +461,7 @@ SINEW_HD float contactResponse(const BvhView& v, int own, P3 p, P3 previous, P3 
   for (int other = 0; other < v.meshes; ++other) {
     Hit h{};
     if (contactWith(v, own, other, p, s.margin, maxD2, hint, x, centres, h, sum.clearance2))
-      addContact(h, p, previous, ownNormal, alpha, s, sum, hold, shareOf(v, own, other));
+      addContact(h, p, previous, ownNormal, alpha, s, sum, hold, shareAt(v, own, other, h.tri));
   }
   depth = sum.deepest;
   hint = sum.nearestLeaf;
