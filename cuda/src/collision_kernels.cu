@@ -384,7 +384,8 @@ __global__ void __launch_bounds__(kThreads, kWarpLeaves ? kRespondBlocks : 0)
         c.leaf = __shfl_sync(mask, h.leaf, src);
         c.tri = __shfl_sync(mask, h.tri, src);
         if (pending && g == 0)
-          addContact(c, point, previous, ownNormal, alpha, settings, sum, holdPlane, shareAt(v, own, base + src - leader, c.tri));
+          addContact(c, point, previous, ownNormal, alpha, settings, sum, holdPlane,
+                     shareAt(v, own, base + src - leader, c.tri));
         pending &= pending - 1;
       }
     }
@@ -481,8 +482,8 @@ void launchCollisionRefit(const MeshView& m, const CollisionDevice& c, cudaStrea
         m.vertices, c.last, c.moved, c.motion, c.depth, c.lastDepth);
     return;
   }
-  vertexBoxes<<<(m.vertices + kThreads - 1) / kThreads, kThreads, 0, s>>>(v, m, c.last, c.moved, c.motion, c.depth, c.lastDepth,
-                                                                          c.vertexBoxes);
+  vertexBoxes<<<(m.vertices + kThreads - 1) / kThreads, kThreads, 0, s>>>(v, m, c.last, c.moved, c.motion, c.depth,
+                                                                          c.lastDepth, c.vertexBoxes);
   const NodeLists& l = c.lists;
   const int n = int(kNodeThreads);
   const int blocks = std::max(1, (l.threadCount + n - 1) / n + (l.warpCount * 32 + n - 1) / n + l.blockCount);

@@ -4,7 +4,6 @@
 #include "sinew/core/voxelize.h"
 
 #include <algorithm>
-#include <tuple>
 
 namespace sinew::testing {
 namespace {
@@ -98,7 +97,8 @@ std::unique_ptr<Simulation> pressInto(StructureSpec a, StructureSpec b, double w
 
 std::unique_ptr<Simulation> pressedCap(float radiusA, Vec3 centreA, float radiusB, Vec3 centreB, double hold,
                                        int steps) {
-  return pressInto(sphereStructure("a", 3, radiusA, centreA), sphereStructure("b", 3, radiusB, centreB), 0.0, hold, steps);
+  return pressInto(sphereStructure("a", 3, radiusA, centreA), sphereStructure("b", 3, radiusB, centreB), 0.0, hold,
+                   steps);
 }
 
 std::unique_ptr<Simulation> pressedIntoCell(int steps) {

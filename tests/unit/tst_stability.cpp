@@ -412,7 +412,8 @@ private Q_SLOTS:
       }
       std::sort(expectedVertices.begin(), expectedVertices.end());
       expectedVertices.erase(std::unique(expectedVertices.begin(), expectedVertices.end()), expectedVertices.end());
-      QVERIFY(std::equal(offsets.begin(), offsets.begin() + cells + 1, topology.cellOffsets.begin(), topology.cellOffsets.end()));
+      QVERIFY(std::equal(offsets.begin(), offsets.begin() + cells + 1, topology.cellOffsets.begin(),
+                         topology.cellOffsets.end()));
       QVERIFY(crossingVertices(topology, s.positions()) == expectedVertices);
       const SelfIntersectionSample got = sampleSelfIntersections(s, s.positions(), 0, maxSamples);
       qInfo("moves of %.1f mm: %lld of %lld sampled triangles cross", double(amplitude), (long long)got.intersecting,
