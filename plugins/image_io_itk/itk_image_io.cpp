@@ -95,9 +95,12 @@ void checkMetaImageHeader(const fs::path& path) {
     for (const char c : value)
       if (static_cast<unsigned char>(c) < 32 || static_cast<unsigned char>(c) > 126) bad("the value is not plain text");
     if (key == "NDims") {
-      std::istringstream n(value);
-      long dims = 0;
-      if (!(n >> dims) || dims < 1 || dims > 10) bad("NDims is not a dimension count between 1 and 10");
+      // Digits only: MetaIO reads the value as a double, so "1e30" (an integer 1 followed by text
+      // to a stream) made it read 10^30 numbers per axis field (found by fuzz_image on CI).
+      while (!value.empty() && value.back() == ' ') value.pop_back();
+      if (value.empty() || value.size() > 2 || value.find_first_not_of("0123456789") != std::string::npos ||
+          std::stoi(value) < 1 || std::stoi(value) > 10)
+        bad("NDims is not a dimension count between 1 and 10");
     }
     if (key == "ElementDataFile") {
       // Without a name MetaIO reads compressed data from a failed stream and asks for 2^63 bytes
@@ -239,9 +242,19 @@ struct DataFile {
   itk_input::MetaImageData meta;  // a MetaImage's: where MetaIO looks for compressed voxels
 };
 
+// Whether a file starts with gzip's magic. A .nii.gz that does not is read as it is (znzlib), so
+// its voxels are measured as uncompressed: taken as compressed, a short one passed checkDataFits and
+// ITK's NIfTI reader left the file open on the short read (found by fuzz_image, 2026-12-01).
+bool startsWithGzipMagic(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  unsigned char magic[2] = {};
+  in.read(reinterpret_cast<char*>(magic), 2);
+  return in.gcount() == 2 && magic[0] == 0x1f && magic[1] == 0x8b;
+}
+
 DataFile dataFileOf(const fs::path& path, const std::string& extension) {
   if (extension == ".nii") return {path, false};
-  if (extension == ".nii.gz") return {path, true};
+  if (extension == ".nii.gz") return {path, startsWithGzipMagic(path)};
   const bool meta = extension == ".mha" || extension == ".mhd";
   DataFile found{extension == ".nrrd" || extension == ".mha" ? path : fs::path{}, !meta};  // NRRD: raw unless it says
   std::ifstream in(path, std::ios::binary);
