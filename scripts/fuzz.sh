@@ -64,7 +64,10 @@ for h in "${harnesses[@]}"; do
       -rss_limit_mb=4096 -malloc_limit_mb=65536 -timeout=20 -max_len=65536 -jobs="$jobs" -workers="$jobs" \
       -artifact_prefix="$buildAbs/crash-$h-" -print_final_stats=1 > "$log" 2>&1); then
     echo "fuzz_$h FAILED; the input: $build/crash-$h-*; the log: $log" >&2
-    tail -60 "$log" "$work"/fuzz-*.log 2>/dev/null >&2 || true
+    # The finding's input as Base64 (where libFuzzer printed it: small inputs) and the log's end, so
+    # that a CI log alone reproduces it (echo ... | base64 -d > input). Stdout to stderr first, then
+    # stderr away: the other order sent both to /dev/null, and CI printed no finding (2026-12-01).
+    { grep -h -m1 "^Base64: " "$log" "$work"/fuzz-*.log; tail -n 40 "$log" "$work"/fuzz-*.log; } >&2 2>/dev/null || true
     status=1
   fi
   # Inputs run, in all (libFuzzer prints them per worker with JOBS > 1, and a worker's log may
