@@ -95,8 +95,8 @@ void checkMetaImageHeader(const fs::path& path) {
     for (const char c : value)
       if (static_cast<unsigned char>(c) < 32 || static_cast<unsigned char>(c) > 126) bad("the value is not plain text");
     if (key == "NDims") {
-      // Digits only: MetaIO reads the value as a double, so "1e30" (an integer 1 followed by text
-      // to a stream) made it read 10^30 numbers per axis field (found by fuzz_image on CI).
+      // Digits only: read as an integer, "1e30" passed as 1, but MetaIO reads a double and then
+      // tried to read 10^30 numbers per axis field (found by fuzz_image on CI).
       while (!value.empty() && value.back() == ' ') value.pop_back();
       if (value.empty() || value.size() > 2 || value.find_first_not_of("0123456789") != std::string::npos ||
           std::stoi(value) < 1 || std::stoi(value) > 10)
