@@ -30,6 +30,9 @@ private:
 // itself, already checked). Throws InputError naming `path` on a corrupt or truncated stream.
 std::optional<PlainCopy> decompressedNiftiCopy(const std::filesystem::path& path);
 
+// Whether the file starts with gzip's magic (what zlib and libdeflate take for a gzip stream).
+bool startsWithGzipMagic(const std::filesystem::path& path);
+
 // Where MetaIO will look for a compressed MetaImage's voxels, as its header says.
 struct MetaImageData {
   std::filesystem::path file;            // the header itself (LOCAL) or the data file beside it

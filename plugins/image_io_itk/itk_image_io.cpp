@@ -98,9 +98,8 @@ void checkMetaImageHeader(const fs::path& path) {
       // Digits only: read as an integer, "1e30" passed as 1, but MetaIO reads a double and then
       // tried to read 10^30 numbers per axis field (found by fuzz_image on CI).
       while (!value.empty() && value.back() == ' ') value.pop_back();
-      if (value.empty() || value.size() > 2 || value.find_first_not_of("0123456789") != std::string::npos ||
-          std::stoi(value) < 1 || std::stoi(value) > 10)
-        bad("NDims is not a dimension count between 1 and 10");
+      const bool digits = !value.empty() && value.size() <= 2 && value.find_first_not_of("0123456789") == std::string::npos;
+      if (!digits || std::stoi(value) < 1 || std::stoi(value) > 10) bad("NDims is not a dimension count between 1 and 10");
     }
     if (key == "ElementDataFile") {
       // Without a name MetaIO reads compressed data from a failed stream and asks for 2^63 bytes
@@ -242,19 +241,12 @@ struct DataFile {
   itk_input::MetaImageData meta;  // a MetaImage's: where MetaIO looks for compressed voxels
 };
 
-// Whether a file starts with gzip's magic. A .nii.gz that does not is read as it is (znzlib), so
-// its voxels are measured as uncompressed: taken as compressed, a short one passed checkDataFits and
-// ITK's NIfTI reader left the file open on the short read (found by fuzz_image, 2026-12-01).
-bool startsWithGzipMagic(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  unsigned char magic[2] = {};
-  in.read(reinterpret_cast<char*>(magic), 2);
-  return in.gcount() == 2 && magic[0] == 0x1f && magic[1] == 0x8b;
-}
-
 DataFile dataFileOf(const fs::path& path, const std::string& extension) {
   if (extension == ".nii") return {path, false};
-  if (extension == ".nii.gz") return {path, startsWithGzipMagic(path)};
+  // A .nii.gz that is not gzip-compressed is read as it is (znzlib): its voxels are measured as
+  // uncompressed. Taken as compressed, a short one passed checkDataFits and ITK's NIfTI reader left
+  // the file open after the short read (found by fuzz_image, 2026-12-01).
+  if (extension == ".nii.gz") return {path, itk_input::startsWithGzipMagic(path)};
   const bool meta = extension == ".mha" || extension == ".mhd";
   DataFile found{extension == ".nrrd" || extension == ".mha" ? path : fs::path{}, !meta};  // NRRD: raw unless it says
   std::ifstream in(path, std::ios::binary);
