@@ -385,7 +385,7 @@ __global__ void __launch_bounds__(kThreads, kWarpLeaves ? kRespondBlocks : 0)
         c.tri = __shfl_sync(mask, h.tri, src);
         if (pending && g == 0)
           addContact(c, point, previous, ownNormal, alpha, settings, sum, holdPlane,
-                     shareAt(v, own, base + src - leader, c.tri));
+                     shareAt(v, own, base + src - leader, c.tri, c.side, settings.margin));
         pending &= pending - 1;
       }
     }

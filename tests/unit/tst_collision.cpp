@@ -348,6 +348,35 @@ private slots:
     QVERIFY(depth < 0.01);
   }
 
+  // Between those two: the other side's vertices are inside too, but less deep than this vertex.
+  // The pair parts by this vertex's share of its depth plus what the other side takes of its own, so
+  // the vertex takes at least the rest (collision::shareAt). Structure 0 takes 0.1 against
+  // structure 1, which takes all; triangle 0 of structure 1 has vertices 0 and 1; the margin is
+  // 0.15 mm, so a depth below it of 0.15 is on the surface. The vertex is 0.8 mm inside.
+  void shareCoversWhatTheOtherSideDoesNotTake() {
+    const float share[4] = {1.0f, 0.1f, 1.0f, 1.0f};
+    const collision::Tri tris[1] = {{0, 1, 0}};
+    float depths[2] = {0.0f, 0.0f};
+    collision::BvhView v;
+    v.meshes = 2, v.share = share, v.tris = tris, v.lastDepth = depths;
+    const auto at = [&](float a, float b, float side = -0.8f, int own = 0) {
+      depths[0] = a, depths[1] = b;
+      return double(collision::shareAt(v, own, 1 - own, 0, side, 0.15f));
+    };
+    const auto near = [](double a, double b) { return std::abs(a - b) < 1e-6; };
+    QCOMPARE(at(0.0f, 0.0f), 1.0);                 // one-sided: all of it
+    QCOMPARE(at(0.1f, 0.15f), 1.0);                // theirs within the margin, none inside: the same
+    QVERIFY(near(at(0.95f, 0.95f), 0.1));          // as deep as this vertex: its share by size
+    QVERIFY(near(at(3.0f, 2.0f), 0.1));            // deeper: no less than that share
+    QVERIFY(near(at(0.35f, 0.35f), 0.75));         // a quarter as deep inside: the other three quarters
+    QVERIFY(near(at(0.55f, 0.15f), 0.75));         // by their mean
+    QCOMPARE(at(0.0f, 0.0f, 0.05f), 1.0);          // one-sided, this vertex within the margin: all of it
+    QVERIFY(near(at(0.1f, 0.15f, 0.05f), 0.1));    // theirs touching, this one within the margin: by size
+    QCOMPARE(at(0.0f, 0.0f, -0.8f, 1), 1.0);       // the larger structure takes all anyway
+    v.lastDepth = nullptr;                         // without the depths: by size
+    QVERIFY(near(at(0.0f, 0.0f), 0.1));
+  }
+
   // Deforming contacts (paper 001 section 2.2): two spheres 1 mm apart in their reference; the
   // second starts 3 mm further away. Springs between the vertices within distance_mm of the other
   // structure in the reference bring the gap back to about 1 mm on both integrators, where without

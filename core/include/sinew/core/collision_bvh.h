@@ -60,18 +60,6 @@ struct BvhView {
 // The share of a contact's correction that a vertex of `own` takes against `other`
 // (CollisionTree::setShares: the larger structure gives way more); 1 without a table.
 SINEW_HD float shareOf(const BvhView& v, int own, int other) { return v.share ? v.share[own * v.meshes + other] : 1.0f; }
-// The share of a contact on triangle `tri` (BvhView::tris) of `other`: shareOf, but all of it where
-// neither of that triangle's two vertices touched anything (depth 0) as the search began. There
-// the other surface passes through this structure between its vertices, which feel nothing and do
-// not give way: a vertex taking its share alone came to rest inside (mixed right 6109: 30 of
-// Amygdala_R's vertices up to 0.86 mm inside ParaHippocampal_R, none of whose vertices was inside
-// Amygdala_R; docs/collisions.md, "One-sided contacts").
-SINEW_HD float shareAt(const BvhView& v, int own, int other, int tri) {
-  const float s = shareOf(v, own, other);
-  if (!(s < 1.0f) || !v.lastDepth || tri < 0) return s;
-  const Tri t = v.tris[tri];
-  return v.lastDepth[t.a] == 0.0f && v.lastDepth[t.b] == 0.0f ? 1.0f : s;
-}
 
 SINEW_HD P3 sub(P3 a, P3 b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
 SINEW_HD P3 add(P3 a, P3 b) { return {a.x + b.x, a.y + b.y, a.z + b.z}; }
@@ -80,6 +68,30 @@ SINEW_HD float dot3(P3 a, P3 b) { return a.x * b.x + (a.y * b.y + a.z * b.z); }
 SINEW_HD P3 cross3(P3 a, P3 b) { return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x}; }
 SINEW_HD float fmin3(float a, float b) { return a < b ? a : b; }
 SINEW_HD float fmax3(float a, float b) { return a > b ? a : b; }
+// The share of a contact on triangle `tri` (BvhView::tris) of `other`, `side` the vertex's side of
+// it: shareOf, or more where that triangle's two vertices will not give way enough. They were
+// `lastDepth` below the margin as the search began (against whatever they touched).
+// - Where both touched nothing, all of it (inside or within the margin): the other surface passes
+//   through this structure between its vertices, which feel nothing and do not move.
+// - Otherwise, where this vertex is inside: the pair parts by this vertex's share of its depth
+//   inside plus the other side's share of theirs, so it takes at least 1 - (their mean depth
+//   inside, times their share) / its depth inside; all of it where they were only within the margin.
+// - Within the margin but outside: its share by size.
+// With its share by size alone a vertex came to rest inside: mixed right 6109, 30 of Amygdala_R's
+// vertices up to 0.86 mm inside ParaHippocampal_R, whose vertices there touched nothing; and on the
+// mixed right subjects 2.3-3.0 mm^3 of overlap was left where they touched, less deep
+// (docs/collisions.md, "One-sided contacts" and "Where the other side gives way less").
+SINEW_HD float shareAt(const BvhView& v, int own, int other, int tri, float side, float margin) {
+  const float s = shareOf(v, own, other);
+  if (!(s < 1.0f) || !v.lastDepth || tri < 0) return s;
+  const Tri t = v.tris[tri];
+  const float a = v.lastDepth[t.a], b = v.lastDepth[t.b];
+  if (a == 0.0f && b == 0.0f) return 1.0f;
+  const float mine = -side;
+  if (!(mine > 0.0f)) return s;
+  const float theirs = fmax3(0.5f * (a + b) - margin, 0.0f) * shareOf(v, other, own);
+  return fmin3(fmax3(s, 1.0f - theirs / mine), 1.0f);
+}
 
 SINEW_HD Box emptyBox() { return {{3.0e38f, 3.0e38f, 3.0e38f}, {-3.0e38f, -3.0e38f, -3.0e38f}}; }
 SINEW_HD void extend(Box& b, P3 p) {
@@ -461,7 +473,7 @@ SINEW_HD float contactResponse(const BvhView& v, int own, P3 p, P3 previous, P3 
   for (int other = 0; other < v.meshes; ++other) {
     Hit h{};
     if (contactWith(v, own, other, p, s.margin, maxD2, hint, x, centres, h, sum.clearance2))
-      addContact(h, p, previous, ownNormal, alpha, s, sum, hold, shareAt(v, own, other, h.tri));
+      addContact(h, p, previous, ownNormal, alpha, s, sum, hold, shareAt(v, own, other, h.tri, h.side, s.margin));
   }
   depth = sum.deepest;
   hint = sum.nearestLeaf;
