@@ -7,10 +7,11 @@
 # before, over the regions wholly inside the field of view) and the overlap at the end (report.json's
 # independent voxelisation), mean and largest.
 # Usage: [SETS="demo subjects varied cortical frontal2 occtemp mixedR medial cerebellum2"]
-#        [BACKENDS="cuda cpu"] [JOBS=4] [THREADS=4] [GPU_JOBS=2] [AFTER_FORCES=JSON]
+#        [BACKENDS="cuda cpu"] [JOBS=4] [THREADS=4] [GPU_JOBS=2] [BEFORE_FORCES=JSON] [AFTER_FORCES=JSON]
 #        bash scripts/collision-sets.sh BUILD_DIR OUT_DIR BEFORE_RUN AFTER_RUN
 # AFTER_FORCES (e.g. '{"collision": {"size_share": 4}}') is merged into the after runs' scenes'
-# forces, to compare a parameter's values with one program as both BEFORE and AFTER.
+# forces, BEFORE_FORCES into the before runs', to compare a parameter's values with one program as
+# both BEFORE and AFTER.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 python3 - "$@" <<'PY'
@@ -87,19 +88,19 @@ for s in sets:
                          f"{subj}/image.nii.gz", "--ground-truth", f"{subj}/labels.nii.gz", "-o", path])
 list(ThreadPoolExecutor(jobs * 2).map(call, work))
 
-after_forces = json.loads(os.environ.get("AFTER_FORCES", "{}"))
-if after_forces:
-    for s, seed, path in scenes:
+forces = {w: json.loads(os.environ.get(f"{w.upper()}_FORCES", "{}")) for w in ("before", "after")}
+for which, merged in forces.items():
+    for s, seed, path in scenes if merged else []:
         scene = json.load(open(path))
-        for force, values in after_forces.items():
+        for force, values in merged.items():
             scene["forces"].setdefault(force, {}).update(values)
-        json.dump(scene, open(path[:-5] + "-after.json", "w"), indent=1)
+        json.dump(scene, open(f"{path[:-5]}-{which}.json", "w"), indent=1)
 
 def run(args):
     (s, seed, path), backend, which = args
     dest = f"{out}/runs/{s}-{seed}-{backend}-{which}"
-    if which == "after" and after_forces:
-        path = path[:-5] + "-after.json"
+    if forces[which]:
+        path = f"{path[:-5]}-{which}.json"
     rc = call([before if which == "before" else after, path, "-q", "--backend", backend, "-j", threads, "-o", dest], (0, 4))
     r = json.load(open(f"{dest}/report.json"))
     scored = [x["assd_mm"]["final"] for x in r["structures"]

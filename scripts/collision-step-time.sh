@@ -8,7 +8,9 @@
 # BENCH: other bench_steps binaries to run after this build's on the same scenes (an older
 # build's, side by side). MAKE_SCENE_ARGS: more sinew-make-scene options (e.g. another
 # --structures list); SCHEDULE: iterations per level instead; BENCH_FLAGS: --cpu for the CPU
-# backend, --warmup N for N untimed steps before each round. docs/benchmarks.md.
+# backend, --warmup N for N untimed steps before each round. ALSO: collision parameters as JSON
+# (e.g. '{"reaction": 0}'), merged into a copy of each collision scene, timed beside it.
+# docs/benchmarks.md.
 # Usage: bash scripts/collision-step-time.sh BUILD_DIR OUT_DIR ["3 4"]
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -26,6 +28,11 @@ for l in $levels; do
     [ "$c" = off ] || python3 -c 'import json,sys; p=sys.argv[1]; j=json.load(open(p)); j["forces"]["collision"]["full_search_every"]=int(sys.argv[2]); json.dump(j,open(p,"w"),indent=1)' \
       "$out/levels-$l-$c/scene.json" "${c#every}"
     scenes+=("$out/levels-$l-$c/scene.json")
+    if [ "$c" != off ] && [ -n "${ALSO:-}" ]; then
+      python3 -c 'import json,sys; j=json.load(open(sys.argv[1])); j["forces"]["collision"].update(json.loads(sys.argv[2])); json.dump(j,open(sys.argv[3],"w"),indent=1)' \
+        "$out/levels-$l-$c/scene.json" "$ALSO" "$out/levels-$l-$c/also.json"
+      scenes+=("$out/levels-$l-$c/also.json")
+    fi
   done
   for bench in "$build/tests/bench/bench_steps" ${BENCH:-}; do
     echo "$bench, $l levels:"

@@ -217,7 +217,7 @@ collision::ContactSettings contactSettingsOf(const ParamTable& params) {
   const auto get = [&](const char* name) { return params.getf(0, params.indexOf(name)); };
   const float holdStep = get("hold_step");
   return {get("margin_mm"), get("contact_damping"), get("reach_mm"),  get("retreat_mm"),
-          get("hold_mm"),   get("ahead_mm"),        holdStep > 0.0f ? holdStep : 3.0e38f};
+          get("hold_mm"),   get("ahead_mm"),        holdStep > 0.0f ? holdStep : 3.0e38f, get("reaction")};
 }
 
 int fullSearchEveryOf(const ParamTable& params) { return std::max(1, int(params.get(0, params.indexOf("full_search_every")))); }

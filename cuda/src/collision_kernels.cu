@@ -414,9 +414,39 @@ __global__ void __launch_bounds__(kThreads, kWarpLeaves ? kRespondBlocks : 0)
   if (stiffness) stiffness[i] = sum.stiffness;
 }
 
-__global__ void addCollisionForce(MeshView m, const float3* collisionForce) {
+// The reaction's sums (ReactionSums; CollisionForce::addReaction's arithmetic), a thread a vertex.
+// Its normal from its neighbours and the contact's cell centre as the geometry pass computes them
+// (neighbourNormal, centreOf: the same bits), so that it need not wait for that pass. All of the
+// contact triangle's vertices are of one structure: one weight.
+__global__ void reactionScatter(MeshView m, ReactionSums r) {
   const int i = blockIdx.x * blockDim.x + threadIdx.x;
-  if (i < m.vertices) m.force[i] = m.force[i] + collisionForce[i];
+  if (i >= m.vertices || !(r.share[i] >= 0.0f) || !(r.params.values[m.meshOf[i] * r.params.count] > 0.0f)) return;
+  const ContactPlane k = r.contact[i];
+  const int3 n = m.neighbours[i];
+  const float3 p = m.x[i], normal = neighbourNormal(m.x[n.x], m.x[n.y], m.x[n.z]);
+  const float alpha = r.params.values[m.meshOf[k.corners.a] * r.params.count];
+  const float3 c = centreOf(m, k.corners.cell);
+  const P3* x = reinterpret_cast<const P3*>(m.x);
+  P3 push;
+  if (!(alpha > 0.0f) || !reactionPush(k, {p.x, p.y, p.z}, {normal.x, normal.y, normal.z}, r.settings, x[k.corners.a],
+                                        x[k.corners.b], {c.x, c.y, c.z}, push))
+    return;
+  const int first = m.cellOffsets[k.corners.cell], size = m.cellOffsets[k.corners.cell + 1] - first;
+  for (int j = 0; j < 2 + size; ++j) {
+    const int u = j == 0 ? k.corners.a : j == 1 ? k.corners.b : m.cellVertices[first + j - 2];
+    const float weight = reactionPart(k, j, size) * alpha;
+    addFixed(r.sums + 3 * u, push.x * weight);
+    addFixed(r.sums + 3 * u + 1, push.y * weight);
+    addFixed(r.sums + 3 * u + 2, push.z * weight);
+  }
+}
+
+__global__ void addCollisionForce(MeshView m, const float3* collisionForce, unsigned long long* reaction) {
+  const int i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i >= m.vertices) return;
+  float3 f = m.force[i] + collisionForce[i];
+  if (reaction) f = f + takeReaction(m, reaction, i);
+  m.force[i] = f;
 }
 
 __global__ void contactSprings(MeshView m, ParamView p, const int* partner, const float3* offset, float* stiffness) {
@@ -451,12 +481,13 @@ __global__ void holdOut(MeshView m, const HoldPlane* hold, const float* contactS
 }
 // The collision's force added, the damped Verlet move, then the hold (as holdOut; hold null: none,
 // and `advance` ended the step on the branch).
-__global__ void addMoveAndHold(MeshView m, const float3* collisionForce, VerletMove move, const HoldPlane* hold,
-                               ContactSettings settings, unsigned* motion) {
+__global__ void addMoveAndHold(MeshView m, const float3* collisionForce, unsigned long long* reaction, VerletMove move,
+                               const HoldPlane* hold, ContactSettings settings, unsigned* motion) {
   const int i = blockIdx.x * blockDim.x + threadIdx.x;
   if (i == 0 && hold) advanceStep(motion);
   if (i >= m.vertices) return;
-  const float3 f = m.force[i] + collisionForce[i];
+  float3 f = m.force[i] + collisionForce[i];
+  if (reaction) f = f + takeReaction(m, reaction, i);
   m.force[i] = f;
   const float3 current = m.x[i];  // verletMove's arithmetic, the hold's on the values it writes
   const float3 next = verletStep(current, m.prev[i], f, move.dt, move.keep, m.mass[i]);
@@ -492,7 +523,8 @@ void launchCollisionRefit(const MeshView& m, const CollisionDevice& c, cudaStrea
 
 void launchCollisionRespond(const MeshView& m, ParamView p, const CollisionDevice& c, const ContactSettings& settings,
                             int every, cudaStream_t s) {
-  BvhView v{c.nodes, c.boxes, c.tris, c.order, c.roots, c.exempt, c.meshes, c.nodeCount, c.share, c.lastDepth};
+  BvhView v{c.nodes, c.boxes, c.tris, c.order, c.roots, c.exempt, c.meshes, c.nodeCount, c.share, c.lastDepth,
+            settings.reaction > 0.0f};
   // Lanes a vertex. From 131,072 vertices, 4 where a vertex's structures take at most 4 rounds of
   // them: with two leaves at once that beat a lane a vertex 358.5 against 826.5 us at 325,632
   // vertices (12 structures), but lost 2,433 against 2,114 us with 100 structures (25 rounds;
@@ -512,14 +544,18 @@ void launchCollisionRespond(const MeshView& m, ParamView p, const CollisionDevic
   if (settings.hold < 0.0f) advance<<<1, 1, 0, s>>>(c.motion);
 }
 
+void launchCollisionReaction(const MeshView& m, const ReactionSums& r, cudaStream_t s) {
+  reactionScatter<<<(m.vertices + kThreads - 1) / kThreads, kThreads, 0, s>>>(m, r);
+}
+
 void launchCollisionAdd(const MeshView& m, const CollisionDevice& c, cudaStream_t s) {
-  addCollisionForce<<<(m.vertices + kThreads - 1) / kThreads, kThreads, 0, s>>>(m, c.force);
+  addCollisionForce<<<(m.vertices + kThreads - 1) / kThreads, kThreads, 0, s>>>(m, c.force, c.reaction);
 }
 
 void launchCollisionMove(const MeshView& m, const CollisionDevice& c, const VerletMove& move,
                          const ContactSettings& settings, cudaStream_t s) {
   addMoveAndHold<<<(m.vertices + kThreads - 1) / kThreads, kThreads, 0, s>>>(
-      m, c.force, move, settings.hold >= 0.0f ? c.hold : nullptr, settings, c.motion);
+      m, c.force, c.reaction, move, settings.hold >= 0.0f ? c.hold : nullptr, settings, c.motion);
 }
 
 void launchCollisionPlanes(const MeshView& m, const ContactPlanes& planes, float3* out, cudaStream_t s) {

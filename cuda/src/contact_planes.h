@@ -27,6 +27,22 @@ struct ContactPlanes {
   // previous position after the hold goes here, a third position buffer, since the pass may not
   // write x, which other vertices read (launchProfileAfterTerms).
   float3* heldPrevious = nullptr;
+  // The reaction's sums (ReactionSums), taken by every vertex with its force; null: none here.
+  unsigned long long* reaction = nullptr;
+};
+
+// The collision's reaction (collision::reactionPush; CollisionForce::addReaction on the CPU): each
+// vertex with a contact plane pushes that contact's triangle, its pushes times part times weight
+// summed per vertex in fixed point, 2^-32 of a unit: integer sums do not depend on the order the
+// atomics land in, so a run repeats itself (float atomics would not). Far below a float's rounding
+// of the forces; the range, 2^31, far above them. Whoever adds a vertex's force takes its sum
+// (times its mass) and sets it back to 0 (takeReaction).
+struct ReactionSums {
+  ParamView params;  // the collision force's (its weights: column 0)
+  collision::ContactSettings settings;
+  const collision::ContactPlane* contact = nullptr;  // per vertex (valid where share >= 0)
+  const float* share = nullptr;                      // per vertex, the contact's share (< 0: none)
+  unsigned long long* sums = nullptr;                // 3 per vertex
 };
 
 #if defined(__CUDACC__)
@@ -38,6 +54,20 @@ struct ContactPlanes {
 // the same pass), m.prev[i], m.normal[i], m.mass[i] (with m.mass null, the mass from m.area[i],
 // as the lean geometry's passes do) and m.cellCentre. `touching`: hasContactPlane(c, i), which a
 // pass can read early, so that its round trip is not on the pass's last stretch.
+constexpr double kReactionScale = 4294967296.0;
+__device__ inline void addFixed(unsigned long long* sum, float value) {
+  atomicAdd(sum, static_cast<unsigned long long>(__double2ll_rn(static_cast<double>(value) * kReactionScale)));
+}
+// Vertex i's sum as a force (times its mass, as the CPU's), set back to 0 for the next step.
+__device__ inline float3 takeReaction(const MeshView& m, unsigned long long* sums, int i) {
+  float f[3];
+  for (int k = 0; k < 3; ++k) {
+    f[k] = static_cast<float>(static_cast<double>(static_cast<long long>(sums[3 * i + k])) / kReactionScale);
+    sums[3 * i + k] = 0;
+  }
+  const float mass = m.mass ? m.mass[i] : massFromArea(m, m.meshOf[i], m.area[i]);
+  return make_float3(f[0] * mass, f[1] * mass, f[2] * mass);
+}
 __device__ inline bool hasContactPlane(const ContactPlanes& c, int i) { return c.share[i] >= 0.0f; }
 __device__ inline float3 contactPlaneForce(const MeshView& m, const ContactPlanes& c, int i, bool touching,
                                            collision::HoldPlane& plane) {
@@ -59,7 +89,8 @@ __device__ inline float3 contactPlaneForce(const MeshView& m, const ContactPlane
   }
   if (c.stiffness) c.stiffness[i] = k;
   if (c.hold && touching) c.hold[i] = plane;
-  return make_float3(force.x, force.y, force.z);
+  const float3 f = make_float3(force.x, force.y, force.z);
+  return c.reaction ? f + takeReaction(m, c.reaction, i) : f;
 }
 #endif
 

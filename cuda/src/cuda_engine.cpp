@@ -107,7 +107,8 @@ struct CudaEngine::Impl {
           sim.forceParams(f.name).anyPositive(0)) {
         collision.build(sim.store(), sim.scene(), sim.forceParams(f.name), implicit(), stream);
         invalidateGraph();
-      }
+      } else if (f.kind == Kind::Collision && collision.built() && collision.prepareReaction(sim.forceParams(f.name), stream))
+        invalidateGraph();  // the reaction turned on within the level
     const size_t third = collision.built() ? size_t(sim.store().vertexCount()) : 0;
     if (thirdPositions.size() != third) {
       thirdPositions.resize(third);
@@ -351,8 +352,19 @@ struct CudaEngine::Impl {
     const bool search = collide && collision.searchesAt(collisionAhead++, sim.forceParams(slot->name));
     const ParamView collisionParams = slot ? ParamView{slot->params.get(), slot->count} : ParamView{};
     const bool planesAfterProfile = collide && !search && onlyActiveAfter(forces, sim, profile, slot);
-    const ContactPlanes planes =
+    ContactPlanes planes =
         planesAfterProfile ? collision.contactPlanes(collisionParams, sim.forceParams(slot->name)) : ContactPlanes{};
+    // The reaction's sums, taken where the collision's force is added: after a full search's
+    // response on its branch; between full searches on a branch beside the geometry's pass (they
+    // read only the positions and the planes), joined before the profile's pass takes them.
+    const ReactionSums reaction = collide ? collision.reactionSums(collisionParams, sim.forceParams(slot->name)) : ReactionSums{};
+    const bool reactBeside = reaction.sums && !search;
+    const auto geometryBesideReaction = [&](auto&& launch) {
+      if (reactBeside) launchCollisionReaction(view, reaction, branch.begin(stream));
+      launch();
+      if (reactBeside) branch.join(stream);
+    };
+    planes.reaction = reaction.sums;
     // The geometry without what no kernel of the step reads (the lean geometry, docs/benchmarks.md):
     // the pass of the terms and the move computes the normals and masses itself.
     const bool lean = !moveAlone && !hasGradientTerm(fused) && view.area;
@@ -391,7 +403,7 @@ struct CudaEngine::Impl {
           inPass.hold = nullptr;
           inPass.heldPrevious = spareBuffer();
         }
-        launchGeometry(view, topology.cellSpans.get(), stream);
+        geometryBesideReaction([&] { launchGeometry(view, topology.cellSpans.get(), stream); });
         launchProfileAfterTerms(view, fused, p, kDepth, imageView, imageTexture.get(), profiles.get(), profileInside,
                                 profileSpacing, reach, move, planesAfterProfile ? &inPass : nullptr, stream);
         std::swap(view.x, view.prev);
@@ -401,7 +413,7 @@ struct CudaEngine::Impl {
       // Larger scenes: the profile's term first, then the terms added to it in the move's pass, so
       // that the move needs no pass of its own.
       if (lean && profileGoesFirst(view.vertices, profileInside, profileOutside, reach)) {
-        geometry(true);
+        geometryBesideReaction([&] { geometry(true); });
         MeshView g = view;
         g.mass = nullptr;  // lean: the planes take the masses from the areas, as the terms' pass does
         launchProfileFirst(g, p, kDepth, imageView, imageTexture.get(), profiles.get(), profileInside, profileSpacing,
@@ -417,17 +429,20 @@ struct CudaEngine::Impl {
     // place in the force order: its force added as the CPU adds it, or, as the last force before damped
     // Verlet, with the move and the hold in one pass (docs/collisions.md, "The response beside ...").
     // Between full searches the branch holds only the contact planes (launchCollisionPlanes).
-    cudaStream_t side = search ? branch.begin(stream) : nullptr;
+    cudaStream_t side = search || reactBeside ? branch.begin(stream) : nullptr;
     const bool early = search && collision.refitsBeforeGeometry();
     if (early) collision.refit(view, side);
+    if (reactBeside) launchCollisionReaction(view, reaction, side);
     launchGeometry(view, topology.cellSpans.get(), stream);
     collision::ContactSettings settings;  // its hold negative: no hold
     if (search) {
       branch.follow(stream);
       if (!early) collision.refit(view, side);
       settings = collision.respond(view, collisionParams, sim.forceParams(slot->name), side);
+      if (reaction.sums) launchCollisionReaction(view, reaction, side);
     } else if (collide) {
-      side = branch.begin(stream);
+      if (reactBeside) branch.follow(stream);
+      else side = branch.begin(stream);
       const ContactPlanes c = collision.contactPlanes(collisionParams, sim.forceParams(slot->name));
       launchCollisionPlanes(view, c, collision.view().force, side);
       settings = c.settings;
@@ -556,21 +571,7 @@ void CudaEngine::run(int iterations) {
   I.prepareCollision();
   I.prepareContacts();
   I.prepareRadial();
-  // Per-structure values are read from device memory, but which kernels run (a force weighted 0
-  // everywhere is skipped) and the values passed by value are baked into the captured graph: it is
-  // captured again when any of them changed.
-  std::vector<float> signature;
-  for (const auto& f : I.forces) {
-    const ParamTable& t = I.sim.forceParams(f.name);
-    signature.push_back(t.anyPositive(0) ? 1.0f : 0.0f);
-    for (size_t p = 0; p < t.decls().size(); ++p)
-      if (!t.decls()[p].perStructure) signature.push_back(t.getf(0, static_cast<int>(p)));
-    if (f.kind == Kind::Profile) signature.push_back(static_cast<float>(maxProfileReach(t)));  // picks the kernel
-  }
-  for (size_t p = 0; p < I.sim.integratorParams().decls().size(); ++p)
-    signature.push_back(I.sim.integratorParams().getf(0, static_cast<int>(p)));
-  signature.push_back(I.sim.affineRegularisation());
-  signature.push_back(I.sim.coarseForceWeight());
+  const std::vector<float> signature = graphSignature(I.forces, I.sim);
   if (signature != I.graphSignature) I.invalidateGraph();
   I.graphSignature = signature;
   // Batches of up to 32 steps (fewer for implicit Euler, below), each length captured once as a CUDA Graph and replayed (a report

@@ -40,6 +40,8 @@ void DeviceCollision::build(MeshStore& store, const SceneData& scene, const Para
   contact_.resize(store.vertexCount());  // read only where contactShare_ says a full search wrote it
   contactShare_.upload(std::vector<float>(store.vertexCount(), -1.0f), stream);  // none until a full search writes it
   force_.resize(store.vertexCount());  // likewise, before launchCollisionAdd reads it
+  reaction_.resize(0);
+  prepareReaction(params, stream);
   motion_.resize(1);
   SINEW_CUDA(cudaMemsetAsync(motion_.get(), 0, motion_.bytes(), stream));
   meshes_ = int(tree.roots.size());
@@ -89,6 +91,19 @@ ContactPlanes DeviceCollision::contactPlanes(ParamView p, const ParamTable& para
   return planes;
 }
 
+bool DeviceCollision::prepareReaction(const ParamTable& params, cudaStream_t stream) {
+  if (reaction_.size() || !(contactSettingsOf(params).reaction > 0.0f) || !moved_.size()) return false;
+  reaction_.resize(3 * moved_.size());  // zero between steps: each step's add takes the sums
+  SINEW_CUDA(cudaMemsetAsync(reaction_.get(), 0, reaction_.bytes(), stream));
+  return true;
+}
+
+ReactionSums DeviceCollision::reactionSums(ParamView p, const ParamTable& params) const {
+  const collision::ContactSettings settings = contactSettingsOf(params);
+  if (!reaction_.size() || !(settings.reaction > 0.0f)) return {};
+  return {p, settings, contact_.get(), contactShare_.get(), reaction_.get()};
+}
+
 CollisionDevice DeviceCollision::view() const {
   CollisionDevice c;
   c.nodes = nodes_.get();
@@ -117,6 +132,7 @@ CollisionDevice DeviceCollision::view() const {
   c.contact = contact_.get();
   c.contactShare = contactShare_.get();
   c.force = force_.get();
+  c.reaction = reaction_.size() ? reaction_.get() : nullptr;
   c.meshes = meshes_;
   c.nodeCount = int(nodes_.size());
   return c;
@@ -127,7 +143,7 @@ std::size_t DeviceCollision::bytes() const {
          visits_.bytes() + threadNodes_.bytes() + warpNodes_.bytes() + blockNodes_.bytes() + vertexBoxes_.bytes() +
          stiffness_.bytes() + depth_.bytes() + lastDepth_.bytes() + hint_.bytes() + exempt_.bytes() + share_.bytes() +
          slack_.bytes() + moved_.bytes() + last_.bytes() + motion_.bytes() + hold_.bytes() +
-         contact_.bytes() + contactShare_.bytes() + force_.bytes();
+         contact_.bytes() + contactShare_.bytes() + force_.bytes() + reaction_.bytes();
 }
 
 }  // namespace sinew::cuda

@@ -41,6 +41,12 @@ public:
   int schedule(const ParamTable& params) const;
   bool searchesAt(int ahead, const ParamTable& params) const;
   ContactPlanes contactPlanes(ParamView p, const ParamTable& params) const;
+  // The reaction's sums (ReactionSums), allocated once the force's `reaction` is positive:
+  // returns true where it allocated them now (a captured step must be captured again).
+  // reactionSums: with p (the device copy of `params`); sums null where the step does not react
+  // (none allocated, or the gain 0).
+  bool prepareReaction(const ParamTable& params, cudaStream_t stream);
+  ReactionSums reactionSums(ParamView p, const ParamTable& params) const;
   std::size_t bytes() const;
 
 private:
@@ -53,6 +59,7 @@ private:
   DeviceArray<int> order_, roots_, leaves_, visits_, threadNodes_, warpNodes_, blockNodes_, hint_;
   DeviceArray<float> stiffness_, depth_, lastDepth_, slack_, moved_, contactShare_;
   DeviceArray<float3> last_, force_;
+  DeviceArray<unsigned long long> reaction_;  // CollisionDevice::reaction: 3 per vertex, or none
   DeviceArray<collision::HoldPlane> hold_;  // CollisionDevice::hold
   DeviceArray<collision::ContactPlane> contact_;  // CollisionDevice::contact
   DeviceArray<unsigned> motion_;

@@ -78,4 +78,20 @@ bool anyPluginActive(const std::vector<ForceSlot>& forces, Simulation& sim) {
   });
 }
 
+std::vector<float> graphSignature(const std::vector<ForceSlot>& forces, Simulation& sim) {
+  std::vector<float> signature;
+  for (const ForceSlot& f : forces) {
+    const ParamTable& t = sim.forceParams(f.name);
+    signature.push_back(t.anyPositive(0) ? 1.0f : 0.0f);
+    for (size_t p = 0; p < t.decls().size(); ++p)
+      if (!t.decls()[p].perStructure) signature.push_back(t.getf(0, static_cast<int>(p)));
+    if (f.kind == ForceKind::Profile) signature.push_back(static_cast<float>(maxProfileReach(t)));  // picks the kernel
+  }
+  for (size_t p = 0; p < sim.integratorParams().decls().size(); ++p)
+    signature.push_back(sim.integratorParams().getf(0, static_cast<int>(p)));
+  signature.push_back(sim.affineRegularisation());
+  signature.push_back(sim.coarseForceWeight());
+  return signature;
+}
+
 }  // namespace sinew::cuda

@@ -40,4 +40,9 @@ bool activeAfter(const std::vector<ForceSlot>& forces, Simulation& sim, size_t i
 bool onlyActiveAfter(const std::vector<ForceSlot>& forces, Simulation& sim, size_t i, const ForceSlot* slot);
 bool anyPluginActive(const std::vector<ForceSlot>& forces, Simulation& sim);
 
+// Per-structure values are read from device memory, but which kernels run (a force weighted 0
+// everywhere is skipped) and the values passed by value are baked into a captured step: it is
+// captured again when this, those values, changed.
+std::vector<float> graphSignature(const std::vector<ForceSlot>& forces, Simulation& sim);
+
 }  // namespace sinew::cuda

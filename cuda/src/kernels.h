@@ -269,6 +269,8 @@ struct CollisionDevice {
   collision::ContactPlane* contact = nullptr;
   float* contactShare = nullptr;  // per vertex, contact's share alone: most vertices have none, and read only this
   float3* force = nullptr;  // per vertex, the response's force, apart from m.force (launchCollisionRespond)
+  // Per vertex, three sums of the reaction on it (launchCollisionReaction) in fixed point; null: none.
+  unsigned long long* reaction = nullptr;
   int meshes = 0, nodeCount = 0, leafCount = 0;
 };
 // Deforming contacts (collision_kernels.cu; core/contact_links.h): adds alpha m_i (x_j + o_i - x_i)
@@ -285,7 +287,15 @@ void launchCollisionRefit(const MeshView& m, const CollisionDevice& c, cudaStrea
 // collision::fullSearchBound).
 void launchCollisionRespond(const MeshView& m, ParamView p, const CollisionDevice& c,
                             const collision::ContactSettings& settings, int every, cudaStream_t s);
-// Adds c.force (launchCollisionRespond's) to m.force.
+// Where the collision reacts (ReactionSums, contact_planes.h): each vertex with a contact plane
+// sums its push on the other surface's contact triangle (collision::reactionPush). Reads only m.x
+// and the planes (the normals and cell centres computed as the geometry pass computes them), so
+// between full searches it runs beside that pass; after a full search, after its response.
+// launchCollisionAdd or launchCollisionMove (or the profile's pass with the contact planes) then
+// add the sums times the vertex's mass, and set them back to 0.
+struct ReactionSums;
+void launchCollisionReaction(const MeshView& m, const ReactionSums& r, cudaStream_t s);
+// Adds c.force (launchCollisionRespond's) and the reaction (where c.reaction) to m.force.
 void launchCollisionAdd(const MeshView& m, const CollisionDevice& c, cudaStream_t s);
 // launchCollisionAdd, launchVerlet and (hold: launchCollisionHold) in one pass, the same
 // arithmetic: for a step whose last force is the collision's and whose move follows directly.

@@ -36,7 +36,7 @@ const Registry& pressRegistry() {
 }  // namespace
 
 std::unique_ptr<Simulation> collidingSpheres(float gap, float weight, float innerRadius, const std::string& integrator,
-                                             double timeStep, double sizeShare) {
+                                             double timeStep, double sizeShare, double reaction) {
   auto sim = std::make_unique<Simulation>(forceRegistry(), 2);
   addSpherePair(*sim, gap, innerRadius);
   sim->addForce("shape_prior");
@@ -44,6 +44,7 @@ std::unique_ptr<Simulation> collidingSpheres(float gap, float weight, float inne
     ParamTable& collision = sim->addForce("collision");
     collision.setAll("weight", weight);
     collision.setAll("size_share", sizeShare);
+    collision.setAll("reaction", reaction);
   }
   sim->setIntegrator(integrator).set(0, "time_step", timeStep);
   sim->initialize();
@@ -74,7 +75,8 @@ std::vector<double> largestStepPerHundred(Simulation& sim, int blocks) {
 
 namespace {
 // Structure a pressed into b (pressedCap), each its own reference shape; b's collision weight given.
-std::unique_ptr<Simulation> pressInto(StructureSpec a, StructureSpec b, double weightB, double hold, int steps) {
+std::unique_ptr<Simulation> pressInto(StructureSpec a, StructureSpec b, double weightB, double hold, int steps,
+                                      double reaction = 0.0) {
   auto sim = std::make_unique<Simulation>(pressRegistry(), 2);
   for (StructureSpec* s : {&a, &b}) {
     s->referencePositions = s->initialPositions;
@@ -88,6 +90,7 @@ std::unique_ptr<Simulation> pressInto(StructureSpec a, StructureSpec b, double w
   collision.set(0, "weight", 0.5);
   collision.set(1, "weight", weightB);
   collision.setAll("hold_mm", hold);
+  collision.setAll("reaction", reaction);
   sim->setIntegrator("damped_verlet").set(0, "time_step", 0.5);
   sim->initialize();
   sim->run(steps);
@@ -101,12 +104,12 @@ std::unique_ptr<Simulation> pressedCap(float radiusA, Vec3 centreA, float radius
                    steps);
 }
 
-std::unique_ptr<Simulation> pressedIntoCell(int steps) {
+std::unique_ptr<Simulation> pressedIntoCell(int steps, double reaction) {
   StructureSpec b = sphereStructure("b", 1, 30.0f, Vec3::Zero());
   const Vec3 facing = cellCentres(b.levels.levels[0], b.initialPositions)[0];
   const Eigen::Matrix3f turn = Eigen::Quaternionf::FromTwoVectors(facing, Vec3(-1, 0, 0)).toRotationMatrix();
   for (Vec3& p : b.initialPositions) p = turn * p + Vec3(8.4f + facing.norm(), 0, 0);
-  return pressInto(sphereStructure("a", 3, 5.0f, Vec3(3.5f, 0, 0)), std::move(b), 0.5, 0.1, steps);
+  return pressInto(sphereStructure("a", 3, 5.0f, Vec3(3.5f, 0, 0)), std::move(b), 0.5, 0.1, steps, reaction);
 }
 
 double deepestInside(Simulation& sim, Index own, Index other) {

@@ -11,10 +11,11 @@
 namespace sinew::testing {
 
 // Two spheres of radius 10 mm and `innerRadius` (each its own reference, held by the shape prior),
-// `gap` between centres; with the collision force weighted `weight` (none at 0).
+// `gap` between centres; with the collision force weighted `weight` (none at 0), its size_share
+// and reaction as given.
 std::unique_ptr<Simulation> collidingSpheres(float gap, float weight, float innerRadius = 10.0f,
                                              const std::string& integrator = "damped_verlet", double timeStep = 0.5,
-                                             double sizeShare = 2.0);
+                                             double sizeShare = 2.0, double reaction = 0.0);
 
 // The overlap of structures 0 and 1 (mm^3, voxelised on a 0.5 mm grid).
 double pairOverlap(Simulation& sim);
@@ -35,8 +36,9 @@ std::unique_ptr<Simulation> pressedCap(float radiusA, Vec3 centreA, float radius
 // Structure a (radius 5 mm at 3.5 mm on x) pressed as pressedCap presses it into the middle of a
 // cell of structure b: a coarse sphere of radius 30 mm (the dual of a level-1 icosphere, 80
 // vertices some 12 mm apart) turned so that its cell 0 faces -x, that cell's centre at x = 8.4 mm.
-// Both respond (collision weight 0.5), with the hold (0.1 mm); no vertex of b comes near a.
-std::unique_ptr<Simulation> pressedIntoCell(int steps = 400);
+// Both respond (collision weight 0.5), with the hold (0.1 mm) and the given reaction; no vertex of
+// b comes near a.
+std::unique_ptr<Simulation> pressedIntoCell(int steps = 400, double reaction = 0.0);
 
 // The deepest any vertex of structure `own` lies inside structure `other` (mm; 0 when none does).
 double deepestInside(Simulation& sim, Index own, Index other);

@@ -340,12 +340,18 @@ private slots:
   // coarse one. None of the large one's vertices touches the small one, so the large one does not
   // give way; by size the small one takes 2 x 5^4 / (5^4 + 30^4) of each correction (0.1 %) and
   // would rest deep inside. collision::shareAt gives it all of the correction there.
+  // The same with the reaction (reaction 2, sinew-make-scene's): the rule for one-sided contacts
+  // holds with it. (Without that rule, the share by size and the reaction alone, the small one
+  // rested 0.407 mm inside: the coarse cell's push spread over its far vertices, held by its shape.)
   void oneSidedContactIsTakenWhole() {
-    auto sim = pressedIntoCell();
-    for (const Vec3& p : sim->store().positions()) [&] { QVERIFY(p.allFinite()); }();
-    const double depth = deepestInside(*sim, 0, 1);
-    qInfo("small sphere pressed into a cell of a large, coarse one: deepest vertex %.3f mm inside", depth);
-    QVERIFY(depth < 0.01);
+    for (double reaction : {0.0, 2.0}) {
+      auto sim = pressedIntoCell(400, reaction);
+      for (const Vec3& p : sim->store().positions()) [&] { QVERIFY(p.allFinite()); }();
+      const double depth = deepestInside(*sim, 0, 1);
+      qInfo("small sphere pressed into a cell of a large, coarse one, reaction %g: deepest vertex %.3f mm inside", reaction,
+            depth);
+      QVERIFY(depth < 0.01);
+    }
   }
 
   // Between those two: the other side's vertices are inside too, but less deep than this vertex.
@@ -373,8 +379,90 @@ private slots:
     QCOMPARE(at(0.0f, 0.0f, 0.05f), 1.0);          // one-sided, this vertex within the margin: all of it
     QVERIFY(near(at(0.1f, 0.15f, 0.05f), 0.1));    // theirs touching, this one within the margin: by size
     QCOMPARE(at(0.0f, 0.0f, -0.8f, 1), 1.0);       // the larger structure takes all anyway
+    v.reacts = true;                               // the reaction moves the other side where it touched:
+    QCOMPARE(at(0.0f, 0.0f), 1.0);                 //   one-sided, still all of it
+    QVERIFY(near(at(0.35f, 0.35f), 0.1));          //   otherwise by size
+    v.reacts = false;
     v.lastDepth = nullptr;                         // without the depths: by size
     QVERIFY(near(at(0.0f, 0.0f), 0.1));
+  }
+
+  // The reaction's push (collision::reactionPush): a vertex 0.5 mm inside a triangle in the plane
+  // z = 0 (outward normal +z), margin 0.15 mm, taking a tenth of the correction, gain 2: the
+  // triangle's vertices are pushed the other way by 2 x 0.9 of the way to the margin, split by
+  // the contact point's weights (reactionPart sums to 1). None where the vertex is outside, takes
+  // all of it, or faces the way of the contact (the retreat), or with no gain.
+  void reactionPushesTheContactTriangleBack() {
+    const collision::P3 x[2] = {{1, 0, 0}, {0, 1, 0}}, centres[1] = {{0, 0, 0}};
+    const collision::ContactPlane k{{0, 0, 1}, {0, 1, 0}, 0.2f, 0.3f, 0.1f};
+    collision::ContactSettings settings;
+    settings.margin = 0.15f;
+    settings.reaction = 2.0f;
+    const collision::P3 down{0, 0, -1}, up{0, 0, 1};
+    collision::P3 push{0, 0, 0};
+    QVERIFY(collision::reactionPush(k, {0.2f, 0.3f, -0.5f}, down, settings, x[0], x[1], centres[0], push));
+    QVERIFY(std::abs(push.x) < 1e-6f && std::abs(push.y) < 1e-6f && std::abs(push.z + 2.0f * 0.9f * 0.65f) < 1e-5f);
+    QVERIFY(!collision::reactionPush(k, {0.2f, 0.3f, 0.1f}, down, settings, x[0], x[1], centres[0], push));  // within the margin, outside
+    QVERIFY(!collision::reactionPush(k, {0.2f, 0.3f, -0.5f}, up, settings, x[0], x[1], centres[0], push));   // facing: the retreat
+    collision::ContactPlane all = k;
+    all.share = 1.0f;
+    QVERIFY(!collision::reactionPush(all, {0.2f, 0.3f, -0.5f}, down, settings, x[0], x[1], centres[0], push));
+    settings.reaction = 0.0f;
+    QVERIFY(!collision::reactionPush(k, {0.2f, 0.3f, -0.5f}, down, settings, x[0], x[1], centres[0], push));
+    for (int size : {5, 6, 7}) {
+      double sum = 0.0;
+      for (int j = 0; j < 2 + size; ++j) sum += collision::reactionPart(k, j, size);
+      QVERIFY(std::abs(sum - 1.0) < 1e-6);
+    }
+    QCOMPARE(collision::reactionPart(k, 0, 6), 0.2f);
+    QCOMPARE(collision::reactionPart(k, 1, 6), 0.3f);
+  }
+
+  // The same two spheres as largerStructureGivesWayMore with the reaction (sinew-make-scene's 2):
+  // the small one takes its share by size (2/17), and its contacts push the large one back by the
+  // rest, so the large one gives way a little more than without the reaction and the small one less.
+  // Stiff cases with the largest gain (8) converge or stop cleanly.
+  void reactionMovesTheOtherSideBack() {
+    const auto run = [](double reaction, const std::string& integrator = "damped_verlet", double dt = 0.5) {
+      auto sim = collidingSpheres(14.0f, 0.5f, 5.0f, integrator, dt, 2.0, reaction);
+      const auto facing = [&](Index m, float sign) {
+        float best = -1e30f;
+        const MeshRange& r = sim->store().range(m);
+        for (Index v = r.vertexBegin; v < r.vertexEnd; ++v) best = std::max(best, sign * sim->store().positions()[v].x());
+        return double(best);
+      };
+      const double before = pairOverlap(*sim), a0 = facing(0, 1.0f), b0 = facing(1, -1.0f);
+      double last = 0.0;
+      for (int i = 0; i < 300; ++i) {
+        sim->step();
+        last = largestStep(*sim);
+      }
+      for (const Vec3& p : sim->store().positions()) [&] { QVERIFY(p.allFinite()); }();
+      return std::tuple{before, pairOverlap(*sim), a0 - facing(0, 1.0f), b0 - facing(1, -1.0f), last};
+    };
+    const auto [before, after, large, small, lastStep] = run(2.0);
+    const auto [before0, after0, large0, small0, lastStep0] = run(0.0);
+    qInfo("10 and 5 mm spheres overlapping by %.1f mm^3: reaction 2 -> %.2f mm^3, the large one gave way %.3f mm, the "
+          "small one %.3f; without -> %.2f mm^3, %.3f and %.3f mm", before, after, large, small, after0, large0, small0);
+    QVERIFY(before > 5.0);
+    QVERIFY(after < 0.05 * before);
+    // Measured: 0.717 / 0.223 mm with the reaction, 0.697 / 0.244 without. The large one's vertices
+    // inside the small one take all of their own correction anyway; only the small one's push more.
+    QVERIFY(large > large0 + 0.01);
+    QVERIFY(small < small0 - 0.01);
+    for (const auto& [integrator, dt] : {std::pair{std::string("implicit_euler"), 5.0}, std::pair{std::string("damped_verlet"), 0.5}}) {
+      try {
+        auto sim = collidingSpheres(14.0f, 1.0f, 5.0f, integrator, dt, 2.0, 8.0);
+        const std::vector<double> blocks = largestStepPerHundred(*sim, 4);
+        for (const Vec3& p : sim->store().positions()) QVERIFY(p.allFinite());
+        qInfo("reaction 8, %s, dt %g: overlap %.2f mm^3, largest step in the last 100 steps %.3g mm", integrator.c_str(), dt,
+              pairOverlap(*sim), blocks.back());
+        QVERIFY(pairOverlap(*sim) < 0.05 * before);
+        QVERIFY(blocks.back() < 0.015);
+      } catch (const NumericalError& e) {
+        qInfo("reaction 8, %s, dt %g: stopped cleanly: %s", integrator.c_str(), dt, e.what());
+      }
+    }
   }
 
   // Deforming contacts (paper 001 section 2.2): two spheres 1 mm apart in their reference; the

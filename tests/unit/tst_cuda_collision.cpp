@@ -42,36 +42,46 @@ private slots:
     QTest::addColumn<int>("structures");    // spheres in rows of 6, each `gap` from the next
     QTest::addColumn<float>("radius");      // of every second sphere: unequal sizes share contacts unequally
     QTest::addColumn<float>("holdStep");    // hold_step: the hold's most a step, in the vertex's spacings (0: none)
-    QTest::newRow("damped_verlet") << "damped_verlet" << 100 << 1 << 15.0f << 0.0f << 3 << 2 << 10.0f << 0.0f;
-    QTest::newRow("damped_verlet, no hold") << "damped_verlet" << 100 << 1 << 15.0f << -1.0f << 3 << 2 << 10.0f << 0.0f;
-    QTest::newRow("implicit_euler") << "implicit_euler" << 20 << 1 << 15.0f << 0.0f << 3 << 2 << 10.0f << 0.0f;
-    QTest::newRow("implicit_euler, every 8") << "implicit_euler" << 20 << 8 << 15.0f << 0.0f << 3 << 2 << 10.0f << 0.0f;
-    QTest::newRow("damped_verlet, full search every 8") << "damped_verlet" << 100 << 8 << 15.0f << 0.0f << 3 << 2 << 10.0f << 0.0f;
-    QTest::newRow("damped_verlet, radii 10 and 6 (size_share)") << "damped_verlet" << 100 << 1 << 13.0f << 0.0f << 3 << 2 << 6.0f << 0.0f;
-    QTest::newRow("damped_verlet, radii 10 and 6, every 8") << "damped_verlet" << 100 << 8 << 13.0f << 0.0f << 3 << 2 << 6.0f << 0.0f;
+    QTest::addColumn<float>("reaction");    // reaction: the other side pushed back (collision::reactionPush; 0: none)
+    QTest::newRow("damped_verlet") << "damped_verlet" << 100 << 1 << 15.0f << 0.0f << 3 << 2 << 10.0f << 0.0f << 0.0f;
+    QTest::newRow("damped_verlet, no hold") << "damped_verlet" << 100 << 1 << 15.0f << -1.0f << 3 << 2 << 10.0f << 0.0f << 0.0f;
+    QTest::newRow("implicit_euler") << "implicit_euler" << 20 << 1 << 15.0f << 0.0f << 3 << 2 << 10.0f << 0.0f << 0.0f;
+    QTest::newRow("implicit_euler, every 8") << "implicit_euler" << 20 << 8 << 15.0f << 0.0f << 3 << 2 << 10.0f << 0.0f << 0.0f;
+    QTest::newRow("damped_verlet, full search every 8") << "damped_verlet" << 100 << 8 << 15.0f << 0.0f << 3 << 2 << 10.0f << 0.0f << 0.0f;
+    QTest::newRow("damped_verlet, radii 10 and 6 (size_share)") << "damped_verlet" << 100 << 1 << 13.0f << 0.0f << 3 << 2 << 6.0f << 0.0f << 0.0f;
+    QTest::newRow("damped_verlet, radii 10 and 6, every 8") << "damped_verlet" << 100 << 8 << 13.0f << 0.0f << 3 << 2 << 6.0f << 0.0f << 0.0f;
     // Without a hold the step ends in its own kernel (advance): the largest move is reset there too.
-    QTest::newRow("damped_verlet, no hold, full search every 8") << "damped_verlet" << 100 << 8 << 15.0f << -1.0f << 3 << 2 << 10.0f << 0.0f;
+    QTest::newRow("damped_verlet, no hold, full search every 8") << "damped_verlet" << 100 << 8 << 15.0f << -1.0f << 3 << 2 << 10.0f << 0.0f << 0.0f;
     // 163,840 vertices: the refit's climb from the leaves and 4 lanes a vertex from 131,072.
-    QTest::newRow("damped_verlet, 163,840 vertices") << "damped_verlet" << 100 << 1 << 15.0f << 0.0f << 6 << 2 << 10.0f << 0.0f;
-    QTest::newRow("damped_verlet, 163,840 vertices, every 8") << "damped_verlet" << 100 << 8 << 15.0f << 0.0f << 6 << 2 << 10.0f << 0.0f;
+    QTest::newRow("damped_verlet, 163,840 vertices") << "damped_verlet" << 100 << 1 << 15.0f << 0.0f << 6 << 2 << 10.0f << 0.0f << 0.0f;
+    QTest::newRow("damped_verlet, 163,840 vertices, every 8") << "damped_verlet" << 100 << 8 << 15.0f << 0.0f << 6 << 2 << 10.0f << 0.0f << 0.0f;
     // Centres 8 mm apart: the vertices inside the other sphere have its far side as their contact
     // and retreat (collision::respondTo), by the full search and by the contact planes between. Not
     // with implicit Euler: there the solver's float differences (1e-5 mm) meet the jumps of a deep
     // vertex's nearest point across the other sphere's middle, and the backends were 0.15-0.25 mm
     // apart after 20 steps (H200, 2026-11-26; docs/collisions.md).
-    QTest::newRow("damped_verlet, past the middle") << "damped_verlet" << 100 << 1 << 8.0f << 0.0f << 3 << 2 << 10.0f << 0.0f;
-    QTest::newRow("damped_verlet, past the middle, every 8") << "damped_verlet" << 100 << 8 << 8.0f << 0.0f << 3 << 2 << 10.0f << 0.0f;
+    QTest::newRow("damped_verlet, past the middle") << "damped_verlet" << 100 << 1 << 8.0f << 0.0f << 3 << 2 << 10.0f << 0.0f << 0.0f;
+    QTest::newRow("damped_verlet, past the middle, every 8") << "damped_verlet" << 100 << 8 << 8.0f << 0.0f << 3 << 2 << 10.0f << 0.0f << 0.0f;
     // More structures than one round of a vertex's lanes: 16 lanes a vertex in two rounds (30,720
     // vertices), and from 131,072 vertices one lane a vertex taking them in turn (133,120).
-    QTest::newRow("damped_verlet, 24 structures") << "damped_verlet" << 100 << 1 << 15.0f << 0.0f << 3 << 24 << 10.0f << 0.0f;
-    QTest::newRow("damped_verlet, 26 structures, 133,120 vertices") << "damped_verlet" << 100 << 1 << 15.0f << 0.0f << 4 << 26 << 10.0f << 0.0f;
-    QTest::newRow("damped_verlet, 26 structures, every 8") << "damped_verlet" << 100 << 8 << 15.0f << 0.0f << 4 << 26 << 10.0f << 0.0f;
+    QTest::newRow("damped_verlet, 24 structures") << "damped_verlet" << 100 << 1 << 15.0f << 0.0f << 3 << 24 << 10.0f << 0.0f << 0.0f;
+    QTest::newRow("damped_verlet, 26 structures, 133,120 vertices") << "damped_verlet" << 100 << 1 << 15.0f << 0.0f << 4 << 26 << 10.0f << 0.0f << 0.0f;
+    QTest::newRow("damped_verlet, 26 structures, every 8") << "damped_verlet" << 100 << 8 << 15.0f << 0.0f << 4 << 26 << 10.0f << 0.0f << 0.0f;
     // The hold moving a vertex at most 0.05 of its spacing (the square root of its area) a step, by
     // the full search and by the contact planes between; at 163,840 vertices (spacing about 0.12 mm)
     // also through the climb's refit and 4 lanes a vertex.
-    QTest::newRow("damped_verlet, hold_step 0.05") << "damped_verlet" << 100 << 1 << 15.0f << 0.0f << 3 << 2 << 10.0f << 0.05f;
-    QTest::newRow("damped_verlet, 163,840 vertices, hold_step 0.05, every 8") << "damped_verlet" << 100 << 8 << 15.0f << 0.0f << 6 << 2 << 10.0f << 0.05f;
+    QTest::newRow("damped_verlet, hold_step 0.05") << "damped_verlet" << 100 << 1 << 15.0f << 0.0f << 3 << 2 << 10.0f << 0.05f << 0.0f;
+    QTest::newRow("damped_verlet, 163,840 vertices, hold_step 0.05, every 8") << "damped_verlet" << 100 << 8 << 15.0f << 0.0f << 6 << 2 << 10.0f << 0.05f << 0.0f;
+    // The reaction (sinew-make-scene's 2): the smaller sphere takes its share by size, and the larger
+    // one's contact triangles are pushed back by the rest, summed in fixed point on the device, in
+    // vertex order on the CPU; by the full search and by the contact planes between, also through
+    // the climb's refit and 4 lanes a vertex (163,840 vertices, radii 10 and 7).
+    QTest::newRow("damped_verlet, radii 10 and 6, reaction 2") << "damped_verlet" << 100 << 1 << 13.0f << 0.0f << 3 << 2 << 6.0f << 0.0f << 2.0f;
+    QTest::newRow("damped_verlet, radii 10 and 6, reaction 2, every 8") << "damped_verlet" << 100 << 8 << 13.0f << 0.0f << 3 << 2 << 6.0f << 0.0f << 2.0f;
+    QTest::newRow("implicit_euler, radii 10 and 6, reaction 2") << "implicit_euler" << 20 << 1 << 13.0f << 0.0f << 3 << 2 << 6.0f << 0.0f << 2.0f;
+    QTest::newRow("damped_verlet, 163,840 vertices, radii 10 and 7, reaction 2, every 8") << "damped_verlet" << 100 << 8 << 14.0f << 0.0f << 6 << 2 << 7.0f << 0.05f << 2.0f;
   }
+
   void collisionMatchesTheCpu() {
     QFETCH(QString, integrator);
     QFETCH(int, steps);
@@ -82,6 +92,7 @@ private slots:
     QFETCH(int, structures);
     QFETCH(float, radius);
     QFETCH(float, holdStep);
+    QFETCH(float, reaction);
     auto make = [&](int count, float weight) {
       auto sim = std::make_unique<Simulation>(forceRegistry(), 0);
       for (int i = 0; i < count; ++i) {
@@ -97,14 +108,15 @@ private slots:
       collision.setAll("full_search_every", every);
       collision.setAll("hold_mm", hold);
       collision.setAll("hold_step", holdStep);
+      collision.setAll("reaction", reaction);
       sim->setIntegrator(integrator.toStdString()).set(0, "time_step", integrator == "implicit_euler" ? 2.0 : 0.5);
       sim->initialize();
       return sim;
     };
     const ParityRun r = runOnBoth([&] { return make(structures, 0.5f); }, steps);
-    qInfo("collision, %s, %d structures, centres %g mm apart, hold %g: max CPU-CUDA difference %.3g mm after %d steps "
-          "(vertices pushed up to %.3g mm)", qPrintable(integrator), structures, double(gap), double(hold), r.cpuCuda, steps,
-          r.moved);
+    qInfo("collision, %s, %d structures, centres %g mm apart, hold %g, reaction %g: max CPU-CUDA difference %.3g mm "
+          "after %d steps (vertices pushed up to %.3g mm)", qPrintable(integrator), structures, double(gap), double(hold),
+          double(reaction), r.cpuCuda, steps, r.moved);
     QVERIFY(r.moved > 1.0);
     QVERIFY2(r.cpuCuda < (integrator == "implicit_euler" ? 1e-2 : 1e-3), qPrintable(QString::number(r.cpuCuda)));
     QCOMPARE(r.deviceRepeat, 0.0);

@@ -45,6 +45,7 @@ public:
     if (full) tree_.refit(s.positions(), s.cellCentres(), ctx.executor);  // only full searches read the boxes
     const collision::ContactSettings settings = contactSettingsOf(ctx.params);
     collision::BvhView view = tree_.view();
+    view.reacts = settings.reaction > 0.0f;
     if (full && view.share) {  // the depths as the search begins (collision::shareAt)
       lastDepth_ = depth_;
       view.lastDepth = lastDepth_.data();
@@ -71,6 +72,7 @@ public:
                                                  hint_[v], slack_[v], plane_[v], x, centres, f, holding ? &hold_[v] : nullptr);
       forces[v] += asVec3(f);
     });
+    if (settings.reaction > 0.0f) addReaction(ctx, settings, forces);
   }
 
   // After a guard's rollback the planes are those of the undone steps' last full search, which may
@@ -103,6 +105,38 @@ public:
   }
 
 private:
+  // Each touching vertex's reaction on the other surface (collision::reactionPush), summed per
+  // vertex in vertex order: one vertex's triangle is another's, so the sums are serial (the
+  // device's are exact, in fixed point). Then each vertex's sum times its mass. Only active
+  // structures push or are pushed (their weight: column 0).
+  void addReaction(ForceContext& ctx, const collision::ContactSettings& settings, std::span<Vec3> forces) {
+    MeshStore& s = ctx.store;
+    const collision::P3* x = asP3(s.positions());
+    const collision::P3* centres = asP3(s.cellCentres());
+    const auto meshOf = s.meshOfVertex();
+    const auto mass = s.masses();
+    const auto normals = s.normals();
+    const auto cellOffsets = s.cellOffsets();
+    const auto cellVertices = s.cellVertices();
+    reaction_.assign(s.vertexCount(), collision::P3{0, 0, 0});
+    for (Index v = 0; v < s.vertexCount(); ++v) {
+      const collision::ContactPlane& k = plane_[v];
+      collision::P3 push;
+      if (!(k.share >= 0.0f) || !(ctx.params.getf(meshOf[v], 0) > 0.0f) ||
+          !collision::reactionPush(k, x[v], asP3(normals[v]), settings, x[k.corners.a], x[k.corners.b],
+                                   centres[k.corners.cell], push))
+        continue;
+      const Index first = cellOffsets[k.corners.cell], size = cellOffsets[k.corners.cell + 1] - first;
+      for (Index j = 0; j < 2 + size; ++j) {
+        const Index u = j == 0 ? k.corners.a : j == 1 ? k.corners.b : cellVertices[first + j - 2];
+        const float alpha = ctx.params.getf(meshOf[u], 0);
+        if (alpha > 0.0f)
+          reaction_[u] = collision::add(reaction_[u], collision::scale(push, collision::reactionPart(k, int(j), int(size)) * alpha));
+      }
+    }
+    ctx.executor.forEach(s.vertexCount(), [&](Index v) { forces[v] += asVec3(reaction_[v]) * mass[v]; }, 4096);
+  }
+
   // The level's tree and per-vertex state, at its first step (or after a change of topology).
   void setUp(ForceContext& ctx) {
     const Index n = ctx.store.vertexCount();
@@ -148,6 +182,7 @@ private:
   std::vector<int> hint_;     // each vertex's last nearest contact leaf
   std::vector<float> slack_;  // each vertex's clearance of the other structures beyond the margin
   std::vector<collision::ContactPlane> plane_;  // each vertex's deepest contact at the last full search
+  std::vector<collision::P3> reaction_;         // each vertex's sum of pushes (addReaction)
   std::vector<float> moved_;
   std::vector<Vec3> last_;    // the positions the last full search saw
   long step_ = 0;       // steps since the level began or a rollback: every full_search_every-th one searches in full
@@ -170,7 +205,8 @@ void registerCollisionForce(Registry& registry) {
                       {"full_search_every", 1, 1, 16, "steps", "a full contact search every this many steps; in between, each vertex meets only the plane of the deepest contact the last full search found, moved with that surface (sinew-make-scene writes 16)", false},
                       {"full_search_first", 0, 0, 1000, "steps", "with full_search_every above 1: a full search at each of a level's first this many steps as well, where the structures move the most (sinew-make-scene writes 8 for schedules of 5 levels or more)", false},
                       {"ahead_mm", 0.5, 0.0, 50.0, "mm", "with full_search_every above 1: how much farther, at most, a full search looks for the contacts a vertex may meet before the next one (twice its last step for each step until then, beyond the first)", false},
-                      {"ignore_enclosed", 0.0, 0.0, 1.0, "", "1: a structure lying inside another by design (nested labels) is left out of collisions with it; 0: such a pair stops the run with the reason", false}},
+                      {"ignore_enclosed", 0.0, 0.0, 1.0, "", "1: a structure lying inside another by design (nested labels) is left out of collisions with it; 0: such a pair stops the run with the reason", false},
+                      {"reaction", 0.0, 0.0, 8.0, "", "a vertex inside another structure that takes less than all of the correction (size_share) pushes that structure's contact triangle the other way by the rest, times this; a vertex then takes more than its share by size only where the other side touched nothing; 0: no push (sinew-make-scene writes 2)", false}},
                      [] { return std::make_unique<CollisionForce>(); }});
 }
 

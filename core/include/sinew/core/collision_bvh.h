@@ -55,6 +55,9 @@ struct BvhView {
   // Per vertex: its depth (contactResponse) as the full search began, for shareAt; null with no
   // share table. A copy: the search writes the depths it reads here.
   const float* lastDepth = nullptr;
+  // With the reaction (ContactSettings::reaction) the other side is pushed back by what a vertex
+  // does not take: shareAt then keeps only its rule for one-sided contacts.
+  bool reacts = false;
 };
 
 // The share of a contact's correction that a vertex of `own` takes against `other`
@@ -81,12 +84,15 @@ SINEW_HD float fmax3(float a, float b) { return a > b ? a : b; }
 // vertices up to 0.86 mm inside ParaHippocampal_R, whose vertices there touched nothing; and on the
 // mixed right subjects 2.3-3.0 mm^3 of overlap was left where they touched, less deep
 // (docs/collisions.md, "One-sided contacts" and "Where the other side gives way less").
+// With the reaction (v.reacts) the other side gives way where it touched: the first rule only
+// (docs/collisions.md, "The reaction").
 SINEW_HD float shareAt(const BvhView& v, int own, int other, int tri, float side, float margin) {
   const float s = shareOf(v, own, other);
   if (!(s < 1.0f) || !v.lastDepth || tri < 0) return s;
   const Tri t = v.tris[tri];
   const float a = v.lastDepth[t.a], b = v.lastDepth[t.b];
   if (a == 0.0f && b == 0.0f) return 1.0f;
+  if (v.reacts) return s;
   const float mine = -side;
   if (!(mine > 0.0f)) return s;
   const float theirs = fmax3(0.5f * (a + b) - margin, 0.0f) * shareOf(v, other, own);
@@ -257,6 +263,7 @@ struct ContactSettings {
   float hold = -1.0f;    // how far outside its contact's plane a pulled vertex is held after the step; < 0: no hold
   float ahead = 3.0e38f; // how far past twice its own last step a full search looks for what comes before the next
   float holdStep = 3.0e38f;  // the most the hold moves a vertex in one step, in its spacings (respondTo)
+  float reaction = 0.0f;     // the gain of the other surface's push back (reactionPush); 0: none
 };
 
 // The pull of one contact found by the search (h within the search radius) into force, deepest
@@ -389,11 +396,39 @@ SINEW_HD ContactPlane contactOn(const BvhView& v, const Hit& h, float share, con
 }
 // The contact's hit for a vertex now at p: the foot of p on the plane through the contact's point,
 // where its triangle is now, along the normal found.
-SINEW_HD Hit contactHit(const ContactPlane& k, P3 p, const P3* x, const P3* centres) {
-  const P3 c = centres[k.corners.cell];
-  const P3 q = add(c, add(scale(sub(x[k.corners.a], c), k.u), scale(sub(x[k.corners.b], c), k.w)));
+// (contactHitAt: the same with the triangle's corners a, b and cell centre c given.)
+SINEW_HD Hit contactHitAt(const ContactPlane& k, P3 p, P3 a, P3 b, P3 c) {
+  const P3 q = add(c, add(scale(sub(a, c), k.u), scale(sub(b, c), k.w)));
   const float side = dot3(k.normal, sub(p, q));
   return {side * side, sub(p, scale(k.normal, side)), k.normal, side, -1, -1};
+}
+SINEW_HD Hit contactHit(const ContactPlane& k, P3 p, const P3* x, const P3* centres) {
+  return contactHitAt(k, p, x[k.corners.a], x[k.corners.b], centres[k.corners.cell]);
+}
+
+// The reaction: a vertex inside another structure that takes `share` < 1 of the correction back
+// to the margin (shareOf) pushes that structure's surface the other way by the rest, times
+// ContactSettings::reaction. Returns false where there is none: no plane, a share of all of it,
+// the vertex outside, or the contact facing the way of the vertex's own normal (the retreat,
+// respondTo). `push` is then what each vertex of the contact's triangle gets, per unit of its part
+// (reactionPart) and of its weight times its mass: alpha m, as the vertex's own pull (summed per
+// vertex over the pushes times part times weight, then times its mass). a, b, c: the contact
+// triangle's corners and cell centre now (contactHitAt). Where the
+// other side touched, the smaller structure took about an eighth of each correction by size, and
+// took more where the other side gave way less (shareAt); this moves the other side instead
+// (docs/collisions.md, "The reaction").
+SINEW_HD bool reactionPush(const ContactPlane& k, P3 p, P3 ownNormal, const ContactSettings& s, P3 a, P3 b, P3 c,
+                           P3& push) {
+  if (!(s.reaction > 0.0f) || !(k.share >= 0.0f && k.share < 1.0f) || dot3(k.normal, ownNormal) > 0.0f) return false;
+  const Hit h = contactHitAt(k, p, a, b, c);
+  if (!(h.side < 0.0f)) return false;
+  push = scale(sub(p, add(h.point, scale(k.normal, s.margin))), s.reaction * (1.0f - k.share));
+  return true;
+}
+// The part of the push on the contact triangle's j-th vertex, j < 2 + cellSize (the cell's
+// vertices after the two corners, each with an equal part of the cell centre's weight).
+SINEW_HD float reactionPart(const ContactPlane& k, int j, int cellSize) {
+  return j == 0 ? k.u : j == 1 ? k.w : (1.0f - k.u - k.w) / float(cellSize);
 }
 
 // What the full search gathers over the structures, in structure order.
