@@ -46,14 +46,7 @@ struct ReactionSums {
 };
 
 #if defined(__CUDACC__)
-// Vertex i's force from its contact plane (respondTo's arithmetic, as the CPU's plugin), and its
-// hold plane (none: side 3e38); writes its depth (where the force is on for its structure),
-// stiffness and, where it has a contact plane, its hold plane (a vertex without one keeps the none
-// and the depth 0 that the last full search wrote: most vertices, which read only their share, so
-// that large scenes save the traffic). Reads m.x (the triangle's corners: nothing may move them in
-// the same pass), m.prev[i], m.normal[i], m.mass[i] (with m.mass null, the mass from m.area[i],
-// as the lean geometry's passes do) and m.cellCentre. `touching`: hasContactPlane(c, i), which a
-// pass can read early, so that its round trip is not on the pass's last stretch.
+// The reaction's sums (ReactionSums): one added in fixed point, and one taken.
 constexpr double kReactionScale = 4294967296.0;
 __device__ inline void addFixed(unsigned long long* sum, float value) {
   atomicAdd(sum, static_cast<unsigned long long>(__double2ll_rn(static_cast<double>(value) * kReactionScale)));
@@ -68,6 +61,16 @@ __device__ inline float3 takeReaction(const MeshView& m, unsigned long long* sum
   const float mass = m.mass ? m.mass[i] : massFromArea(m, m.meshOf[i], m.area[i]);
   return make_float3(f[0] * mass, f[1] * mass, f[2] * mass);
 }
+
+// Vertex i's force from its contact plane (respondTo's arithmetic, as the CPU's plugin), and its
+// hold plane (none: side 3e38); writes its depth (where the force is on for its structure),
+// stiffness and, where it has a contact plane, its hold plane (a vertex without one keeps the none
+// and the depth 0 that the last full search wrote: most vertices, which read only their share, so
+// that large scenes save the traffic). Reads m.x (the triangle's corners: nothing may move them in
+// the same pass), m.prev[i], m.normal[i], m.mass[i] (with m.mass null, the mass from m.area[i],
+// as the lean geometry's passes do) and m.cellCentre. `touching`: hasContactPlane(c, i), which a
+// pass can read early, so that its round trip is not on the pass's last stretch. With c.reaction,
+// every vertex's reaction sum is added too (takeReaction), touching or not.
 __device__ inline bool hasContactPlane(const ContactPlanes& c, int i) { return c.share[i] >= 0.0f; }
 __device__ inline float3 contactPlaneForce(const MeshView& m, const ContactPlanes& c, int i, bool touching,
                                            collision::HoldPlane& plane) {
