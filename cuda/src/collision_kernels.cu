@@ -418,13 +418,17 @@ __global__ void __launch_bounds__(kThreads, kWarpLeaves ? kRespondBlocks : 0)
 // Its normal from its neighbours and the contact's cell centre as the geometry pass computes them
 // (neighbourNormal, centreOf: the same bits), so that it need not wait for that pass. All of the
 // contact triangle's vertices are of one structure: one weight.
+// A touching vertex's time is a chain of dependent loads: its plane, its neighbours and its own
+// structure are loaded together before its weight is checked.
 __global__ void reactionScatter(MeshView m, ReactionSums r) {
   const int i = blockIdx.x * blockDim.x + threadIdx.x;
-  if (i >= m.vertices || !(r.share[i] >= 0.0f) || !(r.params.values[m.meshOf[i] * r.params.count] > 0.0f)) return;
+  if (i >= m.vertices || !(r.share[i] >= 0.0f)) return;
   const ContactPlane k = r.contact[i];
   const int3 n = m.neighbours[i];
+  const int own = m.meshOf[i], other = m.meshOf[k.corners.a];
+  if (!(r.params.values[own * r.params.count] > 0.0f)) return;
   const float3 p = m.x[i], normal = neighbourNormal(m.x[n.x], m.x[n.y], m.x[n.z]);
-  const float alpha = r.params.values[m.meshOf[k.corners.a] * r.params.count];
+  const float alpha = r.params.values[other * r.params.count];
   const float3 c = centreOf(m, k.corners.cell);
   const P3* x = reinterpret_cast<const P3*>(m.x);
   P3 push;

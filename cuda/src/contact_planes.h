@@ -51,12 +51,14 @@ constexpr double kReactionScale = 4294967296.0;
 __device__ inline void addFixed(unsigned long long* sum, float value) {
   atomicAdd(sum, static_cast<unsigned long long>(__double2ll_rn(static_cast<double>(value) * kReactionScale)));
 }
-// Vertex i's sum as a force (times its mass, as the CPU's), set back to 0 for the next step.
+// Vertex i's sum as a force (times its mass, as the CPU's), set back to 0 for the next step
+// (written only where it is not 0: most vertices are pushed by nothing).
 __device__ inline float3 takeReaction(const MeshView& m, unsigned long long* sums, int i) {
   float f[3];
   for (int k = 0; k < 3; ++k) {
-    f[k] = static_cast<float>(static_cast<double>(static_cast<long long>(sums[3 * i + k])) / kReactionScale);
-    sums[3 * i + k] = 0;
+    const unsigned long long sum = sums[3 * i + k];
+    f[k] = static_cast<float>(static_cast<double>(static_cast<long long>(sum)) / kReactionScale);
+    if (sum) sums[3 * i + k] = 0;
   }
   const float mass = m.mass ? m.mass[i] : massFromArea(m, m.meshOf[i], m.area[i]);
   return make_float3(f[0] * mass, f[1] * mass, f[2] * mass);
