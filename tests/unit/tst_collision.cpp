@@ -2,7 +2,8 @@
 // gaining energy, a one-structure scene is left alone and allocates nothing for it, a sphere half
 // inside another is pushed out, and a sphere inside another (or on it) stops the run with the reason;
 // a vertex pressed into another structure is held out by the hold; a contact is shared by the
-// structures' sizes, unless the other side has no vertex in it; deforming contacts keep the
+// structures' sizes, unless the other side has no vertex in it, and with the reaction the other side
+// is pushed back by the rest; deforming contacts keep the
 // reference proximity. The full searches' schedule: tst_collision_schedule.
 #include "sinew/core/shape_guard.h"
 #include "sinew/core/collision_tree.h"
