@@ -466,6 +466,55 @@ private slots:
     }
   }
 
+  // tst_cuda_collision's "reaction 2" rows hold the device to the CPU within 1e-3 mm (Verlet) and
+  // 1e-2 mm (implicit Euler). Those rows test the device's reaction only if the reaction moves that
+  // scene by more than that: radii 10 and 6 mm, centres 13 mm apart, 1,280 vertices each, the same
+  // parameters. Here on the CPU, reaction 2 against 0, after the rows' steps.
+  void deviceRowsSceneReacts_data() {
+    QTest::addColumn<QString>("integrator");
+    QTest::addColumn<int>("steps");
+    QTest::addColumn<int>("every");
+    QTest::addColumn<double>("tolerance");  // the device row's
+    QTest::newRow("damped_verlet") << "damped_verlet" << 100 << 1 << 1e-3;
+    QTest::newRow("damped_verlet, every 8") << "damped_verlet" << 100 << 8 << 1e-3;
+    QTest::newRow("implicit_euler") << "implicit_euler" << 20 << 1 << 1e-2;
+  }
+  void deviceRowsSceneReacts() {
+    QFETCH(QString, integrator);
+    QFETCH(int, steps);
+    QFETCH(int, every);
+    QFETCH(double, tolerance);
+    const auto run = [&](double reaction) {
+      auto sim = std::make_unique<Simulation>(forceRegistry(), 0);
+      for (int i = 0; i < 2; ++i) {
+        StructureSpec s = sphereStructure(std::string(1, char('a' + i)), 3, i ? 6.0f : 10.0f, Vec3(13.0f * float(i), 0, 0));
+        s.referencePositions = s.initialPositions;
+        sim->addStructure(std::move(s));
+      }
+      sim->addForce("shape_prior");
+      ParamTable& collision = sim->addForce("collision");
+      collision.setAll("weight", 0.5);
+      collision.setAll("full_search_every", every);
+      collision.setAll("hold_mm", 0.0);
+      collision.setAll("reaction", reaction);
+      sim->setIntegrator(integrator.toStdString()).set(0, "time_step", integrator == "implicit_euler" ? 2.0 : 0.5);
+      sim->initialize();
+      StabilityGuard off;  // as the device rows' CPU runs (runOnBoth): the device has no guard
+      off.enabled = false;
+      off.maxRetries = 0;
+      sim->setStabilityGuard(off);
+      sim->run(steps);
+      const auto x = sim->store().positions();
+      return std::vector<Vec3>(x.begin(), x.end());
+    };
+    const std::vector<Vec3> with = run(2.0), without = run(0.0);
+    double most = 0.0;
+    for (size_t v = 0; v < with.size(); ++v) most = std::max(most, double((with[v] - without[v]).norm()));
+    qInfo("%s, every %d: the reaction moved a vertex by up to %.3g mm in %d steps (the device rows allow %g)",
+          qPrintable(integrator), every, most, steps, tolerance);
+    QVERIFY(most > 10.0 * tolerance);
+  }
+
   // Deforming contacts (paper 001 section 2.2): two spheres 1 mm apart in their reference; the
   // second starts 3 mm further away. Springs between the vertices within distance_mm of the other
   // structure in the reference bring the gap back to about 1 mm on both integrators, where without

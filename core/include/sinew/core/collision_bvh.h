@@ -413,10 +413,9 @@ SINEW_HD Hit contactHit(const ContactPlane& k, P3 p, const P3* x, const P3* cent
 // respondTo). `push` is then what each vertex of the contact's triangle gets, per unit of its part
 // (reactionPart) and of its weight times its mass: alpha m, as the vertex's own pull (summed per
 // vertex over the pushes times part times weight, then times its mass). a, b, c: the contact
-// triangle's corners and cell centre now (contactHitAt). Where the
-// other side touched, the smaller structure took about an eighth of each correction by size, and
-// took more where the other side gave way less (shareAt); this moves the other side instead
-// (docs/collisions.md, "The reaction").
+// triangle's corners and cell centre now (contactHitAt). Where the other side touched, the smaller
+// structure took about an eighth of each correction by size, and took more where the other side
+// gave way less (shareAt); this moves the other side instead (docs/collisions.md, "The reaction").
 SINEW_HD bool reactionPush(const ContactPlane& k, P3 p, P3 ownNormal, const ContactSettings& s, P3 a, P3 b, P3 c,
                            P3& push) {
   if (!(s.reaction > 0.0f) || !(k.share >= 0.0f && k.share < 1.0f) || dot3(k.normal, ownNormal) > 0.0f) return false;
