@@ -486,11 +486,7 @@ private slots:
     QFETCH(double, tolerance);
     const auto run = [&](double reaction) {
       auto sim = std::make_unique<Simulation>(forceRegistry(), 0);
-      for (int i = 0; i < 2; ++i) {
-        StructureSpec s = sphereStructure(std::string(1, char('a' + i)), 3, i ? 6.0f : 10.0f, Vec3(13.0f * float(i), 0, 0));
-        s.referencePositions = s.initialPositions;
-        sim->addStructure(std::move(s));
-      }
+      addSpherePair(*sim, 13.0f, 6.0f);
       sim->addForce("shape_prior");
       ParamTable& collision = sim->addForce("collision");
       collision.setAll("weight", 0.5);
