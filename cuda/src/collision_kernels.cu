@@ -308,7 +308,26 @@ __global__ void respondPlanes(MeshView m, ContactPlanes planes, float3* out) {
   const int i = blockIdx.x * blockDim.x + threadIdx.x;
   if (i >= m.vertices) return;
   HoldPlane plane;
-  out[i] = contactPlaneForce(m, planes, i, hasContactPlane(planes, i), plane);
+  out[i] = contactPlaneForce(m, planes, i, hasContactPlane(planes, i), plane,
+                             planes.reaction ? reactionPushed(planes.reaction, i) : 0u);
+}
+
+// A touching vertex's reaction on its contact triangle (collision::reactionPush;
+// CollisionForce::addReaction's arithmetic), into `sums` (ReactionSums). `normal` and `centre`: its
+// own normal and the contact cell's centre as the geometry pass computes them. Its own structure
+// is active (the caller checks); the contact triangle's vertices are of one structure: one weight.
+__device__ void scatterReaction(const MeshView& m, ParamView p, const ContactSettings& settings, const ContactPlane& k,
+                                P3 point, P3 normal, P3 centre, unsigned long long* sums) {
+  const float alpha = param(p, m.meshOf[k.corners.a], 0);
+  const P3* x = reinterpret_cast<const P3*>(m.x);
+  P3 push;
+  if (!(alpha > 0.0f) || !reactionPush(k, point, normal, settings, x[k.corners.a], x[k.corners.b], centre, push)) return;
+  const int first = m.cellOffsets[k.corners.cell], size = m.cellOffsets[k.corners.cell + 1] - first;
+  for (int j = 0; j < 2 + size; ++j) {
+    const int u = reactionPartner(k, j, m.cellVertices + first);
+    const float weight = reactionPart(k, j, size) * alpha;
+    addReactionTo(sums, u, push.x * weight, push.y * weight, push.z * weight);
+  }
 }
 
 // The contact response (collision::contactResponse) with kGroup lanes per vertex: in each round
@@ -334,7 +353,8 @@ template <int kGroup, bool kWarpLeaves>
 __global__ void __launch_bounds__(kThreads, kWarpLeaves ? kRespondBlocks : 0)
     respondGroup(MeshView m, ParamView p, BvhView v, ContactSettings settings, int every,
                  const float* moved, const unsigned* motion, float* depth, int* hint, float* slack, float* stiffness,
-                 HoldPlane* hold, ContactPlane* contact, float* contactShare, float3* out) {
+                 HoldPlane* hold, ContactPlane* contact, float* contactShare, float3* out,
+                 unsigned long long* reaction) {
   const int t = blockIdx.x * blockDim.x + threadIdx.x;
   const int i = t / kGroup, g = t % kGroup;
   const bool valid = i < m.vertices;  // every lane stays for the shuffles
@@ -401,7 +421,11 @@ __global__ void __launch_bounds__(kThreads, kWarpLeaves ? kRespondBlocks : 0)
     lastHint = sum.nearestLeaf;
     lastSlack = slackAfterSearch(lastDepth, clearance2, settings.margin);
     // The plane is read only where its share, in an array of its own, says there is one.
-    if (sum.deepestShare >= 0.0f) contact[i] = contactOn(v, sum.deepestHit, sum.deepestShare, x, centres);
+    if (sum.deepestShare >= 0.0f) {
+      const ContactPlane k = contactOn(v, sum.deepestHit, sum.deepestShare, x, centres);
+      contact[i] = k;
+      if (reaction) scatterReaction(m, p, settings, k, point, ownNormal, centres[k.corners.cell], reaction);
+    }
     contactShare[i] = sum.deepestShare >= 0.0f ? sum.deepestShare : -1.0f;
   } else {  // clear: a full search's skip leaves no plane (contactResponse)
     contactShare[i] = -1.0f;
@@ -414,35 +438,21 @@ __global__ void __launch_bounds__(kThreads, kWarpLeaves ? kRespondBlocks : 0)
   if (stiffness) stiffness[i] = sum.stiffness;
 }
 
-// The reaction's sums (ReactionSums; CollisionForce::addReaction's arithmetic), a thread a vertex.
-// Its normal from its neighbours and the contact's cell centre as the geometry pass computes them
-// (neighbourNormal, centreOf: the same bits), so that it need not wait for that pass. All of the
-// contact triangle's vertices are of one structure: one weight.
-// A touching vertex's time is a chain of dependent loads: its plane, its neighbours and its own
-// structure are loaded together before its weight is checked.
+// The reaction's sums between full searches (ReactionSums; a full search's response sums them
+// itself), a thread a vertex. Its normal from its neighbours and the contact's cell centre as the
+// geometry pass computes them (neighbourNormal, centreOf: the same bits), so that it need not wait
+// for that pass. A touching vertex's time is a chain of dependent loads: its plane, its neighbours
+// and its own structure are loaded together before its weight is checked.
 __global__ void reactionScatter(MeshView m, ReactionSums r) {
   const int i = blockIdx.x * blockDim.x + threadIdx.x;
   if (i >= m.vertices || !(r.share[i] >= 0.0f)) return;
   const ContactPlane k = r.contact[i];
   const int3 n = m.neighbours[i];
-  const int own = m.meshOf[i], other = m.meshOf[k.corners.a];
-  if (!(r.params.values[own * r.params.count] > 0.0f)) return;
+  const int own = m.meshOf[i];
+  if (!(param(r.params, own, 0) > 0.0f)) return;
   const float3 p = m.x[i], normal = neighbourNormal(m.x[n.x], m.x[n.y], m.x[n.z]);
-  const float alpha = r.params.values[other * r.params.count];
   const float3 c = centreOf(m, k.corners.cell);
-  const P3* x = reinterpret_cast<const P3*>(m.x);
-  P3 push;
-  if (!(alpha > 0.0f) || !reactionPush(k, {p.x, p.y, p.z}, {normal.x, normal.y, normal.z}, r.settings, x[k.corners.a],
-                                        x[k.corners.b], {c.x, c.y, c.z}, push))
-    return;
-  const int first = m.cellOffsets[k.corners.cell], size = m.cellOffsets[k.corners.cell + 1] - first;
-  for (int j = 0; j < 2 + size; ++j) {
-    const int u = j == 0 ? k.corners.a : j == 1 ? k.corners.b : m.cellVertices[first + j - 2];
-    const float weight = reactionPart(k, j, size) * alpha;
-    addFixed(r.sums + 3 * u, push.x * weight);
-    addFixed(r.sums + 3 * u + 1, push.y * weight);
-    addFixed(r.sums + 3 * u + 2, push.z * weight);
-  }
+  scatterReaction(m, r.params, r.settings, k, {p.x, p.y, p.z}, {normal.x, normal.y, normal.z}, {c.x, c.y, c.z}, r.sums);
 }
 
 __global__ void addCollisionForce(MeshView m, const float3* collisionForce, unsigned long long* reaction) {
@@ -533,17 +543,18 @@ void launchCollisionRespond(const MeshView& m, ParamView p, const CollisionDevic
   // them: with two leaves at once that beat a lane a vertex 358.5 against 826.5 us at 325,632
   // vertices (12 structures), but lost 2,433 against 2,114 us with 100 structures (25 rounds;
   // H100, docs/collisions.md).
+  unsigned long long* const sums = settings.reaction > 0.0f ? c.reaction : nullptr;  // the response sums the reaction
   const int group = m.vertices >= 131072 ? (c.meshes <= 16 ? 4 : 1) : m.vertices >= 32768 ? 4 : 16;
   const unsigned grid = static_cast<unsigned>((static_cast<size_t>(m.vertices) * group + kThreads - 1) / kThreads);
   if (group == 1)
     respondGroup<1, false><<<grid, kThreads, 0, s>>>(m, p, v, settings, every, c.moved, c.motion, c.depth, c.hint, c.slack,
-                                                c.stiffness, c.hold, c.contact, c.contactShare, c.force);
+                                                c.stiffness, c.hold, c.contact, c.contactShare, c.force, sums);
   else if (group == 4)
     respondGroup<4, true><<<grid, kThreads, 0, s>>>(m, p, v, settings, every, c.moved, c.motion, c.depth, c.hint, c.slack,
-                                                c.stiffness, c.hold, c.contact, c.contactShare, c.force);
+                                                c.stiffness, c.hold, c.contact, c.contactShare, c.force, sums);
   else
     respondGroup<16, true><<<grid, kThreads, 0, s>>>(m, p, v, settings, every, c.moved, c.motion, c.depth, c.hint, c.slack,
-                                                c.stiffness, c.hold, c.contact, c.contactShare, c.force);
+                                                c.stiffness, c.hold, c.contact, c.contactShare, c.force, sums);
   // With a hold, the hold's kernel ends the step: a launch fewer (2.7 us a step, H100).
   if (settings.hold < 0.0f) advance<<<1, 1, 0, s>>>(c.motion);
 }

@@ -354,9 +354,9 @@ struct CudaEngine::Impl {
     const bool planesAfterProfile = collide && !search && onlyActiveAfter(forces, sim, profile, slot);
     ContactPlanes planes =
         planesAfterProfile ? collision.contactPlanes(collisionParams, sim.forceParams(slot->name)) : ContactPlanes{};
-    // The reaction's sums, taken where the collision's force is added: after a full search's
-    // response on its branch; between full searches on a branch beside the geometry's pass (they
-    // read only the positions and the planes), joined before the profile's pass takes them.
+    // The reaction's sums, taken where the collision's force is added: summed by a full search's
+    // response; between full searches on a branch beside the geometry's pass (they read only the
+    // positions and the planes), joined before the profile's pass takes them.
     const ReactionSums reaction = collide ? collision.reactionSums(collisionParams, sim.forceParams(slot->name)) : ReactionSums{};
     const bool reactBeside = reaction.sums && !search;
     const auto geometryBesideReaction = [&](auto&& launch) {
@@ -438,8 +438,7 @@ struct CudaEngine::Impl {
     if (search) {
       branch.follow(stream);
       if (!early) collision.refit(view, side);
-      settings = collision.respond(view, collisionParams, sim.forceParams(slot->name), side);
-      if (reaction.sums) launchCollisionReaction(view, reaction, side);
+      settings = collision.respond(view, collisionParams, sim.forceParams(slot->name), side);  // the reaction too
     } else if (collide) {
       if (reactBeside) branch.follow(stream);
       else side = branch.begin(stream);

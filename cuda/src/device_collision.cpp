@@ -93,7 +93,7 @@ ContactPlanes DeviceCollision::contactPlanes(ParamView p, const ParamTable& para
 
 bool DeviceCollision::prepareReaction(const ParamTable& params, cudaStream_t stream) {
   if (reaction_.size() || !(contactSettingsOf(params).reaction > 0.0f) || !moved_.size()) return false;
-  reaction_.resize(3 * moved_.size());  // 3 per vertex (moved_: one per vertex); each step's add zeroes them
+  reaction_.resize(kReactionStride * moved_.size());  // moved_: one per vertex; each step's add zeroes them
   SINEW_CUDA(cudaMemsetAsync(reaction_.get(), 0, reaction_.bytes(), stream));
   return true;
 }

@@ -59,7 +59,7 @@ private:
   DeviceArray<int> order_, roots_, leaves_, visits_, threadNodes_, warpNodes_, blockNodes_, hint_;
   DeviceArray<float> stiffness_, depth_, lastDepth_, slack_, moved_, contactShare_;
   DeviceArray<float3> last_, force_;
-  DeviceArray<unsigned long long> reaction_;  // CollisionDevice::reaction: 3 per vertex, or none
+  DeviceArray<unsigned long long> reaction_;  // CollisionDevice::reaction: kReactionStride per vertex, or none
   DeviceArray<collision::HoldPlane> hold_;  // CollisionDevice::hold
   DeviceArray<collision::ContactPlane> contact_;  // CollisionDevice::contact
   DeviceArray<unsigned> motion_;

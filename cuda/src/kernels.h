@@ -269,7 +269,7 @@ struct CollisionDevice {
   collision::ContactPlane* contact = nullptr;
   float* contactShare = nullptr;  // per vertex, contact's share alone: most vertices have none, and read only this
   float3* force = nullptr;  // per vertex, the response's force, apart from m.force (launchCollisionRespond)
-  // Per vertex, three sums of the reaction on it (launchCollisionReaction) in fixed point; null: none.
+  // Per vertex, the reaction's sums on it and a flag (ReactionSums, contact_planes.h); null: none.
   unsigned long long* reaction = nullptr;
   int meshes = 0, nodeCount = 0, leafCount = 0;
 };
@@ -283,14 +283,15 @@ void launchContactSprings(const MeshView& m, ParamView p, const int* partner, co
 // the geometry kernel).
 void launchCollisionRefit(const MeshView& m, const CollisionDevice& c, cudaStream_t s);
 // After the refit and the geometry: writes the contact response to c.force (reads m.x, m.prev,
-// m.normal, m.mass, m.cellCentre). every: a full search every this many steps (its search radius,
-// collision::fullSearchBound).
+// m.normal, m.mass, m.cellCentre) and, where settings.reaction > 0, sums the reaction into
+// c.reaction (launchCollisionReaction's sums, without a launch of their own). every: a full search
+// every this many steps (its search radius, collision::fullSearchBound).
 void launchCollisionRespond(const MeshView& m, ParamView p, const CollisionDevice& c,
                             const collision::ContactSettings& settings, int every, cudaStream_t s);
 // Where the collision reacts (ReactionSums, contact_planes.h): each vertex with a contact plane
 // sums its push on the other surface's contact triangle (collision::reactionPush). Reads only m.x
 // and the planes (the normals and cell centres computed as the geometry pass computes them), so
-// between full searches it runs beside that pass; after a full search, after its response.
+// between full searches it runs beside that pass (a full search's response sums them itself).
 // launchCollisionAdd or launchCollisionMove (or the profile's pass with the contact planes) then
 // add the sums times the vertex's mass, and set them back to 0.
 struct ReactionSums;

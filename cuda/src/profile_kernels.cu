@@ -131,9 +131,13 @@ __global__ void __launch_bounds__(128, kLanes == 1 ? 0 : kLanes == 2 ? 6 : 8) pr
     refIn[r] = lane < kLength && r < count ? profiles[static_cast<size_t>(first + r) * kLength + lane] : 0.0f;
   int reach = -1;  // -1: nothing to do for this vertex
   float3 n = make_float3(0, 0, 0), at = n;
-  bool touching = false;  // a contact plane to add (read here, off the pass's last stretch)
+  bool touching = false;  // a contact plane to add, and the reaction's flag (read here, off the pass's last stretch)
+  unsigned pushed = 0;
   if (v < m.vertices) {
-    if constexpr (kPlanes) touching = hasContactPlane(planes, v);
+    if constexpr (kPlanes) {
+      touching = hasContactPlane(planes, v);
+      if (planes.reaction) pushed = reactionPushed(planes.reaction, v);
+    }
     // Loaded before the weight is known, beside the structure's index: one round trip fewer before
     // the line's fetches (H200, case (a): 2,656 vertices 9.50 -> 9.18-9.29 us a step, 2,719,744
     // vertices 699-702 -> 680-686).
@@ -179,7 +183,7 @@ __global__ void __launch_bounds__(128, kLanes == 1 ? 0 : kLanes == 2 ? 6 : 8) pr
   else f = termFirst ? make_float3(0, 0, 0) : m.force[v];
   if (reach >= 0) f = f + (param(p, m.meshOf[v], 0) * (static_cast<float>(bestJ) * spacing)) * n;
   collision::HoldPlane hold;
-  if constexpr (kPlanes) f = f + contactPlaneForce(m, planes, v, touching, hold);  // reads x, which the pass does not write
+  if constexpr (kPlanes) f = f + contactPlaneForce(m, planes, v, touching, hold, pushed);  // reads x, not written here
   if (reach >= 0 || kWithTerms || termFirst) m.force[v] = f;
   if constexpr (kWithTerms) {
     if (kPlanes && planes.heldPrevious) {  // verletMoveAside and the hold (launchCollisionMove's arithmetic)

@@ -128,7 +128,7 @@ private:
         continue;
       const Index first = cellOffsets[k.corners.cell], size = cellOffsets[k.corners.cell + 1] - first;
       for (Index j = 0; j < 2 + size; ++j) {
-        const Index u = j == 0 ? k.corners.a : j == 1 ? k.corners.b : cellVertices[first + j - 2];
+        const Index u = collision::reactionPartner(k, int(j), cellVertices.data() + first);
         const float alpha = ctx.params.getf(meshOf[u], 0);
         if (alpha > 0.0f)
           reaction_[u] = collision::add(reaction_[u], collision::scale(push, collision::reactionPart(k, int(j), int(size)) * alpha));

@@ -429,6 +429,10 @@ SINEW_HD bool reactionPush(const ContactPlane& k, P3 p, P3 ownNormal, const Cont
 SINEW_HD float reactionPart(const ContactPlane& k, int j, int cellSize) {
   return j == 0 ? k.u : j == 1 ? k.w : (1.0f - k.u - k.w) / float(cellSize);
 }
+// That vertex: the two corners, then the cell's vertices (`cell`: the cell's list of them).
+SINEW_HD int reactionPartner(const ContactPlane& k, int j, const int* cell) {
+  return j == 0 ? k.corners.a : j == 1 ? k.corners.b : cell[j - 2];
+}
 
 // What the full search gathers over the structures, in structure order.
 struct ContactSum {
