@@ -10,8 +10,9 @@
 #        [BACKENDS="cuda cpu"] [JOBS=4] [THREADS=4] [GPU_JOBS=2] [BEFORE_FORCES=JSON] [AFTER_FORCES=JSON]
 #        bash scripts/collision-sets.sh BUILD_DIR OUT_DIR BEFORE_RUN AFTER_RUN
 # AFTER_FORCES (e.g. '{"collision": {"size_share": 4}}') is merged into the after runs' scenes'
-# forces, BEFORE_FORCES into the before runs', to compare a parameter's values with one program as
-# both BEFORE and AFTER.
+# forces (and into each schedule level's overrides of those forces), BEFORE_FORCES into the before
+# runs', to compare a parameter's values with one program as both BEFORE and AFTER
+# (BEFORE_FORCES='{"collision": {"weight": 0}}': without collisions).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 python3 - "$@" <<'PY'
@@ -94,6 +95,9 @@ for which, merged in forces.items():
         scene = json.load(open(path))
         for force, values in merged.items():
             scene["forces"].setdefault(force, {}).update(values)
+            for level in scene.get("schedule", []):  # where a level sets the force, it sets these too
+                if force in level.get("forces", {}):
+                    level["forces"][force].update(values)
         json.dump(scene, open(f"{path[:-5]}-{which}.json", "w"), indent=1)
 
 def run(args):
