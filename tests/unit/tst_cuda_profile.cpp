@@ -143,22 +143,37 @@ private slots:
   // spheres in the ellipsoid image, held by the shape prior, moving toward each other at 0.3 mm a
   // step at the start, so that the planes' pull and the hold act between full searches. Mutants
   // (H200): without the planes 0.013-0.068 mm apart, without the hold 2.1e-4 / 4.1e-4 mm.
+  // With the reaction (a smaller right sphere, so that the pair shares by size): the pass takes
+  // each vertex's reaction where its flag, read early, says it was pushed. The CPU sums it in
+  // floats, the device exactly (fixed point), and a contact's branches follow the last bits: at
+  // 163,840 vertices the backends end 1.2e-4 mm apart (H200, 2026-12-02; the same with 4183da3's
+  // sums, before the flag), so 1e-3 mm there, as tst_cuda_collision's rows; at 2,560 they agree to
+  // the bit, 1e-4. The reaction must move the scene by ten times the row's tolerance on the CPU, or
+  // the row tests nothing.
   void collisionPlanesJoinTheProfilesPass_data() {
     QTest::addColumn<int>("subdivisions");  // of each sphere: 3 gives 2,560 vertices in all, 6 gives 163,840
     QTest::addColumn<float>("hold");        // hold_mm; negative: no hold
-    QTest::newRow("2,560 vertices, in the profile's pass") << 3 << 0.0f;
-    QTest::newRow("2,560 vertices, no hold") << 3 << -1.0f;
-    QTest::newRow("163,840 vertices, before the terms' pass") << 6 << 0.0f;
+    QTest::addColumn<float>("reaction");    // the collision's reaction; with it the right sphere's radius is 6
+    QTest::addColumn<double>("tolerance");  // mm, CPU against CUDA after 100 steps
+    QTest::newRow("2,560 vertices, in the profile's pass") << 3 << 0.0f << 0.0f << 1e-5;
+    QTest::newRow("2,560 vertices, no hold") << 3 << -1.0f << 0.0f << 1e-5;
+    QTest::newRow("163,840 vertices, before the terms' pass") << 6 << 0.0f << 0.0f << 1e-5;
+    QTest::newRow("2,560 vertices, in the profile's pass, reaction 2") << 3 << 0.0f << 2.0f << 1e-4;
+    QTest::newRow("163,840 vertices, before the terms' pass, reaction 2") << 6 << 0.0f << 2.0f << 1e-3;
   }
   void collisionPlanesJoinTheProfilesPass() {
     QFETCH(int, subdivisions);
     QFETCH(float, hold);
+    QFETCH(float, reaction);
+    QFETCH(double, tolerance);
     static const auto image = std::make_shared<Image3D>(ellipsoidImage({}));
-    const auto make = [&] {
+    const auto makeWith = [&](float gain) {
       const EllipsoidImageSpec spec;
       auto sim = std::make_unique<Simulation>(forceRegistry(), 0);
+      const float right = reaction > 0.0f ? 6.0f : 10.0f;
       for (const float side : {-1.0f, 1.0f}) {
-        StructureSpec s = sphereStructure(side < 0 ? "left" : "right", subdivisions, 10.0f, spec.centre + Vec3(10.0f * side, 0, 0));
+        const float radius = side < 0 ? 10.0f : right;
+        StructureSpec s = sphereStructure(side < 0 ? "left" : "right", subdivisions, radius, spec.centre + Vec3(radius * side, 0, 0));
         s.referencePositions = s.initialPositions;
         sim->addStructure(std::move(s));
       }
@@ -168,6 +183,7 @@ private slots:
       collision.setAll("weight", 0.5);
       collision.setAll("full_search_every", 8);
       collision.setAll("hold_mm", hold);
+      collision.setAll("reaction", gain);
       sim->setIntegrator("damped_verlet").set(0, "time_step", 0.5);
       sim->scene().setTargetImage(image);
       sim->initialize();
@@ -177,12 +193,19 @@ private slots:
           store.previousPositions()[v] = store.positions()[v] - Vec3(m == 0 ? 0.3f : -0.3f, 0, 0);
       return sim;
     };
-    const ParityRun r = runOnBoth(make, 100);
-    qInfo("collision planes with the profile, hold %g: max CPU-CUDA difference %.3g mm after 100 steps (vertices pushed "
-          "up to %.3g mm)", double(hold), r.cpuCuda, r.moved);
+    const ParityRun r = runOnBoth([&] { return makeWith(reaction); }, 100);
+    qInfo("collision planes with the profile, hold %g, reaction %g: max CPU-CUDA difference %.3g mm after 100 steps "
+          "(vertices pushed up to %.3g mm)", double(hold), double(reaction), r.cpuCuda, r.moved);
     QVERIFY(r.moved > 0.1);
-    QVERIFY2(r.cpuCuda < 1e-5, qPrintable(QString::number(r.cpuCuda)));
+    QVERIFY2(r.cpuCuda < tolerance, qPrintable(QString::number(r.cpuCuda)));
     QCOMPARE(r.deviceRepeat, 0.0);
+    if (reaction > 0.0f) {  // the reaction acted: on the CPU, without it the scene ends elsewhere
+      auto with = makeWith(reaction), without = makeWith(0.0f);
+      for (Simulation* sim : {with.get(), without.get()}) sim->setStabilityGuard(noGuard()), sim->run(100);
+      const double moved = maxDifference(with->store(), without->store());
+      qInfo("  the reaction moved a vertex by up to %.3g mm on the CPU", moved);
+      QVERIFY(moved > 10.0 * tolerance);
+    }
   }
 
   // Parameters changed between runs of one engine reach its captured graph: a structure's search
