@@ -118,6 +118,10 @@ private slots:
     // A full contact search every 16 steps (contact planes between); finer schedules (5 levels and
     // more) search in full at each level's first 8 steps too (docs/collisions.md).
     QCOMPARE(scene["forces"].toObject()["collision"].toObject()["full_search_every"].toInt(), 16);
+    // The other side pushed back by what a vertex does not take of a contact, and the larger
+    // structure giving way more than the force's default exponent makes it (docs/collisions.md).
+    QCOMPARE(scene["forces"].toObject()["collision"].toObject()["reaction"].toDouble(), 2.0);
+    QCOMPARE(scene["forces"].toObject()["collision"].toObject()["size_share"].toDouble(), 4.0);
     r = runTool(SINEW_MAKE_SCENE, {"--model", model_, "--target", subject_ + "/image.nii.gz", "--structures",
                                    "Hippocampus_L,Amygdala_L", "--iterations", "5,5,5,5,5", "-o", path("fine.json")});
     QVERIFY2(r.code == 0, qPrintable(r.err));
