@@ -8,11 +8,14 @@
 # independent voxelisation), mean and largest.
 # Usage: [SETS="demo subjects varied cortical frontal2 occtemp mixedR medial cerebellum2"]
 #        [BACKENDS="cuda cpu"] [JOBS=4] [THREADS=4] [GPU_JOBS=2] [BEFORE_FORCES=JSON] [AFTER_FORCES=JSON]
+#        [BEFORE_SCENE=JSON] [AFTER_SCENE=JSON]
 #        bash scripts/collision-sets.sh BUILD_DIR OUT_DIR BEFORE_RUN AFTER_RUN
 # AFTER_FORCES (e.g. '{"collision": {"size_share": 4}}') is merged into the after runs' scenes'
 # forces (and into each schedule level's overrides of those forces), BEFORE_FORCES into the before
 # runs', to compare a parameter's values with one program as both BEFORE and AFTER
-# (BEFORE_FORCES='{"collision": {"weight": 0}}': without collisions).
+# (BEFORE_FORCES='{"collision": {"weight": 0}}': without collisions). AFTER_SCENE's keys (e.g.
+# '{"collision_shares": [...]}') replace the after runs' scenes' top-level keys, BEFORE_SCENE's the
+# before runs'.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 python3 - "$@" <<'PY'
@@ -90,9 +93,12 @@ for s in sets:
 list(ThreadPoolExecutor(jobs * 2).map(call, work))
 
 forces = {w: json.loads(os.environ.get(f"{w.upper()}_FORCES", "{}")) for w in ("before", "after")}
+tops = {w: json.loads(os.environ.get(f"{w.upper()}_SCENE", "{}")) for w in ("before", "after")}
+changed = {w: bool(forces[w] or tops[w]) for w in forces}
 for which, merged in forces.items():
-    for s, seed, path in scenes if merged else []:
+    for s, seed, path in scenes if changed[which] else []:
         scene = json.load(open(path))
+        scene.update(tops[which])
         for force, values in merged.items():
             scene["forces"].setdefault(force, {}).update(values)
             for level in scene.get("schedule", []):  # where a level sets the force, it sets these too
@@ -103,7 +109,7 @@ for which, merged in forces.items():
 def run(args):
     (s, seed, path), backend, which = args
     dest = f"{out}/runs/{s}-{seed}-{backend}-{which}"
-    if forces[which]:
+    if changed[which]:
         path = f"{path[:-5]}-{which}.json"
     rc = call([before if which == "before" else after, path, "-q", "--backend", backend, "-j", threads, "-o", dest], (0, 4))
     r = json.load(open(f"{dest}/report.json"))

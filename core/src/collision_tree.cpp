@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
+#include <stdexcept>
 
 namespace sinew {
 
@@ -224,10 +226,10 @@ int fullSearchEveryOf(const ParamTable& params) { return std::max(1, int(params.
 
 int fullSearchFirstOf(const ParamTable& params) { return std::max(0, int(params.get(0, params.indexOf("full_search_first")))); }
 
-void CollisionTree::setShares(MeshStore& store, const ParamTable& collisionParams) {
-  share.clear();
-  const double exponent = collisionParams.get(0, collisionParams.indexOf("size_share"));
-  if (!(exponent > 0.0)) return;
+namespace {
+
+// collision::shareOf's table by the structures' surface areas (CollisionTree::setShares).
+std::vector<float> sharesBySize(MeshStore& store, double exponent, const std::function<bool(Index)>& responds) {
   const Index n = store.meshCount();
   const auto area = store.areas();
   std::vector<double> size(n, 0.0);
@@ -236,11 +238,32 @@ void CollisionTree::setShares(MeshStore& store, const ParamTable& collisionParam
     for (Index v = store.range(m).vertexBegin; v < store.range(m).vertexEnd; ++v) a += area[v];
     size[m] = std::pow(a, exponent);
   }
-  share.assign(size_t(n) * n, 1.0f);
+  std::vector<float> share(size_t(n) * n, 1.0f);
   for (Index i = 0; i < n; ++i)
     for (Index j = 0; j < n; ++j)
-      if (size[i] + size[j] > 0.0 && collisionParams.get(j, 0) > 0.0)
+      if (size[i] + size[j] > 0.0 && responds(j))
         share[size_t(i) * n + j] = float(std::min(1.0, 2.0 * size[i] / (size[i] + size[j])));
+  return share;
+}
+
+}  // namespace
+
+void CollisionTree::setShares(MeshStore& store, const SceneData& scene, const ParamTable& collisionParams) {
+  share.clear();
+  const double exponent = collisionParams.get(0, collisionParams.indexOf("size_share"));
+  const Index n = store.meshCount();
+  const auto responds = [&](Index m) { return collisionParams.get(m, 0) > 0.0; };
+  if (!(exponent > 0.0)) {
+    if (scene.collisionShares().empty()) return;
+    share.assign(size_t(n) * n, 1.0f);
+  } else {
+    share = sharesBySize(store, exponent, responds);
+  }
+  for (const SceneData::PairShare& p : scene.collisionShares()) {
+    if (p.a < 0 || p.b < 0 || p.a >= n || p.b >= n) throw std::logic_error("collision shares: structure index out of range");
+    share[size_t(p.a) * n + p.b] = responds(p.b) ? p.aShare : 1.0f;  // against one that does not respond, all
+    share[size_t(p.b) * n + p.a] = responds(p.a) ? p.bShare : 1.0f;
+  }
 }
 
 }  // namespace sinew

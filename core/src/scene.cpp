@@ -263,7 +263,7 @@ SceneDesc parseScene(const std::string& text, const fs::path& file) {
   }
   const Node root(json, "", file);
   root.expectObject({"version", "description", "images", "structures", "forces", "integrator", "schedule",
-                     "model", "initialise", "report", "outputs", "stability", "plugins", "contact_pairs",
+                     "model", "initialise", "report", "outputs", "stability", "plugins", "contact_pairs", "collision_shares",
                      "attachments"});
   SceneDesc s;
   s.file = file;
@@ -308,6 +308,27 @@ SceneDesc parseScene(const std::string& text, const fs::path& file) {
       if (p[0] == p[1]) pair.fail("a structure cannot be in contact with itself");
       if (!seen.insert(std::minmax(p[0], p[1])).second) pair.fail("the pair is listed twice");
       s.contactPairs.push_back(p);
+    }
+  }
+  if (root.has("collision_shares")) {
+    bool collisionForce = false;
+    for (const auto& f : s.forces) collisionForce |= f.first == "collision";
+    if (!collisionForce)
+      root.at("collision_shares").fail("shares by pair need the collision force: add \"collision\": {} to the scene's /forces");
+    std::set<std::pair<std::string, std::string>> seen;
+    for (const Node& entry : root.at("collision_shares").elements()) {
+      entry.expectObject({"pair", "shares"});
+      const auto members = entry.at("pair").elements();
+      if (members.size() != 2) entry.at("pair").fail("expected two structure names");
+      SceneDesc::CollisionShare c{{members[0].string(), members[1].string()}, entry.at("shares").numbers<2>()};
+      for (int k = 0; k < 2; ++k) {
+        if (!names.count(c.pair[k])) members[k].fail("no structure is named '" + c.pair[k] + "'");
+        if (!(c.shares[k] >= 0.0 && c.shares[k] <= 1.0))
+          entry.at("shares").fail("a share is the part of a correction a side takes: expected numbers from 0 to 1");
+      }
+      if (c.pair[0] == c.pair[1]) entry.at("pair").fail("a structure cannot collide with itself");
+      if (!seen.insert(std::minmax(c.pair[0], c.pair[1])).second) entry.at("pair").fail("the pair is listed twice");
+      s.collisionShares.push_back(c);
     }
   }
   if (root.has("attachments"))
@@ -497,6 +518,7 @@ std::string sceneToJson(const SceneDesc& s) {
   j["structures"] = structures;
   if (!s.plugins.empty()) j["plugins"] = s.plugins;
   if (!s.contactPairs.empty()) j["contact_pairs"] = s.contactPairs;
+  for (const SceneDesc::CollisionShare& c : s.collisionShares) j["collision_shares"].push_back({{"pair", c.pair}, {"shares", c.shares}});
   for (const SceneDesc::Attachment& a : s.attachments) {
     Json o = {{"structure", a.structure}};
     if (a.kind == "fixed") o["fixed_within_mm"] = {{"centre", a.centreMm}, {"radius", a.radiusMm}};

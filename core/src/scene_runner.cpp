@@ -147,6 +147,9 @@ void SceneRunner::load() {
       if (scene_.structures[i].name == name) return Index(i);
     return Index(-1);  // not for a name the parser checked
   };
+  for (const SceneDesc::CollisionShare& c : scene_.collisionShares)
+    L.sim->scene().collisionShares().push_back(
+        {indexOf(c.pair[0]), indexOf(c.pair[1]), float(c.shares[0]), float(c.shares[1])});
   std::vector<AttachmentSpec> attachments;
   for (const SceneDesc::Attachment& a : scene_.attachments) {
     AttachmentSpec spec;

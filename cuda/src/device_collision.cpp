@@ -9,7 +9,7 @@ void DeviceCollision::build(MeshStore& store, const SceneData& scene, const Para
   CollisionTree tree = CollisionTree::build(store);
   tree.handleEnclosures(store, scene, params.getf(0, params.indexOf("margin_mm")),
                         params.getf(0, params.indexOf("ignore_enclosed")) > 0.5f);
-  tree.setShares(store, params);
+  tree.setShares(store, scene, params);
   exempt_.upload(tree.exempt, stream);
   share_.upload(tree.share, stream);
   nodes_.upload(tree.nodes, stream);

@@ -88,6 +88,18 @@ private slots:
                                           << "/contact_pairs/0/1: no structure is named 'b'";
     QTest::newRow("contact pair self") << R"("attraction_points": {}})" << R"("attraction_points": {}, "contacts": {}}, "contact_pairs": [["a", "a"]])"
                                        << "/contact_pairs/0: a structure cannot be in contact with itself";
+    QTest::newRow("collision shares without their force") << R"("version": 1,)"
+                                                          << R"("version": 1, "collision_shares": [{"pair": ["a", "a"], "shares": [1, 0]}],)"
+                                                          << "/collision_shares: shares by pair need the collision force";
+    QTest::newRow("collision share unknown") << R"("attraction_points": {}})"
+                                             << R"("attraction_points": {}, "collision": {}}, "collision_shares": [{"pair": ["a", "b"], "shares": [1, 0]}])"
+                                             << "/collision_shares/0/pair/1: no structure is named 'b'";
+    QTest::newRow("collision share above 1") << R"("attraction_points": {}})"
+                                             << R"("attraction_points": {}, "collision": {}}, "collision_shares": [{"pair": ["a", "a"], "shares": [1.5, 0]}])"
+                                             << "/collision_shares/0/shares: a share is the part of a correction a side takes";
+    QTest::newRow("collision share self") << R"("attraction_points": {}})"
+                                          << R"("attraction_points": {}, "collision": {}}, "collision_shares": [{"pair": ["a", "a"], "shares": [1, 0]}])"
+                                          << "/collision_shares/0/pair: a structure cannot collide with itself";
     QTest::newRow("attachment unknown") << R"("version": 1,)" << R"("version": 1, "attachments": [{"structure": "a", "to": "b"}],)"
                                         << "/attachments/0/to: no structure is named 'b'";
     QTest::newRow("attachment to itself") << R"("version": 1,)" << R"("version": 1, "attachments": [{"structure": "a", "merge": "a"}],)"
@@ -160,6 +172,25 @@ private slots:
     QVERIFY(b.schedule[1].forces == a.schedule[1].forces);
     QCOMPARE(b.schedule[1].iterations, a.schedule[1].iterations);
     QCOMPARE(QDir(dir.path()).entryList(QDir::Files), QStringList{"saved.json"});  // no temporary left
+  }
+
+  // Shares by pair read back, each side's share with its structure.
+  void collisionSharesReadBack() {
+    const std::string twoStructures =
+        replaced(replaced(kValid, R"([7, 8, 9]]})", R"([7, 8, 9]]}, {"name": "b", "label": 4, "reference": {"label_map": "l.nii.gz", "label": 4}})"),
+                 R"("attraction_points": {}})",
+                 R"("attraction_points": {}, "collision": {}}, "collision_shares": [{"pair": ["b", "a"], "shares": [1, 0.25]}])");
+    const SceneDesc a = parseScene(twoStructures, "/data/scene.json");
+    QCOMPARE(a.collisionShares.size(), std::size_t(1));
+    QTemporaryDir dir;
+    const std::filesystem::path file = dir.filePath("saved.json").toStdString();
+    writeScene(a, file);
+    const SceneDesc b = readScene(file);
+    QCOMPARE(b.collisionShares.size(), std::size_t(1));
+    QVERIFY((b.collisionShares[0].pair == std::array<std::string, 2>{"b", "a"}));
+    QVERIFY((b.collisionShares[0].shares == std::array<double, 2>{1.0, 0.25}));
+    const QString twice = errorOf(replaced(twoStructures, R"(0.25]}])", R"(0.25]}, {"pair": ["a", "b"], "shares": [0, 1]}])"));
+    QVERIFY2(twice.contains("/collision_shares/1/pair: the pair is listed twice"), qPrintable("got: " + twice));
   }
 
   void missingFileIsNamed() {

@@ -152,7 +152,7 @@ private:
     builtFor_ = n;
     checked_ = false;
     tree_ = CollisionTree::build(ctx.store);
-    tree_.setShares(ctx.store, ctx.params);
+    tree_.setShares(ctx.store, ctx.scene, ctx.params);
   }
 
   // Each vertex's distance from where the last full search saw it (moved_), and the largest: the

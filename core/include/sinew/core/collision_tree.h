@@ -36,7 +36,8 @@ struct CollisionTree {
   // min(1, 2 a_i^p / (a_i^p + a_j^p)), a the structures' surface areas now. The larger gives way
   // more, so each loses about the same fraction of its surface; alike pairs still both take all.
   // Against a structure that does not respond (weight 0) a vertex takes all. p = 0: no table.
-  void setShares(MeshStore& store, const ParamTable& collisionParams);
+  // The scene's shares by pair (`collision_shares`) replace these for their pairs, whatever p.
+  void setShares(MeshStore& store, const SceneData& scene, const ParamTable& collisionParams);
 
   // A structure that lies inside another (or on it: two copies of one mesh), which no contact
   // response can separate: at least `fraction` of its vertices (an even sample of at most 512)

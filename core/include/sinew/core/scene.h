@@ -98,6 +98,13 @@ struct SceneDesc {
   // Deforming contacts (paper 001 section 2.2): structure pairs whose reference proximity the
   // force `contacts` keeps as springs.
   std::vector<std::array<std::string, 2>> contactPairs;
+  // How much of each contact correction each side of a pair takes, in place of the collision
+  // force's sharing by size for that pair (docs/collisions.md, "Shares by pair").
+  struct CollisionShare {
+    std::array<std::string, 2> pair;
+    std::array<double, 2> shares{1.0, 1.0};  // pair[0]'s vertices against pair[1], and the reverse
+  };
+  std::vector<CollisionShare> collisionShares;
   // Attachments (paper 001 section 2.2; docs/attachments.md), by structure name.
   struct Attachment {
     std::string kind;  // "surface" ("to"), "merge", "fixed" ("fixed_within_mm")

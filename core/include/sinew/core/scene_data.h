@@ -60,6 +60,15 @@ public:
   std::vector<std::array<Index, 2>>& contactPairs() { return contactPairs_; }
   const std::vector<std::array<Index, 2>>& contactPairs() const { return contactPairs_; }
 
+  // The collision's shares by pair (scene key `collision_shares`): a vertex of `a` against `b` takes
+  // `aShare` of each correction, one of `b` against `a` takes `bShare`.
+  struct PairShare {
+    Index a = -1, b = -1;
+    float aShare = 1.0f, bShare = 1.0f;
+  };
+  std::vector<PairShare>& collisionShares() { return collisionShares_; }
+  const std::vector<PairShare>& collisionShares() const { return collisionShares_; }
+
   // The structures' names in store order, for messages that name them.
   void addStructureName(const std::string& name) { structureNames_.push_back(name); }
   std::string structureName(Index m) const {
@@ -75,7 +84,8 @@ private:
   std::vector<std::array<Index, 2>> contactPairs_;
   SpatialMap trainingMap_;  // identity unless the scene was initialised
   std::vector<std::string> structureNames_;
-  bool trainingReleased_ = false;  // last: the members before it keep their places (plugin ABI)
+  bool trainingReleased_ = false;  // the members before it keep their places (plugin ABI)
+  std::vector<PairShare> collisionShares_;  // after it, for the same reason
 };
 
 }  // namespace sinew

@@ -1,0 +1,86 @@
+// The collision's shares by pair (scene key `collision_shares`, docs/collisions.md "Shares by
+// pair"): they replace the sharing by size for their pairs in the table that both backends read
+// (CollisionTree::setShares; the device uploads the same table).
+#include "sinew/core/collision_tree.h"
+#include "collision_scenes.h"
+
+#include <QtTest>
+
+#include <cmath>
+#include <tuple>
+
+using namespace sinew;
+using namespace sinew::testing;
+
+namespace {
+std::vector<float> shareTable(Simulation& sim) {
+  CollisionTree tree = CollisionTree::build(sim.store());
+  tree.setShares(sim.store(), sim.scene(), sim.forceParams("collision"));
+  return tree.share;
+}
+}  // namespace
+
+class TestCollisionShares : public QObject {
+  Q_OBJECT
+private slots:
+  // Spheres of radius 10 and 5 mm (surface areas 4 : 1), size_share 2: by size the small one takes
+  // 2 / 17 of a correction, the large one all. A pair's shares replace both; against a structure
+  // that does not respond a vertex still takes all; with size_share 0 the table holds the pair's
+  // shares and 1 elsewhere, and without shares by pair there is no table.
+  void pairSharesReplaceTheSizes() {
+    auto sim = collidingSpheres(14.0f, 0.5f, 5.0f);
+    const std::vector<float> bySize = shareTable(*sim);
+    QCOMPARE(bySize.size(), std::size_t(4));
+    QCOMPARE(bySize[0 * 2 + 1], 1.0f);
+    QVERIFY(std::abs(bySize[1 * 2 + 0] - 2.0f / 17.0f) < 1e-4f);
+    sim->scene().collisionShares().push_back({0, 1, 0.25f, 0.75f});
+    std::vector<float> given = shareTable(*sim);
+    QCOMPARE(given[0 * 2 + 1], 0.25f);
+    QCOMPARE(given[1 * 2 + 0], 0.75f);
+    ParamTable& collision = sim->forceParams("collision");
+    collision.set(1, "weight", 0.0);
+    given = shareTable(*sim);
+    QCOMPARE(given[0 * 2 + 1], 1.0f);  // against the sphere that does not respond: all
+    QCOMPARE(given[1 * 2 + 0], 0.75f);
+    collision.set(1, "weight", 0.5);
+    collision.setAll("size_share", 0.0);
+    given = shareTable(*sim);
+    QCOMPARE(given.size(), std::size_t(4));
+    QCOMPARE(given[0 * 2 + 1], 0.25f);
+    QCOMPARE(given[0 * 2 + 0], 1.0f);
+    sim->scene().collisionShares().clear();
+    QVERIFY(shareTable(*sim).empty());
+  }
+
+  // The same spheres pushed together: by size the large one gives way more; with the pair's shares
+  // turned round (the large one taking 2 / 17, the small one all) the small one does, and the
+  // overlap is resolved either way.
+  void pairSharesDecideWhichSideGivesWay() {
+    const auto run = [](bool turned) {
+      auto sim = collidingSpheres(14.0f, 0.5f, 5.0f);
+      if (turned) sim->scene().collisionShares().push_back({0, 1, 2.0f / 17.0f, 1.0f});
+      const auto facing = [&](Index m, float sign) {  // the largest sign * x of structure m
+        float best = -1e30f;
+        const MeshRange& r = sim->store().range(m);
+        for (Index v = r.vertexBegin; v < r.vertexEnd; ++v) best = std::max(best, sign * sim->store().positions()[v].x());
+        return double(best);
+      };
+      const double before = pairOverlap(*sim), large0 = facing(0, 1.0f), small0 = facing(1, -1.0f);
+      sim->run(300);
+      for (const Vec3& p : sim->store().positions()) [&] { QVERIFY(p.allFinite()); }();
+      return std::tuple{before, pairOverlap(*sim), large0 - facing(0, 1.0f), small0 - facing(1, -1.0f)};
+    };
+    const auto [before, sizeAfter, sizeLarge, sizeSmall] = run(false);
+    const auto [before2, turnedAfter, turnedLarge, turnedSmall] = run(true);
+    qInfo("10 and 5 mm spheres overlapping by %.1f mm^3: by size -> %.2f mm^3, the large one gave way %.3f mm, the small "
+          "one %.3f; the pair's shares turned round -> %.2f mm^3, %.3f and %.3f mm",
+          before, sizeAfter, sizeLarge, sizeSmall, turnedAfter, turnedLarge, turnedSmall);
+    QVERIFY(before > 5.0 && before2 == before);
+    QVERIFY(sizeAfter < 0.05 * before && turnedAfter < 0.05 * before);
+    QVERIFY(sizeSmall < 0.6 * sizeLarge);
+    QVERIFY(turnedSmall > 1.5 * turnedLarge);
+  }
+};
+
+QTEST_GUILESS_MAIN(TestCollisionShares)
+#include "tst_collision_shares.moc"
