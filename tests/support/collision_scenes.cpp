@@ -53,6 +53,13 @@ std::unique_ptr<Simulation> collidingSpheres(float gap, float weight, float inne
 
 double pairOverlap(Simulation& sim) { return overlapVolume(tessellationOf(sim.store(), 0), tessellationOf(sim.store(), 1), 0.5); }
 
+double reachAlongX(Simulation& sim, Index m, float sign) {
+  float best = -1e30f;
+  const MeshRange& r = sim.store().range(m);
+  for (Index v = r.vertexBegin; v < r.vertexEnd; ++v) best = std::max(best, sign * sim.store().positions()[v].x());
+  return double(best);
+}
+
 double largestStep(Simulation& sim) {
   double worst = 0.0;
   for (Index v = 0; v < sim.store().vertexCount(); ++v)

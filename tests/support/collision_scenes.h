@@ -20,6 +20,10 @@ std::unique_ptr<Simulation> collidingSpheres(float gap, float weight, float inne
 // The overlap of structures 0 and 1 (mm^3, voxelised on a 0.5 mm grid).
 double pairOverlap(Simulation& sim);
 
+// The largest sign * x over structure m's vertices: how far its side facing +x (sign 1) or -x
+// (sign -1) reaches.
+double reachAlongX(Simulation& sim, Index m, float sign);
+
 // The largest motion of any vertex in the last step (mm).
 double largestStep(Simulation& sim);
 

@@ -302,12 +302,7 @@ private slots:
   void largerStructureGivesWayMore() {
     const auto run = [](double share) {
       auto sim = collidingSpheres(14.0f, 0.5f, 5.0f, "damped_verlet", 0.5, share);
-      const auto facing = [&](Index m, float sign) {  // the largest sign * x of structure m
-        float best = -1e30f;
-        const MeshRange& r = sim->store().range(m);
-        for (Index v = r.vertexBegin; v < r.vertexEnd; ++v) best = std::max(best, sign * sim->store().positions()[v].x());
-        return double(best);
-      };
+      const auto facing = [&](Index m, float sign) { return reachAlongX(*sim, m, sign); };
       const double before = pairOverlap(*sim), a0 = facing(0, 1.0f), b0 = facing(1, -1.0f);
       sim->run(300);
       for (const Vec3& p : sim->store().positions()) [&] { QVERIFY(p.allFinite()); }();
@@ -426,12 +421,7 @@ private slots:
   void reactionMovesTheOtherSideBack() {
     const auto run = [](double reaction, const std::string& integrator = "damped_verlet", double dt = 0.5) {
       auto sim = collidingSpheres(14.0f, 0.5f, 5.0f, integrator, dt, 2.0, reaction);
-      const auto facing = [&](Index m, float sign) {
-        float best = -1e30f;
-        const MeshRange& r = sim->store().range(m);
-        for (Index v = r.vertexBegin; v < r.vertexEnd; ++v) best = std::max(best, sign * sim->store().positions()[v].x());
-        return double(best);
-      };
+      const auto facing = [&](Index m, float sign) { return reachAlongX(*sim, m, sign); };
       const double before = pairOverlap(*sim), a0 = facing(0, 1.0f), b0 = facing(1, -1.0f);
       double last = 0.0;
       for (int i = 0; i < 300; ++i) {

@@ -59,12 +59,7 @@ private slots:
     const auto run = [](bool turned) {
       auto sim = collidingSpheres(14.0f, 0.5f, 5.0f);
       if (turned) sim->scene().collisionShares().push_back({0, 1, 2.0f / 17.0f, 1.0f});
-      const auto facing = [&](Index m, float sign) {  // the largest sign * x of structure m
-        float best = -1e30f;
-        const MeshRange& r = sim->store().range(m);
-        for (Index v = r.vertexBegin; v < r.vertexEnd; ++v) best = std::max(best, sign * sim->store().positions()[v].x());
-        return double(best);
-      };
+      const auto facing = [&](Index m, float sign) { return reachAlongX(*sim, m, sign); };
       const double before = pairOverlap(*sim), large0 = facing(0, 1.0f), small0 = facing(1, -1.0f);
       sim->run(300);
       for (const Vec3& p : sim->store().positions()) [&] { QVERIFY(p.allFinite()); }();
