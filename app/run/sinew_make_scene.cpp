@@ -3,6 +3,8 @@
 // mesh is its reference moved by a seeded random similarity, and the atlas is the ground truth.
 // Subject mode (--subject, implied by --model): a new subject's image, the model placed by
 // registering its atlas image to the target, no perturbation, a ground truth only when given.
+#include "builtin_plugins.h"
+#include "collision_share_learning.h"
 #include "label_list.h"
 #include "sinew/core/scene.h"
 #include "sinew/core/io.h"
@@ -65,6 +67,8 @@ int main(int argc, char** argv) {
   double maxRotation = 8.0, maxTranslation = 3.0, scaleMin = 0.9, scaleMax = 1.1, coarseSpacing = 4.0;
   double collisionWeight = 1.0, collisionMargin = 0.15, contactWeight = -1.0;  // contacts: the mode's default
   int collisionLevels = 0, collisionSearchEvery = 0;
+  std::vector<std::string> sharesFrom;
+  int sharesMinContacts = 100;
   cli.add_option("--atlas", atlas, "atlas label map: reference shapes (and, in demo mode, the ground truth)");
   cli.add_option("--labels", labelList, "label list of the atlas, 'value name' per line");
   cli.add_option("--model", model, "a model folder (sinew-build-model) instead of --atlas/--labels/--training; implies --subject");
@@ -103,6 +107,13 @@ int main(int argc, char** argv) {
                  "5 levels or more also search in full at each level's first 8 steps and hold a vertex out by at "
                  "most 0.05 of its spacing a step)")
       ->check(CLI::Range(1, 16));
+  cli.add_option("--collision-shares-from", sharesFrom,
+                 "folder of a finished sinew-run of a labelled subject without collisions (repeatable): the "
+                 "collision's shares by pair learned from them, the side of each pair that reached into the "
+                 "other's truth giving way (docs/collisions.md, \"Shares by pair, learned\")");
+  cli.add_option("--collision-shares-min-contacts", sharesMinContacts,
+                 "contact points each side of a pair needs, over those runs, for its shares")
+      ->check(CLI::Range(1, 1000000))->capture_default_str();
   cli.add_option("--contact-weight", contactWeight,
                  "weight of the deforming contacts (springs keeping the initialised model's relative placement of "
                  "structures within 2 mm of each other) at every level but the finest, and a third of it at the "
@@ -224,6 +235,19 @@ int main(int argc, char** argv) {
       // set (docs/collisions.md, "The reaction").
       scene["forces"]["collision"]["reaction"] = kCollisionReaction;
       scene["forces"]["collision"]["size_share"] = kCollisionSizeShare;
+      if (!sharesFrom.empty()) {
+        Registry registry;
+        PluginLoader plugins(registry);
+        addBuiltinPlugins(plugins);
+        std::vector<std::string> names;
+        for (const auto& s : items) names.push_back(s["name"].get<std::string>());
+        const Json shares = collisionSharesFor(learnContactSides(registry, sharesFrom), names, sharesMinContacts);
+        if (!shares.empty()) scene["collision_shares"] = shares;
+        std::cerr << "collision shares by pair: " << shares.size() << " pair(s) learned from " << sharesFrom.size() << " run(s)\n";
+      }
+    } else if (!sharesFrom.empty()) {
+      throw sinew::InputError("--collision-shares-from: the scene has no collisions (two or more structures and "
+                              "--collision-weight above 0)");
     }
     if (contactWeight < 0.0) contactWeight = subject ? kSubjectContactWeight : 0.0;
     const bool contacts = contactWeight > 0.0 && items.size() >= 2 && counts.size() >= 2;

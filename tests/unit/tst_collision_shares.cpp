@@ -1,7 +1,9 @@
 // The collision's shares by pair (scene key `collision_shares`, docs/collisions.md "Shares by
 // pair"): they replace the sharing by size for their pairs in the table that both backends read
-// (CollisionTree::setShares; the device uploads the same table).
+// (CollisionTree::setShares; the device uploads the same table). And the shares learned from
+// labelled segmentations: which side of a pair reaches into the other's truth.
 #include "sinew/core/collision_tree.h"
+#include "sinew/core/contact_sides.h"
 #include "collision_scenes.h"
 
 #include <QtTest>
@@ -74,6 +76,42 @@ private slots:
     QVERIFY(sizeAfter < 0.05 * before && turnedAfter < 0.05 * before);
     QVERIFY(sizeSmall < 0.6 * sizeLarge);
     QVERIFY(turnedSmall > 1.5 * turnedLarge);
+  }
+
+  // Two structures' surface points against a truth split at x = 2.5 voxels (label 1 below, 2 from
+  // there; 1 mm voxels from -2 mm): a's two points near b lie one in b's truth, b's three near a
+  // two in a's. So b reaches over more and gives way: a takes min(1, 2 x 0.5^2 / (0.5^2 +
+  // (2/3)^2)) = 0.72 of a correction, b all of it. A point beyond reach, a structure without a
+  // truth and too few contacts count for nothing.
+  void contactSidesGiveTheShares() {
+    ImageGeometry g;
+    g.size = {10, 10, 10};
+    g.origin = Eigen::Vector3d(-2, -2, -2);
+    LabelVolume truth(g, 0);
+    for (int k = 0; k < 10; ++k)
+      for (int j = 0; j < 10; ++j)
+        for (int i = 0; i < 10; ++i) truth.at(i, j, k) = i <= 2 ? 1 : 2;
+    const std::vector<std::vector<Vec3>> points = {{Vec3(0, 0, 0), Vec3(0.7f, 0, 0), Vec3(5, 5, 5)},
+                                                   {Vec3(1.2f, 0, 0), Vec3(0.4f, 0.3f, 0), Vec3(0.3f, -0.3f, 0)},
+                                                   {Vec3(0.5f, 0, 0)}};
+    const std::vector<const LabelVolume*> truths = {&truth, &truth, nullptr};
+    const std::vector<int> labels = {1, 2, 3};
+    const std::vector<ContactSide> c = countContactSides(points, truths, labels, 1.0f);
+    QCOMPARE(c.size(), std::size_t(9));
+    QCOMPARE(c[0 * 3 + 1].contact, Index(2));
+    QCOMPARE(c[0 * 3 + 1].inOtherTruth, Index(1));
+    QCOMPARE(c[1 * 3 + 0].contact, Index(3));
+    QCOMPARE(c[1 * 3 + 0].inOtherTruth, Index(2));
+    QCOMPARE(c[0 * 3 + 2].contact, Index(0));  // no truth: left out
+    QCOMPARE(c[2 * 3 + 0].contact, Index(0));
+    const std::vector<PairShares> s = sharesFromContactSides(c, 3, 2);
+    QCOMPARE(s.size(), std::size_t(1));
+    QCOMPARE(s[0].a, Index(0));
+    QCOMPARE(s[0].b, Index(1));
+    QVERIFY(std::abs(s[0].aShare - 2.0 * 0.25 / (0.25 + 4.0 / 9.0)) < 1e-9);
+    QCOMPARE(s[0].bShare, 1.0);
+    QVERIFY(sharesFromContactSides(c, 3, 3).empty());                       // a has two contacts only
+    QCOMPARE(countContactSides(points, truths, labels, 0.3f)[0 * 3 + 1].contact, Index(0));  // beyond reach
   }
 };
 

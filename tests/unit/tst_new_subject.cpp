@@ -201,6 +201,46 @@ private slots:
     QVERIFY(worst < 3.0);
   }
 
+  // Shares by pair learned from a labelled run without collisions (sinew-make-scene
+  // --collision-shares-from; docs/collisions.md "Shares by pair, learned"): pairs of the scene's
+  // structures that touched, the side that reached over taking all; runs that collided, folders
+  // without a report and scenes without collisions are refused with the reason.
+  void learnsCollisionSharesFromALabelledRun() {
+    const QStringList subject = {"--model", model_, "--target", subject_ + "/image.nii.gz", "--ground-truth",
+                                 subject_ + "/labels.nii.gz", "--transform", run_ + "/subject-to-atlas.tfm",
+                                 "--iterations", "30,20,10"};
+    Result r = runTool(SINEW_MAKE_SCENE, subject + QStringList{"--collision-weight", "0", "-o", path("free.json")});
+    QVERIFY2(r.code == 0, qPrintable(r.err));
+    r = runTool(SINEW_RUN, {path("free.json"), "-o", path("free"), "-q", "--backend", "cpu"});
+    QVERIFY2(r.code == 0, qPrintable(r.err));
+    r = runTool(SINEW_MAKE_SCENE, subject + QStringList{"--collision-shares-from", path("free"),
+                                                        "--collision-shares-min-contacts", "10", "-o", path("learned.json")});
+    QVERIFY2(r.code == 0, qPrintable(r.err));
+    const QJsonArray shares = readJson(path("learned.json"))["collision_shares"].toArray();
+    QVERIFY2(!shares.isEmpty(), qPrintable(r.err));
+    bool hippocampusAmygdala = false;
+    for (const auto& e : shares) {
+      const QJsonArray pair = e.toObject()["pair"].toArray(), s = e.toObject()["shares"].toArray();
+      QCOMPARE(s.size(), 2);
+      QVERIFY(s[0].toDouble() >= 0.0 && s[1].toDouble() >= 0.0);
+      QCOMPARE(std::max(s[0].toDouble(), s[1].toDouble()), 1.0);  // the side that reached over more takes all
+      const QStringList names = {pair[0].toString(), pair[1].toString()};
+      hippocampusAmygdala |= names.contains("Hippocampus_L") && names.contains("Amygdala_L");
+    }
+    QVERIFY(hippocampusAmygdala);  // they touch in every segmentation
+    r = runTool(SINEW_MAKE_SCENE, subject + QStringList{"--collision-shares-from", run_, "-o", path("refused.json")});
+    QCOMPARE(r.code, 3);
+    QVERIFY2(r.err.contains("collided"), qPrintable(r.err));
+    r = runTool(SINEW_MAKE_SCENE, subject + QStringList{"--collision-shares-from", path("nowhere"), "-o", path("refused.json")});
+    QCOMPARE(r.code, 3);
+    QVERIFY2(r.err.contains("nowhere/report.json: no report"), qPrintable(r.err));
+    r = runTool(SINEW_MAKE_SCENE, subject + QStringList{"--collision-shares-from", path("free"), "--collision-weight", "0",
+                                                        "-o", path("refused.json")});
+    QCOMPARE(r.code, 3);
+    QVERIFY2(r.err.contains("no collisions"), qPrintable(r.err));
+    QVERIFY(!QFile::exists(path("refused.json")));
+  }
+
   // The model placed 10 mm off (the registration's map moved): the run converges and exits 0, but
   // the structures end where the image does not look as trained, and the summary says to check
   // them (image_fit.h). segmentsANewSubject holds the right placement to the other side of the limit.
