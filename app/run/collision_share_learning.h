@@ -13,8 +13,8 @@
 namespace sinew {
 
 // Each run folder's meshes against its scene's ground truths (from its report.json), summed over
-// the runs by structure name. Throws InputError naming the file: no report, a scene with the
-// collision force, a structure without a ground truth or without its mesh.
+// the runs by structure name. Throws InputError naming the file: no report, a scene whose collision
+// force has a weight above 0 anywhere, a structure without a ground truth or without its mesh.
 struct ContactSidesByName {
   std::vector<std::string> names;
   std::vector<ContactSide> counts;  // names x names

@@ -263,8 +263,8 @@ SceneDesc parseScene(const std::string& text, const fs::path& file) {
   }
   const Node root(json, "", file);
   root.expectObject({"version", "description", "images", "structures", "forces", "integrator", "schedule",
-                     "model", "initialise", "report", "outputs", "stability", "plugins", "contact_pairs", "collision_shares",
-                     "attachments"});
+                     "model", "initialise", "report", "outputs", "stability", "plugins", "contact_pairs",
+                     "collision_shares", "attachments"});
   SceneDesc s;
   s.file = file;
   s.version = root.at("version").integer();
@@ -518,7 +518,8 @@ std::string sceneToJson(const SceneDesc& s) {
   j["structures"] = structures;
   if (!s.plugins.empty()) j["plugins"] = s.plugins;
   if (!s.contactPairs.empty()) j["contact_pairs"] = s.contactPairs;
-  for (const SceneDesc::CollisionShare& c : s.collisionShares) j["collision_shares"].push_back({{"pair", c.pair}, {"shares", c.shares}});
+  for (const SceneDesc::CollisionShare& c : s.collisionShares)
+    j["collision_shares"].push_back({{"pair", c.pair}, {"shares", c.shares}});
   for (const SceneDesc::Attachment& a : s.attachments) {
     Json o = {{"structure", a.structure}};
     if (a.kind == "fixed") o["fixed_within_mm"] = {{"centre", a.centreMm}, {"radius", a.radiusMm}};
