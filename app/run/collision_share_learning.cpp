@@ -34,9 +34,8 @@ bool collides(const SceneDesc& scene) {
 }  // namespace
 
 ContactSidesByName learnContactSides(const Registry& registry, const std::vector<std::string>& runDirs) {
-  ContactSidesByName out;
   std::map<std::string, LabelVolume> labelMaps;  // read once for all the runs
-  std::vector<std::pair<std::array<std::string, 2>, ContactSide>> found;
+  std::map<std::pair<std::string, std::string>, ContactSide> sums;  // by the pair's names, over the runs
   for (const std::string& dir : runDirs) {
     const fs::path reportFile = fs::path(dir) / "report.json";
     std::ifstream in(reportFile);
@@ -67,19 +66,21 @@ ContactSidesByName learnContactSides(const Registry& registry, const std::vector
     const size_t n = scene.structures.size();
     for (size_t a = 0; a < n; ++a)
       for (size_t b = 0; b < n; ++b)
-        if (a != b) found.push_back({{scene.structures[a].name, scene.structures[b].name}, counts[a * n + b]});
+        if (a != b) {
+          ContactSide& sum = sums[{scene.structures[a].name, scene.structures[b].name}];
+          sum.contact += counts[a * n + b].contact;
+          sum.inOtherTruth += counts[a * n + b].inOtherTruth;
+        }
   }
-  for (const auto& [pair, c] : found)
-    for (const std::string& name : pair)
-      if (std::find(out.names.begin(), out.names.end(), name) == out.names.end()) out.names.push_back(name);
+  ContactSidesByName out;
+  for (const auto& [pair, c] : sums)  // the map's order: every name as a first member, sorted
+    if (out.names.empty() || out.names.back() != pair.first) out.names.push_back(pair.first);
   const size_t n = out.names.size();
   out.counts.assign(n * n, {});
-  const auto index = [&](const std::string& name) { return size_t(std::find(out.names.begin(), out.names.end(), name) - out.names.begin()); };
-  for (const auto& [pair, c] : found) {
-    ContactSide& sum = out.counts[index(pair[0]) * n + index(pair[1])];
-    sum.contact += c.contact;
-    sum.inOtherTruth += c.inOtherTruth;
-  }
+  const auto index = [&](const std::string& name) {
+    return size_t(std::lower_bound(out.names.begin(), out.names.end(), name) - out.names.begin());
+  };
+  for (const auto& [pair, c] : sums) out.counts[index(pair.first) * n + index(pair.second)] = c;
   return out;
 }
 

@@ -2,6 +2,8 @@
 
 #include "point_tree.h"
 
+#include <Eigen/Geometry>
+
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
@@ -24,12 +26,20 @@ std::vector<ContactSide> countContactSides(std::span<const std::vector<Vec3>> po
               k = std::clamp(int(std::lround(idx[2])), 0, s[2] - 1);
     return t.at(i, j, k) == labels[m];
   };
+  // Pairs whose boxes, grown by the reach, do not meet have no contact: many structures cost their
+  // far pairs a box test, not a search per point.
+  std::vector<Eigen::AlignedBox3f> boxes(n);
+  for (Index m = 0; m < n; ++m) {
+    for (const Vec3& p : points[m]) boxes[m].extend(p);
+    boxes[m].min().array() -= reachMm;
+    boxes[m].max().array() += reachMm;
+  }
   for (Index b = 0; b < n; ++b) {
     if (!truths[b] || points[b].empty()) continue;
     const PointCloud cloud{points[b]};
     const PointTree tree(3, cloud, nanoflann::KDTreeSingleIndexAdaptorParams(10));
     for (Index a = 0; a < n; ++a) {
-      if (a == b || !truths[a]) continue;
+      if (a == b || !truths[a] || !boxes[a].intersects(boxes[b])) continue;
       ContactSide& c = counts[size_t(a) * n + b];
       for (const Vec3& p : points[a]) {
         unsigned nearest = 0;  // nanoflann 1.4 indexes with its IndexType (unsigned)

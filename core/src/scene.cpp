@@ -293,10 +293,11 @@ SceneDesc parseScene(const std::string& text, const fs::path& file) {
       root.at("structures").fail("structure name '" + s.structures[i].name + "' is used twice");
 
   s.forces = readForces(root.at("forces"));
+  const auto listed = [&](const char* force) {
+    return std::any_of(s.forces.begin(), s.forces.end(), [&](const auto& f) { return f.first == force; });
+  };
   if (root.has("contact_pairs")) {
-    bool contactsForce = false;
-    for (const auto& f : s.forces) contactsForce |= f.first == "contacts";
-    if (!contactsForce)
+    if (!listed("contacts"))
       root.at("contact_pairs").fail("contact pairs need the force that keeps them: add \"contacts\": {} to the scene's /forces");
     std::set<std::pair<std::string, std::string>> seen;
     for (const Node& pair : root.at("contact_pairs").elements()) {
@@ -311,9 +312,7 @@ SceneDesc parseScene(const std::string& text, const fs::path& file) {
     }
   }
   if (root.has("collision_shares")) {
-    bool collisionForce = false;
-    for (const auto& f : s.forces) collisionForce |= f.first == "collision";
-    if (!collisionForce)
+    if (!listed("collision"))
       root.at("collision_shares").fail("shares by pair need the collision force: add \"collision\": {} to the scene's /forces");
     std::set<std::pair<std::string, std::string>> seen;
     for (const Node& entry : root.at("collision_shares").elements()) {
