@@ -27,6 +27,9 @@ struct Subject {
 // here: such a subject fails in its own task. A malformed manifest is an InputError.
 std::vector<Subject> readManifest(const std::filesystem::path& manifest);
 
+// Every key of a scene that holds a path (docs/scene-format.md), made absolute against base.
+void absolutise(Json& scene, const std::filesystem::path& base);
+
 // The template with the subject's images, ground truth and initialisation put in, every path made
 // absolute (relative ones in the template are relative to templateDir), the model replaced when
 // given.

@@ -154,9 +154,6 @@ std::vector<Subject> readManifest(const fs::path& manifest) {
   return subjects;
 }
 
-namespace {
-
-// Every key of a scene that holds a path (docs/scene-format.md), made absolute against base.
 void absolutise(Json& scene, const fs::path& base) {
   auto fix = [&](Json& parent, const char* key) {
     if (parent.is_object() && parent.contains(key) && parent[key].is_string()) {
@@ -184,8 +181,6 @@ void absolutise(Json& scene, const fs::path& base) {
       if (s.contains("initial")) fix(s["initial"], "mesh");
     }
 }
-
-}  // namespace
 
 Json subjectScene(const Json& sceneTemplate, const fs::path& templateDir, const Subject& subject,
                   const std::optional<fs::path>& model) {

@@ -1,6 +1,7 @@
 // sinew-cohort: one model over many subjects, on this host's GPUs or CPU cores, or on Slurm as a
 // job array, and one report for the cohort (docs/cohorts.md).
 #include "cohort.h"
+#include "cohort_learning.h"
 #include "cohort_process.h"
 #include "cohort_report.h"
 #include "cohort_run.h"
@@ -34,10 +35,12 @@ void addInputs(CLI::App* c, CohortInputs& in, bool manifestRequired) {
   c->add_option("-o,--out", in.out, "cohort folder (created; an existing one is resumed)")->required();
 }
 
-// The cohort folder, prepared from the manifest when one is given, else the existing one.
-Cohort cohortFrom(const CohortInputs& in) {
+// The cohort folder, prepared from the manifest when one is given, else the existing one. With
+// shares to learn, the learning subjects run first on local's slots.
+Cohort cohortFrom(const CohortInputs& in, const ShareLearning& learning = {}, const LocalOptions& local = {}) {
   if (in.manifest.empty()) {
     if (!in.templateFile.empty() || !in.model.empty()) throw InputError("--template and --model go with a manifest");
+    if (learning.subjects > 0) throw InputError("--learn-collision-shares goes with a manifest");
     return loadCohort(in.out);
   }
   if (!fs::exists(in.manifest)) throw InputError(in.manifest + ": no such file");
@@ -61,6 +64,7 @@ Cohort cohortFrom(const CohortInputs& in) {
                                        log);
     if (r.exitCode != 0) throw InputError("sinew-make-scene could not make the template: " + lastErrorLine(log));
   }
+  if (learning.subjects > 0) templateFile = learnCollisionShares(in.manifest, templateFile, model, in.out, learning, local);
   return prepareCohort(in.manifest, templateFile, model, in.out);
 }
 
@@ -119,6 +123,16 @@ int main(int argc, char** argv) {
   run->add_option("--retries", local.task.retries, "times a failed subject is tried again")->check(CLI::Range(0, 5))->capture_default_str();
   run->add_flag("-q,--quiet", local.quiet, "no progress output");
   run->add_flag("--no-report", noReport, "do not write the cohort report at the end");
+  ShareLearning learning;
+  run->add_option("--learn-collision-shares", learning.subjects,
+                  "learn the collision's shares by pair from the first N subjects with a ground truth, each run once "
+                  "more without collisions first (docs/cohorts.md); 0: the template's sharing")
+      ->check(CLI::Range(0, 1000))
+      ->capture_default_str();
+  run->add_option("--collision-shares-min-contacts", learning.minContacts,
+                  "contact points each side of a pair needs, over the learning runs, for its shares")
+      ->check(CLI::Range(1, 1000000))
+      ->capture_default_str();
 
   CohortInputs slurmIn;
   SlurmOptions slurm;
@@ -161,8 +175,8 @@ int main(int argc, char** argv) {
   const auto qt = startOffscreenQt(argv[0]);  // the report's plots need fonts
   try {
     if (*run) {
-      const Cohort cohort = cohortFrom(runIn);
       local.task.sinewRun = siblingProgram("sinew-run");
+      const Cohort cohort = cohortFrom(runIn, learning, local);
       const CohortSummary s = runLocal(cohort, local);
       if (!local.quiet)
         std::fprintf(stderr, "sinew-cohort: %d subjects in %.1f s: %d completed, %d degraded, %d failed (%d were done before)\n",

@@ -11,6 +11,7 @@
 #include <QJsonArray>
 #include <QJsonDocument>
 #include <QJsonObject>
+#include <QSet>
 #include <QTemporaryDir>
 #include <QThread>
 #include <QtTest>
@@ -210,6 +211,72 @@ private slots:
     registration = readJson(path("qc-spread/report/cohort_report.json"))["registration"].toObject();
     QVERIFY2(registration["outliers"].toArray().isEmpty(), qPrintable(QJsonDocument(registration).toJson()));
     QVERIFY(!r.out.contains("stands out"));
+  }
+
+  // --learn-collision-shares 1: the first labelled subject runs once more without collisions (in
+  // learning/), and every subject's scene, labelled or not, gets the shares learned from it. Run
+  // again, nothing runs. Refused: a manifest without a ground truth, a template without collisions.
+  void learnsCollisionSharesFromItsLabelledSubjects() {
+    ToolResult r = runTool(SINEW_BUILD_MODEL, {"--atlas", kTemplates + "aal.nii.gz", "--labels", kTemplates + "aal.nii.txt",
+                                               "--training", kTemplates + "ch2better.nii.gz", "--structures",
+                                               "Pallidum_R,Putamen_R", "-o", path("touching"), "-q"});
+    QVERIFY2(r.code == 0, qPrintable(r.err));
+    writeText(path("learn.csv"), "subject,target,ground_truth\n"
+                                 "u,subject2/image.nii.gz,\n"
+                                 "s1,subject1/image.nii.gz,subject1/labels.nii.gz\n"
+                                 "s2,subject2/image.nii.gz,subject2/labels.nii.gz\n");
+    const QString cohort = path("learn");
+    const QStringList args = {"run", path("learn.csv"), "--model", path("touching"), "-o", cohort, "--cpu-workers", "2",
+                              "--learn-collision-shares", "1", "--collision-shares-min-contacts", "10"};
+    r = runTool(SINEW_COHORT, args);
+    QVERIFY2(r.code == 0, qPrintable(r.err + r.out));
+    QVERIFY2(r.err.contains("learning the collision's shares from 1 labelled subject(s)"), qPrintable(r.err));
+    const QJsonObject learned = readJson(cohort + "/learning/shares.json");
+    QCOMPARE(learned["from"].toArray(), QJsonArray({"s1"}));
+    const QJsonArray shares = learned["collision_shares"].toArray();
+    QCOMPARE(shares.size(), 1);  // the two touch in every segmentation
+    const QJsonArray pair = shares[0].toObject()["pair"].toArray(), share = shares[0].toObject()["shares"].toArray();
+    QCOMPARE(QSet<QString>({pair[0].toString(), pair[1].toString()}), QSet<QString>({"Pallidum_R", "Putamen_R"}));
+    QVERIFY(share[0].toDouble() >= 0.0 && share[1].toDouble() >= 0.0);
+    QCOMPARE(std::max(share[0].toDouble(), share[1].toDouble()), 1.0);  // the side that reached over more takes all
+    QVERIFY(!QDir(cohort + "/learning/subjects/u").exists() && !QDir(cohort + "/learning/subjects/s2").exists());
+    // The learning run collided nowhere; every subject of the cohort has the shares.
+    const QJsonObject learningScene = readJson(cohort + "/learning/subjects/s1/scene.json");
+    QCOMPARE(learningScene["forces"].toObject()["collision"].toObject()["weight"].toDouble(), 0.0);
+    for (const auto& level : learningScene["schedule"].toArray())
+      QCOMPARE(level.toObject()["forces"].toObject()["collision"].toObject()["weight"].toDouble(0.0), 0.0);
+    QVERIFY(QFile::exists(cohort + "/learning/subjects/s1/out/report.json"));
+    for (const QString id : {"u", "s1", "s2"}) {
+      QCOMPARE(readJson(cohort + "/subjects/" + id + "/scene.json")["collision_shares"].toArray(), shares);
+      QVERIFY(QFile::exists(cohort + "/subjects/" + id + "/out/report.json"));
+    }
+
+    const QString logs = readText(cohort + "/learning/subjects/s1/run.log") + readText(cohort + "/subjects/u/run.log");
+    r = runTool(SINEW_COHORT, args);
+    QCOMPARE(r.code, 0);
+    QVERIFY2(r.err.contains("0 of 1 subjects to run (1 already done)") && r.err.contains("0 of 3 subjects to run (3 already done)"),
+             qPrintable(r.err));
+    QCOMPARE(readText(cohort + "/learning/subjects/s1/run.log") + readText(cohort + "/subjects/u/run.log"), logs);
+
+    writeText(path("unlabelled.csv"), "subject,target\nu,subject2/image.nii.gz\n");
+    r = runTool(SINEW_COHORT, {"run", path("unlabelled.csv"), "--model", path("touching"), "-o", path("unlabelled"),
+                               "--learn-collision-shares", "1"});
+    QCOMPARE(r.code, 3);
+    QVERIFY2(r.err.contains(path("unlabelled.csv")) && r.err.contains("no subject has a ground_truth"), qPrintable(r.err));
+    QJsonObject scene = readJson(cohort + "/template.json");
+    QJsonArray schedule = scene["schedule"].toArray();
+    for (int i = 0; i < schedule.size(); ++i) {
+      QJsonObject level = schedule[i].toObject(), forces = level["forces"].toObject();
+      forces.remove("collision");
+      level["forces"] = forces;
+      schedule[i] = level;
+    }
+    scene["schedule"] = schedule;
+    writeText(path("no-collisions.json"), QString::fromUtf8(QJsonDocument(scene).toJson()));
+    r = runTool(SINEW_COHORT, {"run", path("learn.csv"), "--template", path("no-collisions.json"), "-o", path("refused"),
+                               "--learn-collision-shares", "1"});
+    QCOMPARE(r.code, 3);
+    QVERIFY2(r.err.contains(path("no-collisions.json")) && r.err.contains("no collisions to share"), qPrintable(r.err));
   }
 
   void aSecondRunOnTheFolderIsRefused() {
