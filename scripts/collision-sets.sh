@@ -1,12 +1,13 @@
 #!/usr/bin/env bash
 # Two sinew-run programs side by side on the structure sets issue 14's collisions are measured on
 # (docs/collisions.md, docs/accuracy.md): the demo's seeds, the subcortical subjects, the varied
-# subjects, the cortical set and the five sets of "Five structure sets not tried before". Models,
+# subjects, the cortical set, the five sets of "Five structure sets not tried before" and the three
+# of "Three structure sets not tried before" (fifty-second session). Models,
 # subjects and scenes are made once by BUILD_DIR's tools; every scene then runs with BEFORE and
 # AFTER on each backend. Prints, per set and backend, the paired mean ASSD change (after minus
 # before, over the regions wholly inside the field of view) and the overlap at the end (report.json's
 # independent voxelisation), mean and largest.
-# Usage: [SETS="demo subjects varied cortical frontal2 occtemp mixedR medial cerebellum2"]
+# Usage: [SETS="demo subjects varied cortical frontal2 occtemp mixedR medial cerebellum2 parietal frontal3 mixedL"]
 #        [BACKENDS="cuda cpu"] [JOBS=4] [THREADS=4] [GPU_JOBS=2] [BEFORE_FORCES=JSON] [AFTER_FORCES=JSON]
 #        [BEFORE_SCENE=JSON] [AFTER_SCENE=JSON]
 #        bash scripts/collision-sets.sh BUILD_DIR OUT_DIR BEFORE_RUN AFTER_RUN
@@ -23,7 +24,8 @@ import json, os, statistics, subprocess, sys
 from concurrent.futures import ThreadPoolExecutor
 
 build, out, before, after = sys.argv[1:5]
-sets = os.environ.get("SETS", "demo subjects varied cortical frontal2 occtemp mixedR medial cerebellum2").split()
+sets = os.environ.get("SETS", "demo subjects varied cortical frontal2 occtemp mixedR medial cerebellum2 parietal frontal3 "
+                      "mixedL").split()
 backends = os.environ.get("BACKENDS", "cuda cpu").split()
 jobs, threads, gpu_jobs = int(os.environ.get("JOBS", 4)), os.environ.get("THREADS", "4"), int(os.environ.get("GPU_JOBS", 2))
 t = "/usr/share/mricron/templates"
@@ -43,12 +45,17 @@ structures = {  # None: sinew-build-model's default, the 12 subcortical structur
     "medial": both(["Cingulum_Mid", "Paracentral_Lobule", "Parietal_Inf", "Cingulum_Post", "Calcarine", "Cuneus"]),
     "cerebellum2": both(["Cerebelum_4_5", "Cerebelum_7b", "Cerebelum_9", "Cerebelum_Crus2"]) +
                    ",Vermis_3,Vermis_4_5,Vermis_6,Vermis_7",
+    "parietal": both(["Precentral", "Postcentral", "Parietal_Sup", "SupraMarginal", "Angular", "Rolandic_Oper"]),
+    "frontal3": both(["Frontal_Sup", "Frontal_Inf_Oper", "Frontal_Inf_Tri", "Rectus", "Olfactory", "Frontal_Med_Orb"]),
+    "mixedL": ",".join(f"{n}_L" for n in ["Heschl", "Temporal_Sup", "Temporal_Pole_Sup", "Insula", "Putamen", "Pallidum",
+                                         "Caudate", "Thalamus", "Hippocampus", "Amygdala", "ParaHippocampal", "Olfactory"]),
 }
 model_of = {s: ("sub" if structures.get(s) is None else s) for s in structures}
 seeds = {"demo": list(range(1, 13)), "subjects": [int(f"77{i}") for i in range(12)], "varied": list(range(6001, 6031)),
          "cortical": [201, 202, 203, 204, 205, 6001, 6013], "frontal2": [6101, 6102, 6103, 6104],
          "occtemp": [6105, 6106, 6107, 6108], "mixedR": [6109, 6110, 6111, 6112], "medial": [6113, 6114, 6115, 6116],
-         "cerebellum2": [6117, 6118, 6119, 6120]}
+         "cerebellum2": [6117, 6118, 6119, 6120], "parietal": [6121, 6122, 6123, 6124],
+         "frontal3": [6125, 6126, 6127, 6128], "mixedL": [6129, 6130, 6131, 6132]}
 varied = lambda seed: 6000 < seed < 7000  # scripts/varied_subjects.py's options; below: the default generator
 
 def call(cmd, accept=(0,)):  # a run may stop cleanly (exit 4, counted); making its inputs may not
@@ -68,7 +75,7 @@ for s in {model_of[s] for s in sets if s != "demo"}:
 needed = sorted({seed for s in sets if s != "demo" for seed in seeds[s]})
 opts = {}
 if any(varied(x) for x in needed):
-    lines = subprocess.run([sys.executable, "scripts/varied_subjects.py", "6001", "6121"], capture_output=True, text=True,
+    lines = subprocess.run([sys.executable, "scripts/varied_subjects.py", "6001", "6133"], capture_output=True, text=True,
                            check=True).stdout.splitlines()
     opts = {int(l.split()[0]): l.split()[1:] for l in lines}
 for seed in needed:

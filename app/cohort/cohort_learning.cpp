@@ -16,8 +16,8 @@ namespace {
 
 Json readTemplate(const fs::path& file) {
   std::ifstream in(file);
+  if (!in) throw InputError(file.string() + ": cannot open");
   const Json j = Json::parse(in, nullptr, false);
-  if (!in.good() && !in.eof()) throw InputError(file.string() + ": cannot read");
   if (j.is_discarded() || !j.is_object() || !j.contains("structures") || !j["structures"].is_array())
     throw InputError(file.string() + ": not a scene (no structures); make one with sinew-make-scene --model");
   return j;
