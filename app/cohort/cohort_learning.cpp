@@ -46,40 +46,41 @@ bool withoutCollisions(Json& scene) {
 
 }  // namespace
 
-fs::path learnCollisionShares(const fs::path& manifest, const fs::path& sceneTemplate, const std::optional<fs::path>& model,
-                              const fs::path& dir, const ShareLearning& learning, const LocalOptions& local) {
-  Json tmpl = readTemplate(sceneTemplate);
-  absolutise(tmpl, fs::absolute(sceneTemplate).parent_path());
-  Json learningScene = tmpl;
+Cohort prepareLearning(const fs::path& manifest, const fs::path& sceneTemplate, const std::optional<fs::path>& model,
+                       const fs::path& dir, const ShareLearning& learning) {
+  Json learningScene = readTemplate(sceneTemplate);
+  absolutise(learningScene, fs::absolute(sceneTemplate).parent_path());
   if (!withoutCollisions(learningScene))
     throw InputError(sceneTemplate.string() + ": --learn-collision-shares: the template has no collisions to share "
                      "(the collision force's weight is 0 everywhere)");
   Json chosen = Json::array();
-  std::vector<std::string> ids;
   for (const Subject& s : readManifest(manifest)) {
-    if (!s.groundTruth || int(ids.size()) == learning.subjects) continue;
+    if (!s.groundTruth || int(chosen.size()) == learning.subjects) continue;
     Json j = {{"id", s.id}, {"target", fs::absolute(s.target).string()},
               {"ground_truth", fs::absolute(*s.groundTruth).string()}};
     if (s.transform) j["transform"] = fs::absolute(*s.transform).string();
     if (s.landmarks) j["landmarks"] = fs::absolute(*s.landmarks).string();
     chosen.push_back(j);
-    ids.push_back(s.id);
   }
-  if (ids.empty())
+  if (chosen.empty())
     throw InputError(manifest.string() + ": --learn-collision-shares: no subject has a ground_truth to learn from");
-
   const fs::path learnDir = fs::absolute(dir) / "learning";
   std::error_code ec;
   fs::create_directories(learnDir, ec);
   if (ec) throw InputError(learnDir.string() + ": cannot create: " + ec.message());
   writeFileAtomically(learnDir / "manifest.json", Json{{"subjects", chosen}}.dump(2) + "\n");
   writeFileAtomically(learnDir / "template.json", learningScene.dump(2) + "\n");
-  const Cohort learners = prepareCohort(learnDir / "manifest.json", learnDir / "template.json", model, learnDir);
-  if (!local.quiet)
-    std::cerr << "sinew-cohort: learning the collision's shares from " << ids.size()
-              << " labelled subject(s), each run without collisions in " << learnDir.string() << "\n";
-  runLocal(learners, local);
+  return prepareCohort(learnDir / "manifest.json", learnDir / "template.json", model, learnDir);
+}
 
+bool learningDone(const Cohort& learners) {
+  for (size_t i = 0; i < learners.subjects.size(); ++i)
+    if (!isDone(learners, i)) return false;
+  return true;
+}
+
+fs::path learnFromRuns(const Cohort& learners, const fs::path& sceneTemplate, const fs::path& dir,
+                       const ShareLearning& learning, bool quiet) {
   std::vector<std::string> runs, from;
   for (size_t i = 0; i < learners.subjects.size(); ++i)
     if (isDone(learners, i) && readStatus(learners, i).status == "completed") {
@@ -87,8 +88,10 @@ fs::path learnCollisionShares(const fs::path& manifest, const fs::path& sceneTem
       from.push_back(learners.subjects[i].id);
     }
   if (runs.empty())
-    throw InputError(learnDir.string() + ": --learn-collision-shares: no learning run completed (each subject's "
+    throw InputError(learners.dir.string() + ": --learn-collision-shares: no learning run completed (each subject's "
                      "run.log under subjects/ says why)");
+  Json tmpl = readTemplate(sceneTemplate);
+  absolutise(tmpl, fs::absolute(sceneTemplate).parent_path());
   Registry registry;
   PluginLoader plugins(registry);
   addBuiltinPlugins(plugins);
@@ -98,17 +101,27 @@ fs::path learnCollisionShares(const fs::path& manifest, const fs::path& sceneTem
   const nlohmann::json learned =
       collisionSharesFor(learnContactSides(registry, runs), names, Index(learning.minContacts));
   const Json shares = Json::parse(learned.dump());
-  writeFileAtomically(learnDir / "shares.json",
+  writeFileAtomically(learners.dir / "shares.json",
                       Json{{"from", from}, {"min_contacts", learning.minContacts}, {"collision_shares", shares}}.dump(2) + "\n");
   if (shares.empty()) tmpl.erase("collision_shares");
   else tmpl["collision_shares"] = shares;
-  if (!local.quiet)
+  if (!quiet)
     std::cerr << "sinew-cohort: collision shares by pair: " << shares.size() << " pair(s) learned from " << from.size()
               << " subject(s)" << (shares.empty() ? " (no pair touched often enough: the shares by size stay)" : "")
               << "\n";
   const fs::path out = fs::absolute(dir) / "template-shares.json";
   writeFileAtomically(out, tmpl.dump(2) + "\n");
   return out;
+}
+
+fs::path learnCollisionShares(const fs::path& manifest, const fs::path& sceneTemplate, const std::optional<fs::path>& model,
+                              const fs::path& dir, const ShareLearning& learning, const LocalOptions& local) {
+  const Cohort learners = prepareLearning(manifest, sceneTemplate, model, dir, learning);
+  if (!local.quiet)
+    std::cerr << "sinew-cohort: learning the collision's shares from " << learners.subjects.size()
+              << " labelled subject(s), each run without collisions in " << learners.dir.string() << "\n";
+  runLocal(learners, local);
+  return learnFromRuns(learners, sceneTemplate, dir, learning, local.quiet);
 }
 
 }  // namespace sinew::cohort

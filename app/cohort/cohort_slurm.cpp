@@ -108,7 +108,7 @@ SlurmJobs writeSlurmJobs(const Cohort& cohort, const SlurmOptions& o) {
     throw InputError(cohort.dir.string() + ": over 1000 subjects; Slurm's default MaxArraySize is 1001: split the manifest");
 
   jobs.arrayScript = dir / "array.sbatch";
-  jobs.reportScript = dir / "report.sbatch";
+  jobs.reportScript = dir / (o.followUp.empty() ? "report.sbatch" : "follow-up.sbatch");
   const std::string logs = (dir / "logs").string();
   // Without GPUs asked for, a task must not take one Slurm did not give it.
   const std::string backend = o.gpusPerTask == 0 && o.backend == "auto" ? "cpu" : o.backend;
@@ -127,8 +127,16 @@ SlurmJobs writeSlurmJobs(const Cohort& cohort, const SlurmOptions& o) {
          " --subject \"${subjects[$SLURM_ARRAY_TASK_ID]}\" --threads \"${SLURM_CPUS_PER_TASK:-0}\" --backend " + quoted(backend) + "\n";
     writeScript(jobs.arrayScript, s);
   }
-  std::string r = header(o, "sinew-cohort-report", logs, "report-%j.log", 1, 0, "1G");
-  r += "exec " + quoted(o.sinewCohort) + " report " + quoted(cohort.dir.string()) + "\n";
+  std::string r;
+  if (o.followUp.empty()) {
+    r = header(o, "sinew-cohort-report", logs, "report-%j.log", 1, 0, "1G");
+    r += "exec " + quoted(o.sinewCohort) + " report " + quoted(cohort.dir.string()) + "\n";
+  } else {
+    r = header(o, "sinew-cohort-follow-up", logs, "follow-up-%j.log", 1, 0, o.memory);
+    r.append("cd ").append(quoted(o.followUpDir.string())).append(" || exit 1\nexec");
+    for (const std::string& w : o.followUp) r.append(" ").append(quoted(w));
+    r.append("\n");
+  }
   writeScript(jobs.reportScript, r);
   if (!o.submit) return jobs;
   if (!jobs.indices.empty()) {

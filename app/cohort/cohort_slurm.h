@@ -18,17 +18,22 @@ struct SlurmOptions {
   std::vector<std::string> extra;  // more #SBATCH options, as given ("--qos=short")
   bool submit = true;              // false: write the scripts only
   std::string sbatch = "sbatch";
+  // When set, the job after the array runs this command line in followUpDir instead of the
+  // report: for the learning runs, the sinew-cohort slurm command that learns from them and
+  // submits the cohort (cohort_learning.h).
+  std::vector<std::string> followUp;
+  std::filesystem::path followUpDir;
 };
 
 struct SlurmJobs {
-  std::filesystem::path arrayScript, reportScript;
+  std::filesystem::path arrayScript, reportScript;  // reportScript: the follow-up's, with one
   std::vector<size_t> indices;      // the array's tasks: the subjects not done
   std::string arrayJob, reportJob;  // job ids, when submitted
 };
 
-// Writes DIR/slurm/array.sbatch (only the subjects not done) and DIR/slurm/report.sbatch, and
-// submits them (sbatch --parsable; the report with --dependency=afterany on the array). Logs go to
-// DIR/slurm/logs. Throws InputError naming sbatch's message when a submission is refused.
+// Writes DIR/slurm/array.sbatch (only the subjects not done) and DIR/slurm/report.sbatch (or
+// follow-up.sbatch, with options.followUp), and submits them (sbatch --parsable; the second with
+// --dependency=afterany on the array). Logs go to DIR/slurm/logs. Throws InputError naming sbatch's message when a submission is refused.
 SlurmJobs writeSlurmJobs(const Cohort& cohort, const SlurmOptions& options);
 
 // Slurm's array syntax for indices: "0-3,7,9-11".

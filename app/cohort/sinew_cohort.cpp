@@ -14,6 +14,7 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <functional>
 #include <iostream>
 
 namespace fs = std::filesystem;
@@ -35,9 +36,35 @@ void addInputs(CLI::App* c, CohortInputs& in, bool manifestRequired) {
   c->add_option("-o,--out", in.out, "cohort folder (created; an existing one is resumed)")->required();
 }
 
-// The cohort folder, prepared from the manifest when one is given, else the existing one. With
-// shares to learn, the learning subjects run first on local's slots.
-Cohort cohortFrom(const CohortInputs& in, const ShareLearning& learning = {}, const LocalOptions& local = {}) {
+// The template of a manifest's cohort: --template, else sinew-make-scene's subject scene of --model
+// (DIR/template.json).
+fs::path templateFor(const CohortInputs& in, const std::optional<fs::path>& model) {
+  if (!in.templateFile.empty()) return in.templateFile;
+  if (!model) throw InputError("give --template, or --model to use sinew-make-scene's subject scene");
+  // sinew-make-scene only reads the model's manifest; the target is replaced for every subject.
+  std::ifstream manifest(*model / "model.json");
+  const Json m = Json::parse(manifest, nullptr, false);
+  if (m.is_discarded() || !m.contains("atlas_image") || !m["atlas_image"].is_string())
+    throw InputError(in.model + ": not a Sinew model (no valid model.json)");
+  std::error_code ec;
+  fs::create_directories(in.out, ec);
+  if (ec) throw InputError(in.out + ": cannot create the cohort folder: " + ec.message());
+  const fs::path templateFile = fs::path(in.out) / "template.json";
+  const fs::path log = fs::path(in.out) / "template.log";
+  const ProgramResult r = runProgram({siblingProgram("sinew-make-scene"), "--model", in.model, "--target",
+                                      (*model / m["atlas_image"].get<std::string>()).string(), "-o", templateFile.string()},
+                                     log);
+  if (r.exitCode != 0) throw InputError("sinew-make-scene could not make the template: " + lastErrorLine(log));
+  return templateFile;
+}
+
+// From the template and the model to the template with learned shares; nullopt while the learning
+// runs are still to come (on Slurm).
+using LearnShares = std::function<std::optional<fs::path>(const fs::path&, const std::optional<fs::path>&)>;
+
+// The cohort folder, prepared from the manifest when one is given, else the existing one; with
+// shares to learn, from the template `learn` returns (nullopt when it returns none).
+std::optional<Cohort> cohortFrom(const CohortInputs& in, const ShareLearning& learning = {}, const LearnShares& learn = {}) {
   if (in.manifest.empty()) {
     if (!in.templateFile.empty() || !in.model.empty()) throw InputError("--template and --model go with a manifest");
     if (learning.subjects > 0) throw InputError("--learn-collision-shares goes with a manifest");
@@ -46,26 +73,25 @@ Cohort cohortFrom(const CohortInputs& in, const ShareLearning& learning = {}, co
   if (!fs::exists(in.manifest)) throw InputError(in.manifest + ": no such file");
   std::optional<fs::path> model;
   if (!in.model.empty()) model = fs::path(in.model);
-  fs::path templateFile = in.templateFile;
-  if (templateFile.empty()) {
-    if (!model) throw InputError("give --template, or --model to use sinew-make-scene's subject scene");
-    // sinew-make-scene only reads the model's manifest; the target is replaced for every subject.
-    std::ifstream manifest(*model / "model.json");
-    const Json m = Json::parse(manifest, nullptr, false);
-    if (m.is_discarded() || !m.contains("atlas_image") || !m["atlas_image"].is_string())
-      throw InputError(in.model + ": not a Sinew model (no valid model.json)");
-    std::error_code ec;
-    fs::create_directories(in.out, ec);
-    if (ec) throw InputError(in.out + ": cannot create the cohort folder: " + ec.message());
-    templateFile = fs::path(in.out) / "template.json";
-    const fs::path log = fs::path(in.out) / "template.log";
-    const ProgramResult r = runProgram({siblingProgram("sinew-make-scene"), "--model", in.model, "--target",
-                                        (*model / m["atlas_image"].get<std::string>()).string(), "-o", templateFile.string()},
-                                       log);
-    if (r.exitCode != 0) throw InputError("sinew-make-scene could not make the template: " + lastErrorLine(log));
+  fs::path templateFile = templateFor(in, model);
+  if (learning.subjects > 0) {
+    const std::optional<fs::path> learned = learn(templateFile, model);
+    if (!learned) return std::nullopt;
+    templateFile = *learned;
   }
-  if (learning.subjects > 0) templateFile = learnCollisionShares(in.manifest, templateFile, model, in.out, learning, local);
   return prepareCohort(in.manifest, templateFile, model, in.out);
+}
+
+void addShareLearning(CLI::App* c, ShareLearning& learning) {
+  c->add_option("--learn-collision-shares", learning.subjects,
+                "learn the collision's shares by pair from the first N subjects with a ground truth, each run once "
+                "more without collisions first (docs/cohorts.md); 0: the template's sharing")
+      ->check(CLI::Range(0, 1000))
+      ->capture_default_str();
+  c->add_option("--collision-shares-min-contacts", learning.minContacts,
+                "contact points each side of a pair needs, over the learning runs, for its shares")
+      ->check(CLI::Range(1, 1000000))
+      ->capture_default_str();
 }
 
 void printReport(const CohortReport& rep, const Cohort& cohort) {
@@ -124,15 +150,7 @@ int main(int argc, char** argv) {
   run->add_flag("-q,--quiet", local.quiet, "no progress output");
   run->add_flag("--no-report", noReport, "do not write the cohort report at the end");
   ShareLearning learning;
-  run->add_option("--learn-collision-shares", learning.subjects,
-                  "learn the collision's shares by pair from the first N subjects with a ground truth, each run once "
-                  "more without collisions first (docs/cohorts.md); 0: the template's sharing")
-      ->check(CLI::Range(0, 1000))
-      ->capture_default_str();
-  run->add_option("--collision-shares-min-contacts", learning.minContacts,
-                  "contact points each side of a pair needs, over the learning runs, for its shares")
-      ->check(CLI::Range(1, 1000000))
-      ->capture_default_str();
+  addShareLearning(run, learning);
 
   CohortInputs slurmIn;
   SlurmOptions slurm;
@@ -150,6 +168,10 @@ int main(int argc, char** argv) {
   sl->add_option("--sbatch", slurm.sbatch, "the sbatch program")->capture_default_str();
   bool noSubmit = false;
   sl->add_flag("--no-submit", noSubmit, "write the scripts only");
+  ShareLearning slurmLearning;
+  addShareLearning(sl, slurmLearning);
+  bool afterLearning = false;  // the learning runs' follow-up job: learn from those that completed
+  sl->add_flag("--after-learning", afterLearning)->group("");
 
   std::string taskDir, taskSubject;
   size_t taskIndex = 0;
@@ -176,7 +198,9 @@ int main(int argc, char** argv) {
   try {
     if (*run) {
       local.task.sinewRun = siblingProgram("sinew-run");
-      const Cohort cohort = cohortFrom(runIn, learning, local);
+      const Cohort cohort = *cohortFrom(runIn, learning, [&](const fs::path& t, const std::optional<fs::path>& m) {
+        return std::optional<fs::path>(learnCollisionShares(runIn.manifest, t, m, runIn.out, learning, local));
+      });
       const CohortSummary s = runLocal(cohort, local);
       if (!local.quiet)
         std::fprintf(stderr, "sinew-cohort: %d subjects in %.1f s: %d completed, %d degraded, %d failed (%d were done before)\n",
@@ -185,11 +209,31 @@ int main(int argc, char** argv) {
       return report(cohort, !local.quiet);
     }
     if (*sl) {
-      const Cohort cohort = cohortFrom(slurmIn);
       std::error_code ec;
       const fs::path self = fs::read_symlink("/proc/self/exe", ec);
       slurm.sinewCohort = ec ? "sinew-cohort" : self.string();
       slurm.submit = !noSubmit;
+      // With shares to learn and learning runs still to come: their array, then a job that runs
+      // this command again (--after-learning: it learns from those that completed, then submits).
+      const auto learnOnSlurm = [&](const fs::path& t, const std::optional<fs::path>& m) -> std::optional<fs::path> {
+        const Cohort learners = prepareLearning(slurmIn.manifest, t, m, slurmIn.out, slurmLearning);
+        if (afterLearning || learningDone(learners)) return learnFromRuns(learners, t, slurmIn.out, slurmLearning, false);
+        SlurmOptions o = slurm;
+        o.followUp = {slurm.sinewCohort};
+        o.followUp.insert(o.followUp.end(), argv + 1, argv + argc);
+        o.followUp.push_back("--after-learning");
+        o.followUpDir = fs::current_path();
+        const SlurmJobs jobs = writeSlurmJobs(learners, o);
+        std::printf("learning the collision's shares first: %zu of %zu labelled subjects to run: %s\n", jobs.indices.size(),
+                    learners.subjects.size(), jobs.indices.empty() ? "-" : jobs.arrayScript.string().c_str());
+        std::printf("follow-up job (learns, then submits the cohort): %s\n", jobs.reportScript.string().c_str());
+        if (!jobs.reportJob.empty()) std::printf("submitted follow-up job %s\n", jobs.reportJob.c_str());
+        else std::printf("not submitted (--no-submit): once the learning tasks are done, this command learns and writes the cohort's jobs\n");
+        return std::nullopt;
+      };
+      const std::optional<Cohort> prepared = cohortFrom(slurmIn, slurmLearning, learnOnSlurm);
+      if (!prepared) return 0;
+      const Cohort& cohort = *prepared;
       const SlurmJobs jobs = writeSlurmJobs(cohort, slurm);
       std::printf("%zu of %zu subjects to run: %s\n", jobs.indices.size(), cohort.subjects.size(),
                   jobs.indices.empty() ? "-" : jobs.arrayScript.string().c_str());

@@ -323,6 +323,22 @@ private slots:
              qPrintable(script));
   }
 
+  // On Slurm without submitting: the learning subject's array and the follow-up job that runs the
+  // same command again after it; nothing of the cohort's own yet.
+  void slurmLearnsSharesFirst() {
+    const QString cohort = path("slurm-learn-scripts");
+    const ToolResult r = runTool(SINEW_COHORT, {"slurm", path("learn.csv"), "--model", path("touching"), "-o", cohort,
+                                                "--learn-collision-shares", "1", "--no-submit"});
+    QVERIFY2(r.code == 0, qPrintable(r.err + r.out));
+    QVERIFY2(r.out.contains("1 of 1 labelled subjects to run"), qPrintable(r.out));
+    QVERIFY(readText(cohort + "/learning/slurm/array.sbatch").contains("subjects=('s1')\n"));
+    const QString followUp = readText(cohort + "/learning/slurm/follow-up.sbatch");
+    QVERIFY2(followUp.contains("cd '" + QDir::currentPath() + "' || exit 1\n") && followUp.contains(" 'slurm' '" + path("learn.csv") + "'") &&
+                 followUp.contains(" '--learn-collision-shares' '1' '--no-submit' '--after-learning'\n"),
+             qPrintable(followUp));
+    QVERIFY(!QFile::exists(cohort + "/slurm/array.sbatch") && !QFile::exists(cohort + "/cohort.json"));
+  }
+
   void slurmJobArray() {
     const ToolResult start = runTool("bash", {SLURM_LOCAL, "start", path("slurm-daemons")});
     if (start.code == 77) QSKIP(qPrintable("no local Slurm: " + start.err.trimmed()));
@@ -348,6 +364,22 @@ private slots:
     bool named = false;
     for (const QString& l : logs) named = named || readText(cohort + "/slurm/logs/" + l).contains("subject missing: failed");
     QVERIFY(named);
+
+    // Shares learned first: the learning array, its follow-up job (which learns, then submits the
+    // cohort's array and report), the cohort's scenes with the shares.
+    const QString learn = path("slurm-learn");
+    r = runTool(SINEW_COHORT, {"slurm", path("learn.csv"), "--model", path("touching"), "-o", learn, "--learn-collision-shares", "1",
+                               "--collision-shares-min-contacts", "10", "--cpus-per-task", "1", "--mem", "500M", "--backend", "cpu"});
+    QVERIFY2(r.code == 0 && r.out.contains("submitted follow-up job"), qPrintable(r.err + r.out));
+    const QString learnDone = learn + "/report/cohort_report.json";
+    for (int i = 0; i < 600 && !QFile::exists(learnDone); ++i) QThread::msleep(500);
+    QVERIFY2(QFile::exists(learnDone), qPrintable("no report after 300 s; logs in " + learn + "/learning/slurm/logs"));
+    QCOMPARE(readJson(learnDone)["completed"].toInt(), 3);
+    const QJsonArray shares = readJson(learn + "/learning/shares.json")["collision_shares"].toArray();
+    QCOMPARE(shares.size(), 1);
+    QCOMPARE(shares, readJson(path("learn/learning/shares.json"))["collision_shares"].toArray());  // as learned locally
+    for (const QString id : {"u", "s1", "s2"})
+      QCOMPARE(readJson(learn + "/subjects/" + id + "/scene.json")["collision_shares"].toArray(), shares);
   }
 
   void cleanupTestCase() {
