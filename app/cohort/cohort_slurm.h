@@ -33,7 +33,8 @@ struct SlurmJobs {
 
 // Writes DIR/slurm/array.sbatch (only the subjects not done) and DIR/slurm/report.sbatch (or
 // follow-up.sbatch, with options.followUp), and submits them (sbatch --parsable; the second with
-// --dependency=afterany on the array). Logs go to DIR/slurm/logs. Throws InputError naming sbatch's message when a submission is refused.
+// --dependency=afterany on the array). Logs go to DIR/slurm/logs. Throws InputError naming
+// sbatch's message when a submission is refused.
 SlurmJobs writeSlurmJobs(const Cohort& cohort, const SlurmOptions& options);
 
 // Slurm's array syntax for indices: "0-3,7,9-11".
