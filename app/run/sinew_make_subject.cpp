@@ -3,6 +3,8 @@
 // smooth B-spline warp) and the image gets a bias field, a gamma change and Rician noise. One RNG
 // draws everything in a fixed order, so a seed gives byte-identical outputs. ITK only: no
 // sinew_core, so it can make data for any test without the engine.
+#include "nifti_sform.h"
+
 #include <itkAffineTransform.h>
 #include <itkBSplineTransform.h>
 #include <itkCastImageFilter.h>
@@ -15,6 +17,7 @@
 #include <itkMetaImageIOFactory.h>
 #include <itkMinimumMaximumImageCalculator.h>
 #include <itkNearestNeighborInterpolateImageFunction.h>
+#include <itkNiftiImageIO.h>
 #include <itkNiftiImageIOFactory.h>
 #include <itkNrrdImageIOFactory.h>
 #include <itkResampleImageFilter.h>
@@ -77,7 +80,15 @@ typename TImage::Pointer readVolume(const std::string& path, itk::IOComponentEnu
   } catch (const itk::ExceptionObject& e) {
     throw std::runtime_error(path + ": cannot read (" + std::string(e.GetDescription()) + ")");
   }
-  return reader->GetOutput();
+  typename TImage::Pointer image = reader->GetOutput();
+  image->DisconnectPipeline();
+  // Placed as Sinew's image IO places it (its sform where ITK took a qform that differs).
+  if (dynamic_cast<itk::NiftiImageIO*>(io.GetPointer()))
+    if (const auto sform = sinew::nifti::sformPlacement(path, image->GetSpacing())) {
+      image->SetOrigin(sform->origin);
+      image->SetDirection(sform->direction);
+    }
+  return image;
 }
 
 // Writes through ITK (which picks the format by extension, hence the ".nii.gz" suffix) into a

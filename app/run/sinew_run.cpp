@@ -74,22 +74,25 @@ std::string cell(double v, int width, int precision = 3) {
 }
 
 void printTable(const RunReport& r) {
+  // The name column fits the longest name (the JHU atlas has names of 40 characters and more).
+  int w = 22;
+  for (const StructureResult& s : r.structures) w = std::max(w, int(s.name.size()));
   if (!r.hasGroundTruth()) {
     // Without a ground truth the run reports how far it still moves and how hard it is pushed.
-    std::printf("%-22s %9s %16s %12s %9s\n", "structure", "vertices", "displacement mm", "mean force", "image fit");
+    std::printf("%-*s %9s %16s %12s %9s\n", w, "structure", "vertices", "displacement mm", "mean force", "image fit");
     const size_t n = r.structures.size();
     for (size_t i = 0; i < n && r.timeline.size() >= n; ++i) {
       const TimelineSample& t = r.timeline[r.timeline.size() - n + i];
-      std::printf("%-22s %9d %16.4f %12.4f %s\n", r.structures[i].name.c_str(), r.structures[i].vertices,
+      std::printf("%-*s %9d %16.4f %12.4f %s\n", w, r.structures[i].name.c_str(), r.structures[i].vertices,
                   t.meanDisplacementMm, t.meanForce, cell(r.structures[i].imageFit, 9).c_str());
     }
   } else {
-    std::printf("%-22s %9s %11s %11s %10s %8s %8s %8s %9s\n", "structure", "vertices", "ASSD model", "ASSD start",
+    std::printf("%-*s %9s %11s %11s %10s %8s %8s %8s %9s\n", w, "structure", "vertices", "ASSD model", "ASSD start",
                 "ASSD end", "Dice 0", "Dice", "HD95", "image fit");
     double sums[7] = {0, 0, 0, 0, 0, 0, 0};
     int n = 0;
     for (const StructureResult& s : r.structures) {
-      std::printf("%-22s %9d %s %s %s %s %s %s %s\n", s.name.c_str(), s.vertices, cell(s.assdModelMm, 11).c_str(),
+      std::printf("%-*s %9d %s %s %s %s %s %s %s\n", w, s.name.c_str(), s.vertices, cell(s.assdModelMm, 11).c_str(),
                   cell(s.assdInitialMm, 11).c_str(), cell(s.assdFinalMm, 10).c_str(), cell(s.diceInitial, 8).c_str(),
                   cell(s.dice, 8).c_str(), cell(s.hd95Mm, 8).c_str(), cell(s.imageFit, 9).c_str());
       if (std::isnan(s.assdFinalMm)) continue;
@@ -98,7 +101,7 @@ void printTable(const RunReport& r) {
       ++n;
     }
     if (n > 0)
-      std::printf("%-22s %9s %s %s %s %s %s %s %s\n", "mean", "", cell(sums[0] / n, 11).c_str(), cell(sums[1] / n, 11).c_str(),
+      std::printf("%-*s %9s %s %s %s %s %s %s %s\n", w, "mean", "", cell(sums[0] / n, 11).c_str(), cell(sums[1] / n, 11).c_str(),
                   cell(sums[2] / n, 10).c_str(), cell(sums[3] / n, 8).c_str(), cell(sums[4] / n, 8).c_str(),
                   cell(sums[5] / n, 8).c_str(), cell(sums[6] / n, 9).c_str());
   }

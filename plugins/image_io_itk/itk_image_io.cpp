@@ -5,6 +5,7 @@
 #include "itk_convert.h"
 #include "itk_registration.h"
 #include "itk_transforms.h"
+#include "nifti_sform.h"
 #include "sinew/core/registry.h"
 
 #include <itkGDCMImageIO.h>
@@ -496,13 +497,24 @@ Volume<Pixel> readNonSeries(const fs::path& path) {
     reader->UpdateOutputInformation();
   }
   ImageType* image = reader->GetOutput();
-  Volume<Pixel> volume(geometryOf(*image));
-  if ((extension == ".nii" || extension == ".nii.gz") && readNiftiInSlabs(*reader, volume)) return volume;
+  const bool nifti = extension == ".nii" || extension == ".nii.gz";
+  ImageGeometry geometry = geometryOf(*image);
+  if (nifti) {
+    const auto lock = niftiLock(extension);
+    if (const auto sform = nifti::sformPlacement(path.string(), image->GetSpacing()))
+      for (int a = 0; a < 3; ++a) {
+        geometry.origin[a] = sform->origin[a];
+        for (int b = 0; b < 3; ++b) geometry.direction(a, b) = sform->direction[a][b];
+      }
+  }
+  Volume<Pixel> volume(geometry);
+  if (nifti && readNiftiInSlabs(*reader, volume)) return volume;
   image->SetRequestedRegionToLargestPossibleRegion();
   image->GetPixelContainer()->SetImportPointer(volume.voxels().data(), volume.voxels().size(), false);
   reader->Update();
   // ITK kept the buffer it was given unless its pipeline chose otherwise; then the voxels are copied.
-  if (image->GetBufferPointer() != volume.voxels().data()) return toVolume<Pixel>(*image);
+  if (image->GetBufferPointer() != volume.voxels().data())
+    std::copy_n(image->GetBufferPointer(), volume.voxels().size(), volume.voxels().data());
   return volume;
 }
 

@@ -1,11 +1,12 @@
-// The ITK image IO plugin: formats, physical space (LPS inside, RAS in NIfTI files), anisotropic
-// voxels, DICOM series, and refusals of bad files.
+// The ITK image IO plugin: formats, physical space (LPS inside, RAS in NIfTI files, the sform over
+// a qform that disagrees), anisotropic voxels, DICOM series, and refusals of bad files.
 #include "synthetic.h"
 
 #include <QTemporaryDir>
 #include <QtTest>
 
 #include <itkGDCMImageIO.h>
+#include <itkImageFileReader.h>
 #include <itkImageFileWriter.h>
 #include <itkImageSeriesWriter.h>
 #include <itkMetaDataObject.h>
@@ -412,6 +413,67 @@ private slots:
     f.write(reinterpret_cast<const char*>(dims), sizeof dims);
     f.close();
     expectRefusal(io(), path("small.nii"), "2^31");
+  }
+
+  // A NIfTI file whose qform and sform disagree (both codes 2, NIFTI_XFORM_ALIGNED_ANAT, as in the
+  // mricron-data atlases): the sform places it, as in FSL and nibabel, where ITK 5.2 alone takes
+  // the qform; a sform with a shear leaves ITK's placement.
+  void sformWinsOverADisagreeingQform() {
+    const Image3D im = obliqueImage();
+    io().writeImage(path("forms.nii"), im);
+    std::fstream f(path("forms.nii"), std::ios::in | std::ios::out | std::ios::binary);
+    const std::int16_t codes[2] = {2, 2};  // qform_code, sform_code
+    const float qfac = -1.0f, quaternion[6] = {0.0f, 0.0f, 0.0f, 5.0f, -7.0f, 11.0f};  // b, c, d, qoffset x, y, z
+    f.seekp(76);
+    f.write(reinterpret_cast<const char*>(&qfac), sizeof qfac);
+    f.seekp(252);
+    f.write(reinterpret_cast<const char*>(codes), sizeof codes);
+    f.write(reinterpret_cast<const char*>(quaternion), sizeof quaternion);
+    f.close();
+    using ItkImage = itk::Image<float, 3>;
+    const auto itkPlaced = [&](const char* name) {
+      auto reader = itk::ImageFileReader<ItkImage>::New();
+      reader->SetFileName(path(name).string());
+      reader->UpdateOutputInformation();
+      return Eigen::Vector3d(reader->GetOutput()->GetOrigin()[0], reader->GetOutput()->GetOrigin()[1],
+                             reader->GetOutput()->GetOrigin()[2]);
+    };
+    // The premise: ITK alone places it by the qform (origin (-5, 7, 11) in LPS).
+    QVERIFY2((itkPlaced("forms.nii") - Eigen::Vector3d(-5.0, 7.0, 11.0)).norm() < 1e-4, "ITK took the sform itself");
+    expectSameSpace(im, io().readImage(path("forms.nii")));
+
+    // A sheared sform: not a placement ITK can hold, so the qform's stays.
+    f.open(path("forms.nii"), std::ios::in | std::ios::out | std::ios::binary);
+    float srowX[4];
+    f.seekg(280);
+    f.read(reinterpret_cast<char*>(srowX), sizeof srowX);
+    srowX[1] += 0.5f;  // x also grows with j
+    f.seekp(280);
+    f.write(reinterpret_cast<const char*>(srowX), sizeof srowX);
+    f.close();
+    QVERIFY((io().readImage(path("forms.nii")).geometry().origin - itkPlaced("forms.nii")).norm() < 1e-4);
+  }
+
+  // The JHU white-matter atlas of mricron-data: its qform flips z, its sform (MNI space, as ch2's)
+  // does not. Read by its sform it lies where ch2's brain is.
+  void mricronAtlasesLieInMniSpace() {
+    const fs::path jhu = "/usr/share/mricron/templates/JHU-WhiteMatter-labels-1mm.nii.gz";
+    if (!fs::exists(jhu)) QSKIP("mricron-data is not installed");
+    const LabelVolume labels = io().readLabels(jhu);
+    QVERIFY((labels.geometry().origin - Eigen::Vector3d(91.0, 126.0, -72.0)).norm() < 1e-4);
+    QVERIFY((labels.geometry().direction - Eigen::Vector3d(-1.0, -1.0, 1.0).asDiagonal().toDenseMatrix()).norm() < 1e-6);
+    // The genu of the corpus callosum (label 3): in front of the origin, above it, on the midline.
+    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+    int count = 0;
+    const auto& g = labels.geometry();
+    for (int k = 0; k < g.size[2]; ++k)
+      for (int j = 0; j < g.size[1]; ++j)
+        for (int i = 0; i < g.size[0]; ++i)
+          if (labels.at(i, j, k) == 3) sum += labels.indexToWorld(Vec3(float(i), float(j), float(k))).cast<double>(), ++count;
+    QVERIFY(count > 1000);
+    const Eigen::Vector3d centre = sum / count;  // LPS: anterior is -y
+    QVERIFY2(std::abs(centre.x()) < 5.0 && centre.y() < -10.0 && centre.z() > 0.0,
+             qPrintable(QString("genu at %1 %2 %3").arg(centre.x()).arg(centre.y()).arg(centre.z())));
   }
 
   void refusesTwoDimensionalImages() {
