@@ -84,6 +84,8 @@ int main(int argc, char** argv) {
         const auto extent = extents.find(e.value);
         BuiltModel b = buildModelFromLabel(registry, labels, atlas, e.value, e.name, coarseSpacing, levels, executor,
                                            extent == extents.end() ? nullptr : &extent->second);
+        if (const std::string note = b.partNote(e.name, e.value); !note.empty())
+          std::fprintf(stderr, "sinew-build-model: note: %s\n", note.c_str());
         model.structures.push_back({e.name, e.value, std::move(b.levels), std::move(b.positions)});
       }
     } else {

@@ -104,7 +104,20 @@ BuiltModel buildModelFromLabel(const Registry& registry, const LabelVolume& labe
   } catch (const InputError& e) {
     throw InputError(file.string() + ": structure '" + name + "': " + e.what());
   }
-  return buildModel(coarse, surface, levelCount, executor);
+  BuiltModel built = buildModel(coarse, surface, levelCount, executor);
+  // The label's voxels against what the surface (its largest connected part) encloses.
+  const double voxels = extent ? double(extent->count)
+                               : double(std::count(labels.voxels().begin(), labels.voxels().end(), label));
+  const double labelVolume = voxels * std::abs(labels.geometry().indexToWorldMatrix().determinant());
+  if (labelVolume > 0.0) built.labelShareEnclosed = std::abs(surface.volume()) / labelVolume;
+  return built;
+}
+
+std::string BuiltModel::partNote(const std::string& name, int label) const {
+  if (!(labelShareEnclosed < kWholeLabel)) return {};
+  return "structure '" + name + "': label " + std::to_string(label) + " is in parts apart from each other; its model is the " +
+         "largest, " + std::to_string(int(std::lround(100.0 * labelShareEnclosed))) + " % of the label's volume, while " +
+         "a ground truth of the label is all of it";
 }
 
 BuiltModel buildModelFromMesh(const TriangleMesh& mesh, const std::filesystem::path& file, int levelCount,

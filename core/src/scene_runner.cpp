@@ -260,6 +260,8 @@ void SceneRunner::load() {
       BuiltModel model = d.reference.mesh ? buildModelFromMesh(registry_.meshIOFor(*d.reference.mesh).read(*d.reference.mesh),
                                                                *d.reference.mesh, levels, L.sim->executor())
                                           : std::move(*builtFromLabel[i]);
+      if (!d.reference.mesh)
+        if (const std::string note = model.partNote(d.name, d.reference.label->label); !note.empty()) log(note);
       spec.levels = std::move(model.levels);
       spec.referencePositions = model.positions[0];
       spec.finerReferences.assign(model.positions.begin() + 1, model.positions.end());

@@ -379,16 +379,15 @@ TriangleMesh labelSurface(const LabelVolume& labels, std::int32_t label, const L
       return std::clamp(1.0 - f * double(opt.targetTriangles) / double(cells), 0.0, 0.99);
     };
     std::optional<TriangleMesh> decimated = decimatedClosed(plainCopy(plain), reduction(factors[0], surface.cells));
-    if (!decimated) {
-      // The other attempts side by side, in their order: the first that holds is taken, so the
-      // result is that of trying them one after another (a label of the Harvard-Oxford atlas
-      // tried 15 on 76,664 triangles, 8 s on two cores). Each decimates its own copy of its surface.
-      MaskSurface blurred[2];
-      const vtkSmartPointer<vtkPolyData> inputs[3] = {
-          plainCopy(plain), plainCopy(blurred[0].build(labels, label, lo, hi, opt.smoothingIterations, 1.0)),
-          plainCopy(blurred[1].build(labels, label, lo, hi, opt.smoothingIterations, 2.0))};
-      const vtkIdType cells[3] = {surface.cells, blurred[0].cells, blurred[1].cells};
-      const int n = 3 * int(std::size(factors)) - 1;  // every (surface, factor) but the first
+    // The other targets side by side, a surface at a time, in their order: the first that holds is
+    // taken, so the result is that of trying them one after another (a label of the Harvard-Oxford
+    // atlas went through 15 targets on 76,664 triangles). Each decimates its own copy.
+    MaskSurface blurred;
+    for (int stage = 0; stage < 3 && !decimated; ++stage) {
+      const vtkSmartPointer<vtkPolyData> input =
+          plainCopy(stage == 0 ? plain : blurred.build(labels, label, lo, hi, opt.smoothingIterations, double(stage)));
+      const vtkIdType cells = stage == 0 ? surface.cells : blurred.cells;
+      const int skip = stage == 0 ? 1 : 0, n = int(std::size(factors)) - skip;  // the first target was tried
       std::vector<std::optional<TriangleMesh>> results(static_cast<size_t>(n));
       std::atomic<int> first{n};
       // Isolated: while it waits, this thread (which holds vtkWorkMutex shared) takes no other
@@ -396,10 +395,9 @@ TriangleMesh labelSurface(const LabelVolume& labels, std::int32_t label, const L
       tbb::this_task_arena::isolate([&] {
         tbb::parallel_for(0, n, [&](int k) {
           if (k > first.load()) return;  // one before it held
-          const int input = (k + 1) / int(std::size(factors)), f = (k + 1) % int(std::size(factors));
           vtkNew<vtkPolyData> copy;
-          copy->DeepCopy(inputs[input]);
-          results[size_t(k)] = decimatedClosed(copy, reduction(factors[f], cells[input]));
+          copy->DeepCopy(input);
+          results[size_t(k)] = decimatedClosed(copy, reduction(factors[k + skip], cells));
           if (results[size_t(k)])
             for (int seen = first.load(); k < seen && !first.compare_exchange_weak(seen, k);) {
             }

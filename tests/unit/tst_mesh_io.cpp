@@ -141,6 +141,29 @@ private slots:
     QVERIFY_THROWS_EXCEPTION(InputError, io().labelSurface(labels, 9, {}));
   }
 
+  // A label in two balls apart (a parcel of both hemispheres, as in the AICHA atlas): its model is
+  // the larger ball, and the model says how much of the label that is; one ball says nothing.
+  void labelsInPartsAreNamed() {
+    ImageGeometry g;
+    g.size = {60, 30, 30};
+    LabelVolume labels(g, 0);
+    const auto ball = [&](Vec3 centre, float radius) {
+      for (int k = 0; k < 30; ++k)
+        for (int j = 0; j < 30; ++j)
+          for (int i = 0; i < 60; ++i)
+            if ((Vec3(i, j, k) - centre).norm() < radius) labels.at(i, j, k) = 7;
+    };
+    ball(Vec3(15, 15, 15), 8.0f);
+    const BuiltModel whole = buildModelFromLabel(builtinRegistry(), labels, "balls.nii", 7, "s", 4.0, 2, Executor(2));
+    QVERIFY2(whole.labelShareEnclosed > 0.9 && whole.labelShareEnclosed < 1.1, qPrintable(QString::number(whole.labelShareEnclosed)));
+    QVERIFY(whole.partNote("s", 7).empty());
+    ball(Vec3(45, 15, 15), 7.0f);  // 0.67 of the first's volume
+    const BuiltModel parts = buildModelFromLabel(builtinRegistry(), labels, "balls.nii", 7, "s", 4.0, 2, Executor(2));
+    QVERIFY2(std::abs(parts.labelShareEnclosed - 512.0 / (512.0 + 343.0)) < 0.05, qPrintable(QString::number(parts.labelShareEnclosed)));
+    const QString note = QString::fromStdString(parts.partNote("s", 7));
+    QVERIFY2(note.contains("label 7 is in parts") && note.contains(" 60 %"), qPrintable(note));
+  }
+
   // Labels whose decimated surface folds at every quadric target (thin, convoluted cortical regions
   // of the Colin27 atlas) still reach about the target, as closed manifolds: the coarse level of a
   // model built from them. Before the blurred-mask fallback, Precuneus_L's coarse mesh kept 6,760

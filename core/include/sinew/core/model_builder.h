@@ -7,11 +7,19 @@
 #include "sinew/core/level_of_detail.h"
 #include "sinew/core/registry.h"
 
+#include <string>
+
 namespace sinew {
 
 struct BuiltModel {
   LevelHierarchy levels;
   std::vector<std::vector<Vec3>> positions;  // per level, on the surface
+  // From a label: the share of the label's volume inside the model's surface. A label in parts
+  // apart from each other (a parcel of both hemispheres) is modelled by its largest part, one
+  // closed surface, while its ground truth is all of it; partNote() says so below kWholeLabel.
+  double labelShareEnclosed = 1.0;
+  static constexpr double kWholeLabel = 0.8;
+  std::string partNote(const std::string& name, int label) const;
 };
 
 // coarse: the closed triangle mesh whose dual is level 0; surface: where vertices must lie.
