@@ -2,6 +2,7 @@
 
 #include "sinew/core/types.h"
 
+#include <charconv>
 #include <fstream>
 #include <sstream>
 
@@ -28,6 +29,19 @@ const LabelEntry& findLabel(const std::vector<LabelEntry>& list, const std::stri
   for (const auto& e : list)
     if (e.name == key || std::to_string(e.value) == key) return e;
   throw InputError(file.string() + ": no label named or numbered '" + key + "'");
+}
+
+std::vector<LabelEntry> unnamedLabels(const std::vector<std::string>& keys) {
+  std::vector<LabelEntry> out;
+  for (const std::string& key : keys) {
+    int value = 0;
+    const auto [end, error] = std::from_chars(key.data(), key.data() + key.size(), value);
+    if (error != std::errc() || end != key.data() + key.size() || std::to_string(value) != key)
+      throw InputError("--structures: '" + key + "' is not a label value; without --labels (a list naming the atlas's " +
+                       "labels) give the structures as label values, such as 37,38");
+    out.push_back({value, "label_" + key});
+  }
+  return out;
 }
 
 std::vector<std::string> splitList(const std::string& s) {

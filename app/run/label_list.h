@@ -17,6 +17,9 @@ struct LabelEntry {
 std::vector<LabelEntry> readLabelList(const std::filesystem::path& path);
 // The entry whose name or value is `key`; throws InputError naming the list otherwise.
 const LabelEntry& findLabel(const std::vector<LabelEntry>& list, const std::string& key, const std::filesystem::path& file);
+// For an atlas without a label list (Harvard-Oxford's, Brodmann's): each key must be a label value
+// ("37"), named "label_37"; throws InputError naming the first key that is not.
+std::vector<LabelEntry> unnamedLabels(const std::vector<std::string>& keys);
 // "a,b,,c" -> {"a", "b", "c"}.
 std::vector<std::string> splitList(const std::string& s);
 

@@ -34,7 +34,8 @@ int main(int argc, char** argv) {
   double coarseSpacing = 4.0;
   bool quiet = false;
   cli.add_option("--atlas", atlas, "atlas label map (the reference shapes)");
-  cli.add_option("--labels", labelList, "label list of the atlas, 'value name' per line");
+  cli.add_option("--labels", labelList,
+                 "label list of the atlas, 'value name' per line (without it, --structures are label values, named label_VALUE)");
   cli.add_option("--structures", structures, "comma-separated label names or values")->capture_default_str();
   cli.add_option("--mesh", meshes, "NAME=FILE[:LABEL]: a structure from a closed triangle mesh instead (repeatable)");
   cli.add_option("--training", training, "the atlas image: profiles are trained on it, registration uses it")->required();
@@ -51,8 +52,8 @@ int main(int argc, char** argv) {
   } catch (const CLI::ParseError& e) {
     return cli.exit(e) == 0 ? 0 : 2;
   }
-  if (meshes.empty() == atlas.empty() || atlas.empty() != labelList.empty()) {
-    std::fprintf(stderr, "sinew-build-model: give either --atlas with --labels, or one or more --mesh\n");
+  if (meshes.empty() == atlas.empty() || (atlas.empty() && !labelList.empty())) {
+    std::fprintf(stderr, "sinew-build-model: give either --atlas (with --labels to name its labels), or one or more --mesh\n");
     return 2;
   }
   const auto start = std::chrono::steady_clock::now();
@@ -73,8 +74,8 @@ int main(int argc, char** argv) {
     registry.imageIOFor(training);  // a format Sinew reads, checked before the long work
     if (!atlas.empty()) {
       model.inputs.push_back(describeInput("labels", atlas));
-      model.inputs.push_back(describeInput("label_list", labelList));
-      const auto list = readLabelList(labelList);
+      if (!labelList.empty()) model.inputs.push_back(describeInput("label_list", labelList));
+      const auto list = labelList.empty() ? unnamedLabels(splitList(structures)) : readLabelList(labelList);
       log("reading " + atlas);
       const LabelVolume labels = registry.imageIOFor(atlas).readLabels(atlas);
       const auto extents = labelExtents(labels);  // one pass, not one per structure and surface

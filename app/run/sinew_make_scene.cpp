@@ -70,7 +70,8 @@ int main(int argc, char** argv) {
   std::vector<std::string> sharesFrom;
   int sharesMinContacts = 100;
   cli.add_option("--atlas", atlas, "atlas label map: reference shapes (and, in demo mode, the ground truth)");
-  cli.add_option("--labels", labelList, "label list of the atlas, 'value name' per line");
+  cli.add_option("--labels", labelList,
+                 "label list of the atlas, 'value name' per line (without it, --structures are label values, named label_VALUE)");
   cli.add_option("--model", model, "a model folder (sinew-build-model) instead of --atlas/--labels/--training; implies --subject");
   cli.add_flag("--subject", subject, "subject mode: no random perturbation, the model initialised by registration, "
                                      "a ground truth only from --ground-truth");
@@ -132,8 +133,8 @@ int main(int argc, char** argv) {
     if (!(scaleMin > 0 && scaleMin <= scaleMax)) throw sinew::InputError("--scale-min/--scale-max: need 0 < min <= max");
     subject = subject || !model.empty();
     if (iterations.empty()) iterations = subject ? kSubjectIterations : kDemoIterations;
-    if (model.empty() && (atlas.empty() || labelList.empty() || training.empty()))
-      throw sinew::InputError("give --atlas, --labels and --training, or --model");
+    if (model.empty() && (atlas.empty() || training.empty()))
+      throw sinew::InputError("give --atlas and --training (and --labels to name the atlas's labels), or --model");
     if (!model.empty() && !atlas.empty()) throw sinew::InputError("give --atlas or --model, not both");
     if (!subject && !transform.empty()) throw sinew::InputError("--transform goes with --subject or --model");
     auto absolute = [](const std::string& p) { return fs::absolute(p).lexically_normal().string(); };
@@ -155,7 +156,7 @@ int main(int argc, char** argv) {
         for (const LabelEntry& e : list) structures += (structures.empty() ? "" : ",") + e.name;
       }
     } else {
-      list = readLabelList(labelList);
+      list = labelList.empty() ? unnamedLabels(splitList(structures)) : readLabelList(labelList);
     }
     std::mt19937 rng(seed);
     std::uniform_real_distribution<double> unit(0.0, 1.0);

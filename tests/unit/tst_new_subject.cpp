@@ -472,6 +472,34 @@ private slots:
     QVERIFY(last["mean_force"].toDouble() > 0.0);
   }
 
+  // An atlas without a label list (Harvard-Oxford's, Brodmann's in mricron-data): structures given
+  // by label value are named label_VALUE; names cannot be looked up, and say so.
+  void atlasesWithoutALabelList() {
+    Result r = runTool(SINEW_BUILD_MODEL, {"--atlas", kTemplates + "aal.nii.gz", "--training", kTemplates + "ch2better.nii.gz",
+                                           "--structures", "37,41", "-o", path("unlisted-model"), "-q"});
+    QVERIFY2(r.code == 0, qPrintable(r.err));
+    const QJsonArray built = readJson(path("unlisted-model/model.json"))["structures"].toArray();
+    QCOMPARE(built.size(), 2);
+    QCOMPARE(built[0].toObject()["name"].toString(), QString("label_37"));
+    QCOMPARE(built[1].toObject()["label"].toInt(), 41);
+    r = runTool(SINEW_MAKE_SCENE, {"--atlas", kTemplates + "aal.nii.gz", "--training", kTemplates + "ch2better.nii.gz",
+                                   "--target", kTemplates + "ch2.nii.gz", "--structures", "41,37", "-o", path("unlisted.json")});
+    QVERIFY2(r.code == 0, qPrintable(r.err));
+    const QJsonArray structures = readJson(path("unlisted.json"))["structures"].toArray();
+    QCOMPARE(structures[0].toObject()["name"].toString(), QString("label_41"));
+    QCOMPARE(structures[1].toObject()["reference"].toObject()["label"].toInt(), 37);
+    r = runTool(SINEW_MAKE_SCENE, {"--atlas", kTemplates + "aal.nii.gz", "--training", kTemplates + "ch2better.nii.gz",
+                                   "--target", kTemplates + "ch2.nii.gz", "-o", path("refused.json")});
+    QCOMPARE(r.code, 3);  // the default structures are names
+    QVERIFY2(r.err.contains("'Hippocampus_L' is not a label value") && r.err.contains("--labels"), qPrintable(r.err));
+    QVERIFY(!QFile::exists(path("refused.json")));
+    r = runTool(SINEW_BUILD_MODEL, {"--atlas", kTemplates + "aal.nii.gz", "--training", kTemplates + "ch2better.nii.gz", "-o",
+                                    path("refused-model")});
+    QCOMPARE(r.code, 3);
+    QVERIFY2(r.err.contains("'Hippocampus_L' is not a label value"), qPrintable(r.err));
+    QVERIFY(!QFile::exists(path("refused-model/model.json")));
+  }
+
   void refusesWhatCannotBeInitialised() {
     // A target without information (one grey value, as a failed acquisition): the registration
     // cannot find the atlas in it and stops with exit 3, naming the stage and the metric.
