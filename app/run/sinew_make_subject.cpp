@@ -84,7 +84,7 @@ typename TImage::Pointer readVolume(const std::string& path, itk::IOComponentEnu
   image->DisconnectPipeline();
   // Placed as Sinew's image IO places it (its sform where ITK took a qform that differs).
   if (dynamic_cast<itk::NiftiImageIO*>(io.GetPointer()))
-    if (const auto sform = sinew::nifti::sformPlacement(path, image->GetSpacing())) {
+    if (const auto sform = sinew::nifti::sformPlacement(path, image->GetSpacing(), {image->GetOrigin(), image->GetDirection()})) {
       image->SetOrigin(sform->origin);
       image->SetDirection(sform->direction);
     }

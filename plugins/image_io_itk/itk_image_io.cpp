@@ -501,7 +501,7 @@ Volume<Pixel> readNonSeries(const fs::path& path) {
   ImageGeometry geometry = geometryOf(*image);
   if (nifti) {
     const auto lock = niftiLock(extension);
-    if (const auto sform = nifti::sformPlacement(path.string(), image->GetSpacing()))
+    if (const auto sform = nifti::sformPlacement(path.string(), image->GetSpacing(), {image->GetOrigin(), image->GetDirection()}))
       for (int a = 0; a < 3; ++a) {
         geometry.origin[a] = sform->origin[a];
         for (int b = 0; b < 3; ++b) geometry.direction(a, b) = sform->direction[a][b];

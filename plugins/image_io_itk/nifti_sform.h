@@ -26,8 +26,10 @@ struct Placement {
   itk::Matrix<double, 3, 3> direction;  // columns: the voxel axes in LPS
 };
 
-// The placement path's sform gives (nullopt: keep ITK's), for voxels of `spacing`.
-inline std::optional<Placement> sformPlacement(const std::string& path, const itk::Vector<double, 3>& spacing) {
+// The placement path's sform gives, for voxels of `spacing`, where it differs from ITK's `read`
+// (by more than 1e-3 mm or 1e-4 in a direction); nullopt: keep ITK's, to the bit.
+inline std::optional<Placement> sformPlacement(const std::string& path, const itk::Vector<double, 3>& spacing,
+                                               const Placement& read) {
   nifti_image* header = nifti_image_read(path.c_str(), 0);  // the header only
   if (!header) return std::nullopt;
   const int code = header->sform_code;
@@ -50,6 +52,12 @@ inline std::optional<Placement> sformPlacement(const std::string& path, const it
       if (!(std::abs(dot - (a == b ? 1.0 : 0.0)) <= 1e-4)) return std::nullopt;
     }
   for (int r = 0; r < 3; ++r) p.origin[r] = lps[r] * double(m.m[r][3]);
+  bool differs = false;
+  for (int r = 0; r < 3; ++r) {
+    differs |= !(std::abs(p.origin[r] - read.origin[r]) <= 1e-3);
+    for (int c = 0; c < 3; ++c) differs |= !(std::abs(p.direction[r][c] - read.direction[r][c]) <= 1e-4);
+  }
+  if (!differs) return std::nullopt;
   return p;
 }
 
