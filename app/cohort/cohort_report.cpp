@@ -161,6 +161,18 @@ CohortReport gatherReport(const Cohort& cohort) {
     rep.subjects.push_back(std::move(row));
   }
   setRegistrationLimit(rep);
+  // The learned shares, where the cohort's scenes were made from the template that holds them.
+  std::ifstream prepared(cohort.dir / "cohort.json");
+  const Json c = Json::parse(prepared, nullptr, false);
+  std::ifstream learned(cohort.dir / "learning" / "shares.json");
+  const Json l = Json::parse(learned, nullptr, false);
+  if (c.is_object() && c.value("template", std::string()) == (cohort.dir / "template-shares.json").string() && l.is_object())
+    try {
+      rep.sharesLearnedFrom = l.at("from").get<std::vector<std::string>>();
+      rep.sharesLearnedPairs = int(l.at("collision_shares").size());
+    } catch (const Json::exception&) {
+      rep.sharesLearnedFrom.clear();  // a damaged record: the report says nothing of it
+    }
   return rep;
 }
 
@@ -250,6 +262,9 @@ void writeReport(const Cohort& cohort, const CohortReport& rep) {
                                     {"outliers", outliers}}},
                   {"poor_image_fit", {{"below", kPoorImageFit}, {"subjects", poorFits}}},
                   {"subject_wall_seconds", statsJson(statistics(wall))},
+                  {"collision_shares_learned", rep.sharesLearnedFrom.empty()
+                                                   ? Json(nullptr)
+                                                   : Json{{"from", rep.sharesLearnedFrom}, {"pairs", rep.sharesLearnedPairs}}},
                   {"structures", perStructure}};
   writeBoxPlot(dir / "assd_boxplot.png", rep, &StructureResult::assdFinal, "Final ASSD per structure", "ASSD (mm)");
   writeBoxPlot(dir / "dice_boxplot.png", rep, &StructureResult::dice, "Dice per structure", "Dice");

@@ -44,6 +44,10 @@ struct CohortReport {
   std::vector<StructureResult> results;        // the subjects with outputs (completed or degraded)
   std::vector<std::string> structures;         // in the order first met
   int completed = 0, degraded = 0, failed = 0, pending = 0;
+  // Where the cohort was prepared from learned collision shares (--learn-collision-shares): the
+  // subjects they came from and how many pairs they share; empty otherwise.
+  std::vector<std::string> sharesLearnedFrom;
+  int sharesLearnedPairs = 0;
   // The subjects' registration metrics against the cohort's: their median, and the level above which a
   // subject's stands out (NaN with fewer than kRegistrationQuorum subjects registered).
   double registrationMedian = 0, registrationLimit = 0;

@@ -117,6 +117,12 @@ void printReport(const CohortReport& rep, const Cohort& cohort) {
     if (r.lowestImageFit < kPoorImageFit)
       std::printf("  %s: %s's image fit is %.2f (below %.2f: the image does not look as trained there): check it\n",
                   r.id.c_str(), r.lowestImageFitStructure.c_str(), r.lowestImageFit, kPoorImageFit);
+  if (!rep.sharesLearnedFrom.empty()) {
+    std::string from;
+    for (const std::string& id : rep.sharesLearnedFrom) from += (from.empty() ? "" : ", ") + id;
+    std::printf("collision shares by pair: %d pair(s) learned from %s (learning/shares.json)\n", rep.sharesLearnedPairs,
+                from.c_str());
+  }
   std::printf("report: %s\n", cohort.reportDir().string().c_str());
 }
 

@@ -55,6 +55,7 @@ class TestCohort : public QObject {
   void checkReport(const QString& cohort) {
     const QJsonObject r = readJson(cohort + "/report/cohort_report.json");
     QCOMPARE(r["subjects"].toInt(), 4);
+    QVERIFY(r["collision_shares_learned"].isNull());  // prepared without learning
     QCOMPARE(r["completed"].toInt(), 2);
     QCOMPARE(r["failed"].toInt(), 2);
     const QJsonArray failures = r["failures"].toArray();
@@ -250,6 +251,11 @@ private slots:
       QCOMPARE(readJson(cohort + "/subjects/" + id + "/scene.json")["collision_shares"].toArray(), shares);
       QVERIFY(QFile::exists(cohort + "/subjects/" + id + "/out/report.json"));
     }
+    // The report says where the shares came from.
+    const QJsonObject reported = readJson(cohort + "/report/cohort_report.json")["collision_shares_learned"].toObject();
+    QCOMPARE(reported["from"].toArray(), QJsonArray({"s1"}));
+    QCOMPARE(reported["pairs"].toInt(), 1);
+    QVERIFY2(r.out.contains("collision shares by pair: 1 pair(s) learned from s1"), qPrintable(r.out));
 
     const QString logs = readText(cohort + "/learning/subjects/s1/run.log") + readText(cohort + "/subjects/u/run.log");
     r = runTool(SINEW_COHORT, args);
