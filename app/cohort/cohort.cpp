@@ -55,14 +55,19 @@ void writeFileAtomically(const fs::path& path, const std::string& text) {
   out.commit();
 }
 
+Json readSceneTemplate(const fs::path& file) {
+  Json tmpl = readJsonFile(file);
+  if (!tmpl.is_object() || !tmpl.contains("structures") || !tmpl["structures"].is_array())
+    throw InputError(file.string() + ": not a scene (no structures); make one with sinew-make-scene --model");
+  return tmpl;
+}
+
 Cohort prepareCohort(const fs::path& manifest, const fs::path& sceneTemplate, const std::optional<fs::path>& model,
                      const fs::path& dir) {
   Cohort c;
   c.dir = fs::absolute(dir).lexically_normal();
   c.subjects = readManifest(manifest);
-  const Json tmpl = readJsonFile(sceneTemplate);
-  if (!tmpl.is_object() || !tmpl.contains("structures"))
-    throw InputError(sceneTemplate.string() + ": not a scene (no structures); make one with sinew-make-scene --model");
+  const Json tmpl = readSceneTemplate(sceneTemplate);
   if (model && !fs::exists(*model / "model.json")) throw InputError(model->string() + ": not a Sinew model (no model.json)");
   const fs::path templateDir = fs::absolute(sceneTemplate).parent_path();
 

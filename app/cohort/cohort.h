@@ -27,6 +27,9 @@ struct Subject {
 // here: such a subject fails in its own task. A malformed manifest is an InputError.
 std::vector<Subject> readManifest(const std::filesystem::path& manifest);
 
+// A scene template (a JSON object with a list of structures); an InputError naming the file otherwise.
+Json readSceneTemplate(const std::filesystem::path& file);
+
 // Every key of a scene that holds a path (docs/scene-format.md), made absolute against base.
 void absolutise(Json& scene, const std::filesystem::path& base);
 

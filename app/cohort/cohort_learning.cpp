@@ -5,7 +5,6 @@
 #include "sinew/core/plugin_loader.h"
 #include "sinew/core/types.h"
 
-#include <fstream>
 #include <iostream>
 
 namespace sinew::cohort {
@@ -13,15 +12,6 @@ namespace sinew::cohort {
 namespace fs = std::filesystem;
 
 namespace {
-
-Json readTemplate(const fs::path& file) {
-  std::ifstream in(file);
-  if (!in) throw InputError(file.string() + ": cannot open");
-  const Json j = Json::parse(in, nullptr, false);
-  if (j.is_discarded() || !j.is_object() || !j.contains("structures") || !j["structures"].is_array())
-    throw InputError(file.string() + ": not a scene (no structures); make one with sinew-make-scene --model");
-  return j;
-}
 
 // Sets the collision force's weight to 0 in one "forces" block; true where it was above 0.
 bool switchOff(Json& forces) {
@@ -48,7 +38,7 @@ bool withoutCollisions(Json& scene) {
 
 Cohort prepareLearning(const fs::path& manifest, const fs::path& sceneTemplate, const std::optional<fs::path>& model,
                        const fs::path& dir, const ShareLearning& learning) {
-  Json learningScene = readTemplate(sceneTemplate);
+  Json learningScene = readSceneTemplate(sceneTemplate);
   absolutise(learningScene, fs::absolute(sceneTemplate).parent_path());
   if (!withoutCollisions(learningScene))
     throw InputError(sceneTemplate.string() + ": --learn-collision-shares: the template has no collisions to share "
@@ -90,7 +80,7 @@ fs::path learnFromRuns(const Cohort& learners, const fs::path& sceneTemplate, co
   if (runs.empty())
     throw InputError(learners.dir.string() + ": --learn-collision-shares: no learning run completed (each subject's "
                      "run.log under subjects/ says why)");
-  Json tmpl = readTemplate(sceneTemplate);
+  Json tmpl = readSceneTemplate(sceneTemplate);
   absolutise(tmpl, fs::absolute(sceneTemplate).parent_path());
   Registry registry;
   PluginLoader plugins(registry);

@@ -378,14 +378,15 @@ TriangleMesh labelSurface(const LabelVolume& labels, std::int32_t label, const L
     const auto reduction = [&](double f, vtkIdType cells) {
       return std::clamp(1.0 - f * double(opt.targetTriangles) / double(cells), 0.0, 0.99);
     };
-    std::optional<TriangleMesh> decimated = decimatedClosed(plainCopy(plain), reduction(factors[0], surface.cells));
+    const vtkSmartPointer<vtkPolyData> plainInput = plainCopy(plain);
+    std::optional<TriangleMesh> decimated = decimatedClosed(plainInput, reduction(factors[0], surface.cells));
     // The other targets side by side, a surface at a time, in their order: the first that holds is
     // taken, so the result is that of trying them one after another (a label of the Harvard-Oxford
     // atlas went through 15 targets on 76,664 triangles). Each decimates its own copy.
     MaskSurface blurred;
     for (int stage = 0; stage < 3 && !decimated; ++stage) {
       const vtkSmartPointer<vtkPolyData> input =
-          plainCopy(stage == 0 ? plain : blurred.build(labels, label, lo, hi, opt.smoothingIterations, double(stage)));
+          stage == 0 ? plainInput : plainCopy(blurred.build(labels, label, lo, hi, opt.smoothingIterations, double(stage)));
       const vtkIdType cells = stage == 0 ? surface.cells : blurred.cells;
       const int skip = stage == 0 ? 1 : 0, n = int(std::size(factors)) - skip;  // the first target was tried
       std::vector<std::optional<TriangleMesh>> results(static_cast<size_t>(n));
