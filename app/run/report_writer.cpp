@@ -137,6 +137,7 @@ void writeReportJson(const std::filesystem::path& path, const RunReport& r, cons
                         {"structure", r.structures.empty() ? Json(t.structure) : Json(r.structures[t.structure].name)},
                         {"assd_mm", number(t.assdMm)},
                         {"hd95_mm", number(t.hd95Mm)},
+                        {"dice", number(t.dice)},
                         {"mean_displacement_mm", t.meanDisplacementMm},
                         {"mean_force", t.meanForce}});
   }
@@ -158,10 +159,11 @@ void writeReportCsv(const std::filesystem::path& path, const RunReport& r) {
 
 void writeTimelineCsv(const std::filesystem::path& path, const RunReport& r, const SceneDesc& scene) {
   std::ostringstream s;
-  s << "seconds,iteration,level,structure,assd_mm,hd95_mm,mean_displacement_mm,mean_force\n";
+  s << "seconds,iteration,level,structure,assd_mm,hd95_mm,dice,mean_displacement_mm,mean_force\n";
   for (const TimelineSample& t : r.timeline)
     s << csvNumber(t.seconds) << ',' << t.iteration << ',' << t.level << ',' << scene.structures[t.structure].name
-      << ',' << csvNumber(t.assdMm) << ',' << csvNumber(t.hd95Mm) << ',' << csvNumber(t.meanDisplacementMm) << ',' << csvNumber(t.meanForce)
+      << ',' << csvNumber(t.assdMm) << ',' << csvNumber(t.hd95Mm) << ',' << csvNumber(t.dice) << ',' << csvNumber(t.meanDisplacementMm)
+      << ',' << csvNumber(t.meanForce)
       << '\n';
   writeText(path, s.str());
 }

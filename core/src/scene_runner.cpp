@@ -413,8 +413,10 @@ void SceneRunner::sample(RunReport& report, double seconds, ExecutionBackend* ba
   const auto prev = store.previousPositions();
   const auto f = store.forces();
   const auto t0 = Clock::now();
-  const std::vector<std::optional<SurfaceDistanceStats>> error =
-      withError ? sampledError(backend) : std::vector<std::optional<SurfaceDistanceStats>>(store.meshCount());
+  std::vector<std::optional<SurfaceDistanceStats>> error(store.meshCount());
+  std::vector<double> dice(store.meshCount(), std::nan(""));
+  // The Dice on the host's threads beside the distances (which a device measures while they run).
+  if (withError) L.sim->executor().invoke([&] { error = sampledError(backend); }, [&] { dice = timelineDice(); });
   for (Index i = 0; i < store.meshCount(); ++i) {
     const MeshRange& r = store.range(i);
     TimelineSample s;
@@ -433,6 +435,7 @@ void SceneRunner::sample(RunReport& report, double seconds, ExecutionBackend* ba
     s.meanDisplacementMm = disp / r.vertexCount();
     s.meanForce = force / r.vertexCount();
     if (error[i]) s.assdMm = error[i]->assd, s.hd95Mm = error[i]->hd95;
+    s.dice = dice[i];
     report.timeline.push_back(s);
   }
   L.samplingSeconds += since(t0);
@@ -574,7 +577,8 @@ RunReport SceneRunner::run() {
   const double startScoring = startScores.get();
   const size_t structures = size_t(sim.structureCount());
   for (size_t i = 0; i < structures; ++i)  // the first sample (the start's positions)
-    report.timeline[i].assdMm = initial[i].assdFinalMm, report.timeline[i].hd95Mm = initial[i].hd95Mm;
+    report.timeline[i].assdMm = initial[i].assdFinalMm, report.timeline[i].hd95Mm = initial[i].hd95Mm,
+    report.timeline[i].dice = initial[i].dice;
   if (scoredBeside) {
     L.clock.lap("evaluate_start_wait");
     report.backgroundSeconds.emplace_back("evaluate_start", startScoring);
@@ -602,7 +606,7 @@ RunReport SceneRunner::run() {
   if (lastSampleDeferred)  // the last sample and its level's error: the end's positions
     for (size_t i = 0; i < structures; ++i) {
       TimelineSample& s = report.timeline[report.timeline.size() - structures + i];
-      s.assdMm = report.structures[i].assdFinalMm, s.hd95Mm = report.structures[i].hd95Mm;
+      s.assdMm = report.structures[i].assdFinalMm, s.hd95Mm = report.structures[i].hd95Mm, s.dice = report.structures[i].dice;
       report.stages.back().assdMm[i] = s.assdMm;
     }
   L.clock.lap("evaluate_end");

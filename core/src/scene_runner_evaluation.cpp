@@ -139,6 +139,24 @@ std::vector<std::optional<SurfaceDistanceStats>> SceneRunner::sampledError(Execu
   return L.sampled->measure(L.sim->store());
 }
 
+std::vector<double> SceneRunner::timelineDice() {
+  Loaded& L = *loaded_;
+  MeshStore& store = L.sim->store();
+  std::vector<double> dice(store.meshCount(), std::nan(""));
+  const auto x = store.positions();
+  // Structures side by side; each one's rasterisation visits only the rows its surface crosses.
+  L.sim->executor().forEach(
+      store.meshCount(),
+      [&](Index i) {
+        if (!L.truth[i]) return;
+        const auto local = store.mesh(x, i);
+        dice[i] = diceOfMesh(tessellate(store.topologyOf(i), std::vector<Vec3>(local.begin(), local.end())),
+                             *L.truthLabels[i].first, L.truthLabels[i].second, L.truthCount[i]);
+      },
+      1);
+  return dice;
+}
+
 bool SceneRunner::hasGroundTruth(Index structure) const { return loaded_->truth[structure] != nullptr; }
 
 LabelVolume SceneRunner::labelMap(const RunReport& report) const {

@@ -126,6 +126,11 @@ private slots:
       }
     qInfo("timeline: %lld samples, largest difference cpu/cuda %.2e mm", qint64(tc.size()), worst);
     QVERIFY(worst <= 1e-4);
+    // Its Dice, on the host for both (the same positions, the same meshes): the same at every sample.
+    for (int k = 0; k < tc.size(); ++k) {
+      QVERIFY(tg[k].toObject()["dice"].isDouble());
+      QCOMPARE(tg[k].toObject()["dice"].toDouble(), tc[k].toObject()["dice"].toDouble());
+    }
   }
 };
 

@@ -86,7 +86,7 @@ private slots:
     std::vector<StructureResult> exact;  // at every sample, structure by structure
     RunOptions options;
     options.progress = [&](const RunProgress&) {
-      for (Index i = 0; i < current->simulation().structureCount(); ++i) exact.push_back(current->evaluate(i, false));
+      for (Index i = 0; i < current->simulation().structureCount(); ++i) exact.push_back(current->evaluate(i, true));
     };
     SceneRunner runner(testing::builtinRegistry(), readScene(scenePath.toStdString()), options);
     current = &runner;
@@ -100,6 +100,7 @@ private slots:
       QVERIFY(std::isfinite(s.assdMm) && std::isfinite(s.hd95Mm));
       worstAssd = std::max(worstAssd, std::abs(s.assdMm - exact[k].assdFinalMm));
       worstHd95 = std::max(worstHd95, std::abs(s.hd95Mm - exact[k].hd95Mm));
+      QCOMPARE(s.dice, exact[k].dice);  // not sampled: the final result's Dice at the same positions
     }
     qInfo("%zu samples: largest difference to the exact evaluation %.4f mm (ASSD), %.4f mm (HD95)", exact.size(), worstAssd,
           worstHd95);
@@ -110,6 +111,8 @@ private slots:
     for (size_t i = 0; i < n; ++i) {
       const StructureResult& r = report.structures[i];
       QCOMPARE(report.timeline[i].assdMm, r.assdInitialMm);
+      QCOMPARE(report.timeline[i].dice, r.diceInitial);
+      QCOMPARE(report.timeline[report.timeline.size() - n + i].dice, r.dice);
       QCOMPARE(report.timeline[report.timeline.size() - n + i].assdMm, r.assdFinalMm);
       QCOMPARE(report.timeline[report.timeline.size() - n + i].hd95Mm, r.hd95Mm);
       QCOMPARE(report.stages.back().assdMm[i], r.assdFinalMm);

@@ -34,6 +34,8 @@ struct TimelineSample {
   int structure = 0;
   double assdMm = std::numeric_limits<double>::quiet_NaN();  // NaN without ground truth (sampled_error.h)
   double hd95Mm = std::numeric_limits<double>::quiet_NaN();
+  // Exact: the final result's Dice (voxelize.h's diceOfMesh) of the surface at this sample.
+  double dice = std::numeric_limits<double>::quiet_NaN();
   double meanDisplacementMm = 0.0;  // mean |x - x_prev| over the structure's vertices
   double meanForce = 0.0;           // mean |f|
 };
@@ -169,6 +171,9 @@ public:
   // truth): by the backend where it can measure on its device, else from the host store, which
   // must then be current.
   std::vector<std::optional<SurfaceDistanceStats>> sampledError(ExecutionBackend* backend = nullptr);
+  // Every structure's Dice against its ground truth at the store's current positions, as the
+  // timeline records it (NaN without a ground truth): exact, the final result's (evaluate(i, true)).
+  std::vector<double> timelineDice();
   const InitialisationResult& initialisation() const;
   // One chunk of steps under both guards (numerical and shape), as run() steps; the workstation
   // steps through this on either backend. Returns why the guard gave up ("" when the chunk ran or
