@@ -16,6 +16,7 @@
 #include <QTemporaryDir>
 #include <QtTest>
 
+#include <cmath>
 #include <csignal>
 #include <cstdlib>
 #include <cstdio>
@@ -133,6 +134,8 @@ private Q_SLOTS:
       QCOMPARE(b.simulation().iteration(), a.simulation().iteration());
       QCOMPARE(b.levelIterationsDone(), a.levelIterationsDone());
       QCOMPARE(b.timeline().size(), a.timeline().size());
+      QVERIFY(std::isfinite(a.timeline().back().dice) && a.timeline().back().dice > 0.5);  // a Colin27 scene: with truth
+      QCOMPARE(b.timeline().back().dice, a.timeline().back().dice);
       QVERIFY(b.attractionPoints(0) == a.attractionPoints(0));
       QVERIFY(b.constraintPoints(1) == a.constraintPoints(1));
       QCOMPARE(b.parameter("smoothing", 1, "weight"), 0.25);

@@ -194,6 +194,12 @@ const SessionSample& SegmentationSession::sample() {
       ++withTruth;
     }
   s.assdMm = withTruth ? assd / withTruth : std::nan("");
+  if (withTruth) {
+    double dice = 0.0;
+    for (double d : runner_->timelineDice())
+      if (!std::isnan(d)) dice += d;
+    s.dice = dice / withTruth;
+  }
   timeline_.push_back(s);
   return timeline_.back();
 }

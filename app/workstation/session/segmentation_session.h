@@ -22,6 +22,7 @@ struct SessionSample {
   long iteration = 0;
   int level = 0;
   double assdMm = 0.0;           // mean over structures with ground truth; NaN without any
+  double dice = std::numeric_limits<double>::quiet_NaN();  // the same way (exact: SceneRunner::timelineDice)
   double displacementMm = 0.0;   // mean |x - x_prev| of the last step over all vertices
 };
 

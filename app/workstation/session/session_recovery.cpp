@@ -195,7 +195,7 @@ SessionSnapshot decode(const fs::path& file, std::uint64_t id) {
 
 Json sampleJson(const SessionSample& s) {
   return Json::array({s.seconds, s.iteration, s.level, std::isfinite(s.assdMm) ? Json(s.assdMm) : Json(nullptr),
-                      s.displacementMm});
+                      s.displacementMm, std::isfinite(s.dice) ? Json(s.dice) : Json(nullptr)});
 }
 
 SessionSample sampleOf(const Json& j) {
@@ -205,6 +205,7 @@ SessionSample sampleOf(const Json& j) {
   s.level = j.at(2).get<int>();
   s.assdMm = j.at(3).is_null() ? std::nan("") : j.at(3).get<double>();
   s.displacementMm = j.at(4).get<double>();
+  if (j.size() > 5 && !j.at(5).is_null()) s.dice = j.at(5).get<double>();  // saved since 2026-12-02
   return s;
 }
 

@@ -23,10 +23,19 @@ void PlotWidget::paintEvent(QPaintEvent*) {
   QPainter p(this);
   p.setRenderHint(QPainter::Antialiasing);
   p.fillRect(rect(), palette().base());
-  const QRectF area = QRectF(rect()).adjusted(48, 10, -10, -28);
+  // With the error, the mean Dice beside it on a right-hand axis from 0 to 1.
+  const bool dice = error_ && std::any_of(samples_.begin(), samples_.end(), [](const SessionSample& s) { return std::isfinite(s.dice); });
+  const QRectF area = QRectF(rect()).adjusted(48, dice ? 20 : 10, dice ? -34 : -10, -28);
   p.setPen(palette().text().color());
   const QString yLabel = error_ ? tr("mean ASSD (mm)") : tr("mean displacement (mm/step)");
   p.drawText(QRectF(4, 0, width() - 8, 14), Qt::AlignLeft, yLabel);
+  if (dice) {
+    p.setPen(QColor(40, 110, 200));
+    p.drawText(QRectF(4, 0, width() - 8, 14), Qt::AlignRight, tr("mean Dice"));
+    p.drawText(QRectF(area.right() + 4, area.top() - 6, 30, 14), Qt::AlignLeft, "1");
+    p.drawText(QRectF(area.right() + 4, area.bottom() - 8, 30, 14), Qt::AlignLeft, "0");
+    p.setPen(palette().text().color());
+  }
   p.drawText(QRectF(area.left(), area.bottom() + 12, area.width(), 14), Qt::AlignRight, tr("simulation time (s)"));
   p.drawRect(area);
   auto value = [&](const SessionSample& s) { return error_ ? s.assdMm : s.displacementMm; };
@@ -58,6 +67,17 @@ void PlotWidget::paintEvent(QPaintEvent*) {
   for (size_t i = 1; i < pts.size(); ++i) path.lineTo(map(pts[i]->seconds, value(*pts[i])));
   p.setPen(QPen(QColor(230, 120, 40), 2));
   p.drawPath(path);
+  if (!dice) return;
+  QPainterPath dicePath;
+  bool started = false;
+  for (const SessionSample* s : pts) {
+    if (!std::isfinite(s->dice)) continue;
+    const QPointF q(map(s->seconds, 0).x(), area.bottom() - area.height() * s->dice);
+    started ? dicePath.lineTo(q) : dicePath.moveTo(q);
+    started = true;
+  }
+  p.setPen(QPen(QColor(40, 110, 200), 2));
+  p.drawPath(dicePath);
 }
 
 }  // namespace sinew

@@ -1,5 +1,6 @@
-// The live plot: mean ASSD against simulation time when ground truth is loaded, otherwise the
-// mean displacement per step (how much the meshes still move), with level changes marked.
+// The live plot: mean ASSD and mean Dice against simulation time when ground truth is loaded,
+// otherwise the mean displacement per step (how much the meshes still move), with level changes
+// marked.
 #pragma once
 
 #include "segmentation_session.h"
