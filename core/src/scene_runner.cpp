@@ -606,7 +606,8 @@ RunReport SceneRunner::run() {
   if (lastSampleDeferred)  // the last sample and its level's error: the end's positions
     for (size_t i = 0; i < structures; ++i) {
       TimelineSample& s = report.timeline[report.timeline.size() - structures + i];
-      s.assdMm = report.structures[i].assdFinalMm, s.hd95Mm = report.structures[i].hd95Mm, s.dice = report.structures[i].dice;
+      s.assdMm = report.structures[i].assdFinalMm, s.hd95Mm = report.structures[i].hd95Mm;
+      s.dice = report.structures[i].dice;
       report.stages.back().assdMm[i] = s.assdMm;
     }
   L.clock.lap("evaluate_end");

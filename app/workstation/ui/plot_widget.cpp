@@ -24,7 +24,8 @@ void PlotWidget::paintEvent(QPaintEvent*) {
   p.setRenderHint(QPainter::Antialiasing);
   p.fillRect(rect(), palette().base());
   // With the error, the mean Dice beside it on a right-hand axis from 0 to 1.
-  const bool dice = error_ && std::any_of(samples_.begin(), samples_.end(), [](const SessionSample& s) { return std::isfinite(s.dice); });
+  const bool dice =
+      error_ && std::any_of(samples_.begin(), samples_.end(), [](const SessionSample& s) { return std::isfinite(s.dice); });
   const QRectF area = QRectF(rect()).adjusted(48, dice ? 20 : 10, dice ? -34 : -10, -28);
   p.setPen(palette().text().color());
   const QString yLabel = error_ ? tr("mean ASSD (mm)") : tr("mean displacement (mm/step)");
