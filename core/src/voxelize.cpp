@@ -30,6 +30,9 @@ void insideSpans(const TriangleMesh& mesh, const ImageGeometry& grid, Span&& spa
   crossings.reserve(2 * mesh.triangles.size());
   for (const auto& t : mesh.triangles) {
     const Eigen::Vector3d &a = p[t[0]], &b = p[t[1]], &c = p[t[2]];
+    // A corner off the grid's numbers (a run that blew up, sampled before it stops) crosses no row:
+    // its crossings would be NaN, which no sort can order.
+    if (!a.allFinite() || !b.allFinite() || !c.allFinite()) continue;
     const int j0 = std::max(0, int(std::ceil(std::min({a.y(), b.y(), c.y()}) - dj)));
     const int j1 = std::min(ny - 1, int(std::floor(std::max({a.y(), b.y(), c.y()}) - dj)));
     const int k0 = std::max(0, int(std::ceil(std::min({a.z(), b.z(), c.z()}) - dk)));

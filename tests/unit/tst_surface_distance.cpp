@@ -5,6 +5,7 @@
 #include <QtTest>
 
 #include <algorithm>
+#include <cmath>
 #include <random>
 
 using namespace sinew;
@@ -216,6 +217,17 @@ private slots:
     QCOMPARE(fromMesh, fromMasks);
     QVERIFY(std::abs(fromMesh - 2.0 * 512.0 / 1512.0) < 0.01);
     QCOMPARE(diceOfMesh(icosphere(5, 10.0f), labels, 7, count), 1.0);
+    // Vertices off the numbers (a run that blew up, sampled before it stops): their triangles count
+    // as absent, as if the surface had a hole there (a cap of the sphere here), and nothing else.
+    TriangleMesh broken = inner, holed = inner;
+    std::erase_if(holed.triangles, [&](const auto& t) {
+      return inner.points[t[0]].z() > 6.0f || inner.points[t[1]].z() > 6.0f || inner.points[t[2]].z() > 6.0f;
+    });
+    for (Vec3& p : broken.points)
+      if (p.z() > 6.0f) p = Vec3::Constant(std::nanf(""));
+    const double withHole = diceOfMesh(broken, labels, 7, count);
+    QVERIFY(std::isfinite(withHole) && withHole < fromMesh);
+    QCOMPARE(withHole, diceOfMesh(holed, labels, 7, count));
   }
 };
 
