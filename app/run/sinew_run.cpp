@@ -11,6 +11,7 @@
 #include <CLI/CLI.hpp>
 #include "offscreen_qt.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -47,21 +48,40 @@ public:
       if (p.done != p.total && now - last_ < std::chrono::milliseconds(100)) return;
       last_ = now;
       const int width = 30, filled = width * percent / 100;
-      std::fprintf(stderr, "\r[%s%s] %3d%%  level %d/%d  iteration %d/%d  %.2f s ", std::string(filled, '#').c_str(),
+      std::fprintf(stderr, "\r[%s%s] %3d%%  level %d/%d  iteration %d/%d  %.2f s%s ", std::string(filled, '#').c_str(),
                    std::string(width - filled, ' ').c_str(), percent, p.level + 1, p.levelCount, p.iteration,
-                   p.levelIterations, p.seconds);
+                   p.levelIterations, p.seconds, error(p).c_str());
       if (p.done == p.total) std::fputc('\n', stderr);
     } else if (percent / 10 != lastDecile_ || p.done == p.total) {
       lastDecile_ = percent / 10;
-      std::fprintf(stderr, "progress %3d%%  level %d/%d  iteration %d/%d  %.2f s\n", percent, p.level + 1, p.levelCount,
-                   p.iteration, p.levelIterations, p.seconds);
+      std::fprintf(stderr, "progress %3d%%  level %d/%d  iteration %d/%d  %.2f s%s\n", percent, p.level + 1, p.levelCount,
+                   p.iteration, p.levelIterations, p.seconds, error(p).c_str());
     }
     std::fflush(stderr);
   }
 
 private:
+  // The sample's mean error against the ground truth, where the scene has one (none at the last
+  // sample: the end's exact evaluation, printed in the table after, scores it). On the terminal
+  // blanks cover a longer text drawn before.
+  std::string error(const RunProgress& p) {
+    std::string text;
+    if (std::isfinite(p.meanAssdMm) && std::isfinite(p.meanDice)) {
+      char buffer[64];
+      std::snprintf(buffer, sizeof buffer, "  mean ASSD %.3f mm  Dice %.3f", p.meanAssdMm, p.meanDice);
+      text = buffer;
+    }
+    if (tty_) {
+      const std::size_t drawn = text.size();
+      text.resize(std::max(text.size(), errorWidth_), ' ');
+      errorWidth_ = drawn;
+    }
+    return text;
+  }
+
   bool quiet_, tty_;
   int lastDecile_ = -1;
+  std::size_t errorWidth_ = 0;
   std::chrono::steady_clock::time_point last_{};
 };
 

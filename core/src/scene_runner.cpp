@@ -50,6 +50,19 @@ void applyParams(const SceneDesc& scene, ParamTable& table, const std::vector<st
     }
   }
 }
+
+// The last sample's mean ASSD and Dice over the structures that have them, for progress reports.
+void meanOfLastSample(const RunReport& report, Index structures, RunProgress& p) {
+  double assd = 0.0, dice = 0.0;
+  int withAssd = 0, withDice = 0;
+  for (std::size_t k = report.timeline.size() - std::size_t(structures); k < report.timeline.size(); ++k) {
+    const TimelineSample& s = report.timeline[k];
+    if (std::isfinite(s.assdMm)) assd += s.assdMm, ++withAssd;
+    if (std::isfinite(s.dice)) dice += s.dice, ++withDice;
+  }
+  if (withAssd) p.meanAssdMm = assd / withAssd;
+  if (withDice) p.meanDice = dice / withDice;
+}
 }  // namespace
 
 void sceneError(const SceneDesc& s, const std::string& where, const std::string& problem) {
@@ -562,7 +575,11 @@ RunReport SceneRunner::run() {
       done += chunk;
       lastSampleDeferred = (level + 1 == levels && it == lv.iterations) || !report.numericalFailure.empty();
       sample(report, simSeconds, backend.get(), !lastSampleDeferred);
-      if (options_.progress) options_.progress({level, levels, it, lv.iterations, done, total, simSeconds});
+      if (options_.progress) {
+        RunProgress p{level, levels, it, lv.iterations, done, total, simSeconds};
+        meanOfLastSample(report, sim.structureCount(), p);
+        options_.progress(p);
+      }
     }
     // The level's error is that of its last sample.
     for (const StabilityEvent& e : sim.stabilityEvents()) levelSeconds_.rollbacks += e.level == level && e.recovered;

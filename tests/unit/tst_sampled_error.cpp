@@ -84,8 +84,10 @@ private slots:
     QVERIFY2(r.code == 0, qPrintable(r.err));
     SceneRunner* current = nullptr;
     std::vector<StructureResult> exact;  // at every sample, structure by structure
+    std::vector<RunProgress> reports;
     RunOptions options;
-    options.progress = [&](const RunProgress&) {
+    options.progress = [&](const RunProgress& p) {
+      reports.push_back(p);
       for (Index i = 0; i < current->simulation().structureCount(); ++i) exact.push_back(current->evaluate(i, true));
     };
     SceneRunner runner(testing::builtinRegistry(), readScene(scenePath.toStdString()), options);
@@ -102,6 +104,14 @@ private slots:
       worstHd95 = std::max(worstHd95, std::abs(s.hd95Mm - exact[k].hd95Mm));
       QCOMPARE(s.dice, exact[k].dice);  // not sampled: the final result's Dice at the same positions
     }
+    // Each progress report carries its sample's means; the last sample's are the end's, scored after.
+    for (size_t g = 0; g + 1 < reports.size(); ++g) {
+      double assd = 0.0, dice = 0.0;
+      for (size_t i = 0; i < n; ++i) assd += report.timeline[(g + 1) * n + i].assdMm, dice += report.timeline[(g + 1) * n + i].dice;
+      QCOMPARE(reports[g].meanAssdMm, assd / n);
+      QCOMPARE(reports[g].meanDice, dice / n);
+    }
+    QVERIFY(std::isnan(reports.back().meanAssdMm) && std::isnan(reports.back().meanDice));
     qInfo("%zu samples: largest difference to the exact evaluation %.4f mm (ASSD), %.4f mm (HD95)", exact.size(), worstAssd,
           worstHd95);
     QVERIFY2(worstAssd <= 0.02, qPrintable(QString::number(worstAssd)));

@@ -25,6 +25,10 @@ struct RunProgress {
   int iteration = 0, levelIterations = 0;  // within the level
   long done = 0, total = 0;                // over the whole schedule
   double seconds = 0.0;                    // simulation time so far
+  // The timeline's sample just taken, averaged over the structures with a ground truth; NaN without
+  // any, and at the last sample (which the end's exact evaluation fills after the last report).
+  double meanAssdMm = std::numeric_limits<double>::quiet_NaN();
+  double meanDice = std::numeric_limits<double>::quiet_NaN();
 };
 
 struct TimelineSample {
