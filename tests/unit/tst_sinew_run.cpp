@@ -198,7 +198,8 @@ private slots:
     QCOMPARE(s["vertices"].toInt() % 4, 0);
     const QJsonArray timeline = report["timeline"].toArray();
     QVERIFY(timeline.size() > 5);
-    for (const char* key : {"seconds", "iteration", "level", "structure", "assd_mm", "dice"}) QVERIFY(timeline[0].toObject().contains(key));
+    for (const char* key : {"seconds", "iteration", "level", "structure", "assd_mm", "dice"})
+      QVERIFY(timeline[0].toObject().contains(key));
     QCOMPARE(timeline.last()["dice"].toDouble(), s["dice"].toDouble());  // the curve ends on the table's Dice
     // Each level's seconds split into its steps and the guards' checks, its set-up beside them;
     // only a level after the first has a set-up, and the parts never add up to more than the level
