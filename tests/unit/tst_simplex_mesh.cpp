@@ -65,6 +65,46 @@ void checkInvariants(const SimplexTopology& t) {
   for (int n : cellsPerVertex) QCOMPARE(n, 3);
 }
 
+std::vector<int> valences(const TriangleMesh& m) {
+  std::vector<int> v(m.points.size(), 0);
+  for (const auto& t : m.triangles)
+    for (Index i : t) ++v[i];  // a closed mesh: as many triangles as edges at each vertex
+  return v;
+}
+
+// Flips edge (a, b) between the triangle holding a -> b and the one holding b -> a.
+void flipEdge(TriangleMesh& m, Index a, Index b) {
+  int t0 = -1, t1 = -1, k0 = 0, k1 = 0;
+  for (int t = 0; t < int(m.triangles.size()); ++t)
+    for (int k = 0; k < 3; ++k) {
+      if (m.triangles[t][k] == a && m.triangles[t][(k + 1) % 3] == b) t0 = t, k0 = k;
+      if (m.triangles[t][k] == b && m.triangles[t][(k + 1) % 3] == a) t1 = t, k1 = k;
+    }
+  const Index c = m.triangles[t0][(k0 + 2) % 3], d = m.triangles[t1][(k1 + 2) % 3];
+  m.triangles[t0] = {a, d, c};
+  m.triangles[t1] = {d, b, c};
+}
+
+// An icosphere of 642 points, one of whose points of valence 6 is raised to 9 or 10 by flipping
+// edges opposite it (what a decimation leaves behind, on a smooth surface); its neighbours keep
+// valences of 5 or more.
+constexpr Index kRaised = 100;
+TriangleMesh sphereWithARaisedValence() {
+  TriangleMesh m = icosphere(3);
+  for (bool flipped = true; flipped && valences(m)[kRaised] < 10;) {
+    flipped = false;
+    const auto val = valences(m);
+    for (const auto& t : m.triangles) {
+      const int k = int(std::find(t.begin(), t.end(), kRaised) - t.begin());
+      if (k == 3 || val[t[(k + 1) % 3]] < 6 || val[t[(k + 2) % 3]] < 6) continue;
+      flipEdge(m, t[(k + 1) % 3], t[(k + 2) % 3]);
+      flipped = true;
+      break;
+    }
+  }
+  return m;
+}
+
 void expectRefusal(const TriangleMesh& m, const QString& needle1, const QString& needle2) {
   try {
     SimplexTopology::dualOf(m);
@@ -143,6 +183,38 @@ private slots:
     const SimplexTopology again = SimplexTopology::dualOf(back);
     QCOMPARE(again.neighbours, s.topology.neighbours);
     QCOMPARE(again.cellVertices, s.topology.cellVertices);
+  }
+
+  // Model building lowers a decimated surface's high valences before taking its dual: the cell of
+  // 9 or 10 vertices becomes cells of at most 7, the mesh stays valid and keeps its points and volume.
+  void lowerHighValencesSplitsALargeCell() {
+    TriangleMesh m = sphereWithARaisedValence();
+    QVERIFY(valences(m)[kRaised] >= 9);
+    const TriangleMesh before = m;
+    QVERIFY(lowerHighValences(m) > 0);
+    const std::vector<int> after = valences(m);
+    QVERIFY2(*std::max_element(after.begin(), after.end()) <= 7, "a valence of 8 or more is left");
+    QVERIFY(*std::min_element(after.begin(), after.end()) >= 4);
+    validateClosedManifold(m);
+    QCOMPARE(m.triangles.size(), before.triangles.size());
+    QVERIFY(m.points == before.points);
+    QVERIFY(std::abs(m.volume() / before.volume() - 1.0) < 1e-3);
+    QCOMPARE(triangleEuler(m), 2);
+    const SimplexTopology dual = SimplexTopology::dualOf(m);
+    checkInvariants(dual);
+    for (Index c = 0; c < dual.cellCount(); ++c) QVERIFY(dual.cellOffsets[c + 1] - dual.cellOffsets[c] <= 7);
+  }
+
+  // Across a crease a flip would cut into the shape: the raised point pulled out into a spike,
+  // whose neighbouring triangles are far from coplanar, keeps its edges.
+  void lowerHighValencesKeepsCreases() {
+    TriangleMesh m = sphereWithARaisedValence();
+    m.points[kRaised] *= 3.0f;
+    const TriangleMesh before = m;
+    QCOMPARE(lowerHighValences(m), 0);
+    QVERIFY(m.triangles == before.triangles);
+    // It is the fold limit that holds them: without it, the spike's edges are flipped.
+    QVERIFY(lowerHighValences(m, 8, 4, 179.0f) > 0);
   }
 
   void refusesOpenMesh() {

@@ -32,6 +32,18 @@ struct TriangleMesh {
 // a degenerate triangle or an out-of-range index.
 void validateClosedManifold(const TriangleMesh& mesh);
 
+// Flips edges of a closed triangle mesh, in passes over its triangles, to lower the valences of
+// highValence and above: a flip must bring the four vertices' valences closer to 6 (their squared
+// differences from 6 summed), raise no vertex to highValence, leave none below minValence, and keep
+// the surface's shape (the two triangles within maxFoldDegrees of coplanar, and the two new ones
+// likewise). Points do not move; the mesh stays closed, manifold and consistently oriented.
+// Returns the number of flips. Model building applies it to a label's decimated surface before
+// taking its dual: a vertex of valence n becomes a cell of n vertices, and at the finest level a
+// cell of 8 or more is 2-2.8 mm across among hexagons of 1 mm, so its flat middle sags into a
+// neighbouring structure where no vertex is to be pushed back (docs/collisions.md).
+int lowerHighValences(TriangleMesh& mesh, int highValence = 8, int minValence = 4, float maxFoldDegrees = 30.0f,
+                      int maxPasses = 20);
+
 // Subdivided icosahedron projected onto a sphere: 20 * 4^level triangles.
 TriangleMesh icosphere(int level, float radius = 1.0f, const Vec3& centre = Vec3::Zero());
 // Subdivided octahedron and tetrahedron projected onto a sphere: 8 * 4^level and 4 * 4^level
