@@ -87,8 +87,11 @@ bool SampledError::buildTrees(MeshStore& store, bool wide) {
   const Index triangles = meshTriangleOffsets_.back();
   // One sample per triangle up to 1.25 times the truth's spacing: on the Colin27 test scene
   // (tst_sampled_error) the worst difference to the exact evaluation went from 0.0044 to 0.0059 mm
-  // (ASSD) with it, and to 0.0124 mm with one sample at every level.
-  perTriangle_ = longest <= 1.25 * spacing_ * double(triangles) ? 1 : kSubTriangles;
+  // (ASSD) with it, and to 0.0124 mm with one sample at every level. Nine above 1.75 times (the
+  // coarsest level, about 2.1): there four had let HD95 miss by up to 0.050 mm on that scene, nine
+  // 0.028 (docs/benchmarks.md, "Nine samples a triangle at the coarsest level").
+  const double ratio = longest / (spacing_ * double(triangles));
+  perTriangle_ = ratio <= 1.25 ? 1 : ratio <= 1.75 ? kSubTriangles : kFineSubTriangles;
   truthHint_.assign(perTriangle_ * triangles, -1);
   planeHint_.assign(patchCentres_.size(), -1);
   return true;

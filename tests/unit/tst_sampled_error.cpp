@@ -72,6 +72,26 @@ private slots:
     QVERIFY2(worstExcess <= 0.0f, qPrintable(QString::number(worstExcess)));
   }
 
+  // A triangle's samples (1, 4 or 9) are the centroids of equal sub-triangles: inside it, apart
+  // from each other, and centred on its centroid; the nine are a third of an edge apart, the
+  // spacing of a split in thirds.
+  void subTriangleCentroidsCoverTheTriangle() {
+    const collision::P3 a{0, 0, 0}, b{3, 0, 0}, c{0, 3, 0};
+    for (int count : {1, kSubTriangles, kFineSubTriangles}) {
+      std::vector<collision::P3> p;
+      for (int q = 0; q < count; ++q) p.push_back(subTriangleCentroid(a, b, c, q, count));
+      float mx = 0, my = 0, closestPair = 1e9f;
+      for (size_t i = 0; i < p.size(); ++i) {
+        QVERIFY(p[i].x > 0 && p[i].y > 0 && p[i].x + p[i].y < 3 && p[i].z == 0);
+        mx += p[i].x / float(count), my += p[i].y / float(count);
+        for (size_t j = 0; j < i; ++j)
+          closestPair = std::min(closestPair, std::hypot(p[i].x - p[j].x, p[i].y - p[j].y));
+      }
+      QVERIFY(std::abs(mx - 1) < 1e-5f && std::abs(my - 1) < 1e-5f);
+      if (count == kFineSubTriangles) QVERIFY(std::abs(closestPair - std::sqrt(2.0f) / 3.0f) < 1e-5f);
+    }
+  }
+
   void agreesWithTheExactEvaluationOnColin27() {
     const QString t = "/usr/share/mricron/templates/";
     if (!QFile::exists(t + "aal.nii.gz")) QSKIP("Debian package mricron-data is not installed");

@@ -5,10 +5,11 @@
 //
 // The distances are exact; there are fewer of them, and no hierarchy is built per sample:
 // - mesh to truth: samples of each triangle of the Fig. 1b tessellation (the output surface) into
-//   the truth's hierarchy (the exact evaluation's, triangle_bvh.h): at coarse levels four, the
-//   centroids of its midpoint split; where the level's triangles' longest edges are on average no
-//   longer than 1.25 times the truth's sampling spacing, one, the centroid (a quarter of the queries
-//   at the fine levels, where the meshes have the most triangles). On the host each search starts
+//   the truth's hierarchy (the exact evaluation's, triangle_bvh.h): where the level's triangles'
+//   longest edges are on average no longer than 1.25 times the truth's sampling spacing, one, the
+//   centroid (at the fine levels, where the meshes have the most triangles); up to 1.75 times,
+//   four, the centroids of its midpoint split; beyond (the coarsest level), nine, of a split in
+//   thirds. On the host each search starts
 //   bounded by the distance to the truth triangle that was nearest to the same sample last time
 //   (the meshes move little between samples), which prunes most of the walk and changes no distance;
 // - truth to mesh: the truth sampled at a coarser spacing than the exact evaluation's (sampleSurface),
@@ -71,7 +72,7 @@ public:
   const std::vector<int>& meshRoots() const { return meshRoots_; }
   const std::vector<Index>& meshTriangleOffsets() const { return meshTriangleOffsets_; }  // per structure, and the end
   const std::vector<int>& meshTriangleStructure() const { return triangleStructure_; }  // per tessellation triangle
-  int samplesPerTriangle() const { return perTriangle_; }  // 1 or kSubTriangles, for the current level
+  int samplesPerTriangle() const { return perTriangle_; }  // 1, 4 or 9 (triangle_bvh.h), for the level
 
 private:
   // Every structure's tessellation tree, when the store's topology changed (true then); wide: with
