@@ -55,8 +55,7 @@ int lowerHighValences(TriangleMesh& mesh, int highValence, int minValence, float
         const Index a = mesh.triangles[t][k], b = mesh.triangles[t][(k + 1) % 3];
         if (a > b) continue;  // each edge once: from the triangle holding it as (smaller, larger)
         if (std::max(valence[a], valence[b]) < highValence) continue;
-        const auto& s = sides.at({a, b});
-        const Index t0 = s[0], t1 = s[1];  // (a, b, c) and (b, a, d), each in its own order
+        const auto [t0, t1] = sides.at({a, b});  // (a, b, c) and (b, a, d), each in its own order
         const Index c = opposite(t0, a, b), d = opposite(t1, a, b);
         if (c == d || sides.count(undirected(c, d))) continue;
         if (std::min(valence[a], valence[b]) - 1 < minValence || std::max(valence[c], valence[d]) + 1 >= highValence)

@@ -9,9 +9,9 @@
 //   longest edges are on average no longer than 1.25 times the truth's sampling spacing, one, the
 //   centroid (at the fine levels, where the meshes have the most triangles); up to 1.75 times,
 //   four, the centroids of its midpoint split; beyond (the coarsest level), nine, of a split in
-//   thirds. On the host each search starts
-//   bounded by the distance to the truth triangle that was nearest to the same sample last time
-//   (the meshes move little between samples), which prunes most of the walk and changes no distance;
+//   thirds. On the host each search starts bounded by the distance to the truth triangle that was
+//   nearest to the same sample last time (the meshes move little between samples), which prunes
+//   most of the walk and changes no distance;
 // - truth to mesh: the truth sampled at a coarser spacing than the exact evaluation's (sampleSurface),
 //   the samples grouped into patches (cubes of kPatchMm, per structure); one search per patch, from
 //   its centre into a hierarchy of the tessellation (built once per level, a tree per structure,
