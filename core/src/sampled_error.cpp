@@ -2,6 +2,8 @@
 
 #include "sinew/core/simplex_mesh.h"
 
+#include <Eigen/Dense>
+
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
@@ -87,11 +89,8 @@ bool SampledError::buildTrees(MeshStore& store, bool wide) {
   const Index triangles = meshTriangleOffsets_.back();
   // One sample per triangle up to 1.25 times the truth's spacing: on the Colin27 test scene
   // (tst_sampled_error) the worst difference to the exact evaluation went from 0.0044 to 0.0059 mm
-  // (ASSD) with it, and to 0.0124 mm with one sample at every level. Nine above 1.75 times (the
-  // coarsest level, about 2.1): there four had let HD95 miss by up to 0.050 mm on that scene, nine
-  // 0.028 (docs/benchmarks.md, "Nine samples a triangle at the coarsest level").
-  const double ratio = longest / (spacing_ * double(triangles));
-  perTriangle_ = ratio <= 1.25 ? 1 : ratio <= 1.75 ? kSubTriangles : kFineSubTriangles;
+  // (ASSD) with it, and to 0.0124 mm with one sample at every level.
+  perTriangle_ = longest <= 1.25 * spacing_ * double(triangles) ? 1 : kSubTriangles;
   truthHint_.assign(perTriangle_ * triangles, -1);
   planeHint_.assign(patchCentres_.size(), -1);
   return true;
@@ -163,24 +162,79 @@ std::vector<std::optional<SurfaceDistanceStats>> SampledError::measure(MeshStore
   return summarise(toTruth_, fromTruth_, ex);
 }
 
+namespace {
+// A linear function over a triangle whose corners take a <= b <= c: the share of its area where
+// it is at most t.
+double linearShareBelow(double a, double b, double c, double t) {
+  if (t <= a) return 0.0;
+  if (t >= c) return 1.0;
+  if (t <= b) return (t - a) * (t - a) / ((b - a) * (c - a));
+  return 1.0 - (c - t) * (c - t) / ((c - b) * (c - a));
+}
+
+DistanceSpread ascending(float a, float b, float c) {
+  if (a > b) std::swap(a, b);
+  if (b > c) std::swap(b, c);
+  if (a > b) std::swap(a, b);
+  return {std::max(a, 0.0f), std::max(b, 0.0f), std::max(c, 0.0f)};
+}
+
+// The least-squares plane through a triangle's four samples' values (subTriangleCentroid's), as
+// its corners' values (fit, 3 x 4), and each sample's sub-triangle's corners in barycentric
+// coordinates (rows of corners[q]).
+struct PlaneFit {
+  Eigen::Matrix<float, 3, kSubTriangles> fit;
+  std::array<Eigen::Matrix3f, kSubTriangles> corners;
+  PlaneFit() {
+    // On the triangle (1,0,0), (0,1,0), (0,0,1) a point's coordinates are its barycentric ones.
+    const collision::P3 a{1, 0, 0}, b{0, 1, 0}, c{0, 0, 1};
+    Eigen::Matrix<float, kSubTriangles, 3> at;
+    for (int q = 0; q < kSubTriangles; ++q) {
+      const collision::P3 p = subTriangleCentroid(a, b, c, q, kSubTriangles);
+      at.row(q) << p.x, p.y, p.z;
+      collision::P3 k[3];
+      subTriangleCorners(a, b, c, q, kSubTriangles, k);
+      for (int i = 0; i < 3; ++i) corners[q].row(i) << k[i].x, k[i].y, k[i].z;
+    }
+    fit = (at.transpose() * at).inverse() * at.transpose();
+  }
+};
+}  // namespace
+
 std::vector<std::optional<SurfaceDistanceStats>> SampledError::summarise(std::span<const WeightedDistance> toTruth,
                                                                          std::span<const WeightedDistance> fromTruth,
                                                                          const Executor& executor) const {
+  static const PlaneFit plane;
+  const int per = perTriangle_;
   std::vector<std::optional<SurfaceDistanceStats>> out(truthRoots_.size());
   executor.forEach(
       Index(out.size()),
       [&](Index m) {
         if (truthRoots_[m] < 0) return;
-        const Index a = perTriangle_ * meshTriangleOffsets_[m], b = perTriangle_ * meshTriangleOffsets_[m + 1];
-        out[m] = summariseBinned(toTruth.subspan(a, b - a),
-                                 fromTruth.subspan(sampleOffsets_[m], sampleOffsets_[m + 1] - sampleOffsets_[m]), kBinMm);
+        const Index a = per * meshTriangleOffsets_[m], b = per * meshTriangleOffsets_[m + 1];
+        const auto toward = toTruth.subspan(a, b - a);
+        const auto from = fromTruth.subspan(sampleOffsets_[m], sampleOffsets_[m + 1] - sampleOffsets_[m]);
+        if (per != kSubTriangles) return void(out[m] = summariseBinned(toward, from, kBinMm));
+        // Each sample's sub-triangle: the fitted plane's slope about the sample's own value.
+        std::vector<DistanceSpread> spread(toward.size());
+        Eigen::Vector<float, kSubTriangles> values;
+        for (size_t t = 0; t < toward.size(); t += kSubTriangles) {
+          for (int q = 0; q < kSubTriangles; ++q) values[q] = toward[t + q].d;
+          const Eigen::Vector3f atCorners = plane.fit * values;
+          for (int q = 0; q < kSubTriangles; ++q) {
+            const Eigen::Vector3f v = plane.corners[q] * atCorners;
+            const float shift = values[q] - v.mean();
+            spread[t + q] = ascending(v[0] + shift, v[1] + shift, v[2] + shift);
+          }
+        }
+        out[m] = summariseBinned(toward, from, kBinMm, spread);
       },
       1);
   return out;
 }
 
 SurfaceDistanceStats summariseBinned(std::span<const WeightedDistance> toTruth, std::span<const WeightedDistance> fromTruth,
-                                     float binMm) {
+                                     float binMm, std::span<const DistanceSpread> toTruthSpread, float bracketMm) {
   SurfaceDistanceStats st;
   double sumA = 0, areaA = 0, sumB = 0, areaB = 0;
   float longest = 0.0f;
@@ -189,18 +243,35 @@ SurfaceDistanceStats summariseBinned(std::span<const WeightedDistance> toTruth, 
   st.meanAtoB = areaA > 0 ? sumA / areaA : 0.0;
   st.meanBtoA = areaB > 0 ? sumB / areaB : 0.0;
   st.assd = (sumA + sumB) / std::max(areaA + areaB, 1e-30);
-  std::vector<double> bins(size_t(longest / binMm) + 1, 0.0);
+  const auto binOf = [&](float d) { return size_t(std::max(d, 0.0f) / binMm); };
+  std::vector<double> bins(binOf(longest) + 1, 0.0);
   for (const auto* set : {&toTruth, &fromTruth})
-    for (const WeightedDistance& w : *set) bins[std::min(bins.size() - 1, size_t(w.d / binMm))] += w.w;
+    for (const WeightedDistance& w : *set) bins[std::min(bins.size() - 1, binOf(w.d))] += w.w;
   const double target = 0.95 * (areaA + areaB);
-  double acc = 0;
-  for (size_t b = 0; b < bins.size(); ++b) {
-    acc += bins[b];
-    if (acc >= target) {
-      st.hd95 = std::min(double(longest), double(b + 1) * binMm);
-      break;
+  const auto quantile = [&] {
+    double acc = 0;
+    for (size_t b = 0; b < bins.size(); ++b)
+      if ((acc += bins[b]) >= target) return std::min(double(longest), double(b + 1) * binMm);
+    return double(longest);
+  };
+  st.hd95 = quantile();
+  const float lo = float(st.hd95) - bracketMm, hi = float(st.hd95) + bracketMm;
+  bool spread = false;
+  for (size_t k = 0; k < toTruthSpread.size(); ++k) {
+    const DistanceSpread& v = toTruthSpread[k];
+    if (v.high < lo || v.low > hi || v.high - v.low < binMm) continue;
+    spread = true;
+    bins[std::min(bins.size() - 1, binOf(toTruth[k].d))] -= toTruth[k].w;
+    if (binOf(v.high) >= bins.size()) bins.resize(binOf(v.high) + 1, 0.0);
+    longest = std::max(longest, v.high);
+    double below = 0.0;
+    for (size_t b = binOf(v.low); b <= binOf(v.high); ++b) {
+      const double share = linearShareBelow(v.low, v.middle, v.high, double(b + 1) * binMm);
+      bins[b] += toTruth[k].w * (share - below);
+      below = share;
     }
   }
+  if (spread) st.hd95 = quantile();
   return st;
 }
 

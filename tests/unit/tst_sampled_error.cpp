@@ -72,24 +72,44 @@ private slots:
     QVERIFY2(worstExcess <= 0.0f, qPrintable(QString::number(worstExcess)));
   }
 
-  // A triangle's samples (1, 4 or 9) are the centroids of equal sub-triangles: inside it, apart
-  // from each other, and centred on its centroid; the nine are a third of an edge apart, the
-  // spacing of a split in thirds.
-  void subTriangleCentroidsCoverTheTriangle() {
+  // A triangle's samples (1 or 4) are the centroids of its sub-triangles (subTriangleCorners): the
+  // whole triangle, or the four of its midpoint split, which tile it with equal areas.
+  void subTrianglesTileTheTriangle() {
     const collision::P3 a{0, 0, 0}, b{3, 0, 0}, c{0, 3, 0};
-    for (int count : {1, kSubTriangles, kFineSubTriangles}) {
-      std::vector<collision::P3> p;
-      for (int q = 0; q < count; ++q) p.push_back(subTriangleCentroid(a, b, c, q, count));
-      float mx = 0, my = 0, closestPair = 1e9f;
-      for (size_t i = 0; i < p.size(); ++i) {
-        QVERIFY(p[i].x > 0 && p[i].y > 0 && p[i].x + p[i].y < 3 && p[i].z == 0);
-        mx += p[i].x / float(count), my += p[i].y / float(count);
-        for (size_t j = 0; j < i; ++j)
-          closestPair = std::min(closestPair, std::hypot(p[i].x - p[j].x, p[i].y - p[j].y));
+    for (int count : {1, kSubTriangles}) {
+      float area = 0;
+      for (int q = 0; q < count; ++q) {
+        collision::P3 k[3];
+        subTriangleCorners(a, b, c, q, count, k);
+        const collision::P3 p = subTriangleCentroid(a, b, c, q, count);
+        QVERIFY(std::abs((k[0].x + k[1].x + k[2].x) / 3 - p.x) < 1e-5f && std::abs((k[0].y + k[1].y + k[2].y) / 3 - p.y) < 1e-5f);
+        const float twice = (k[1].x - k[0].x) * (k[2].y - k[0].y) - (k[1].y - k[0].y) * (k[2].x - k[0].x);
+        QVERIFY(std::abs(std::abs(twice) / 2 - 4.5f / float(count)) < 1e-5f);
+        area += std::abs(twice) / 2;
       }
-      QVERIFY(std::abs(mx - 1) < 1e-5f && std::abs(my - 1) < 1e-5f);
-      if (count == kFineSubTriangles) QVERIFY(std::abs(closestPair - std::sqrt(2.0f) / 3.0f) < 1e-5f);
+      QVERIFY(std::abs(area - 4.5f) < 1e-5f);
     }
+  }
+
+  // A spread sample's area is spread as a linear function's over a triangle: corners at 0, 0 and 1
+  // put the share 1 - (1 - t)^2 at or below t, so the 95th percentile is 1 - sqrt(0.05) = 0.776,
+  // where the point at its centroid (1/3) gave 1/3. Beside 19 points at 0 (95 % of the area), the
+  // percentile falls back to 0 whatever the spread.
+  void spreadSamplesTakeTheirAreasValues() {
+    const float bin = SampledError::kBinMm;
+    const std::vector<WeightedDistance> one{{1.0f / 3.0f, 1.0f}};
+    const std::vector<DistanceSpread> spread{{0.0f, 0.0f, 1.0f}};
+    QVERIFY(std::abs(summariseBinned(one, {}, bin).hd95 - 1.0 / 3.0) <= bin);
+    const SurfaceDistanceStats s = summariseBinned(one, {}, bin, spread, 1.0f);
+    QVERIFY2(std::abs(s.hd95 - (1.0 - std::sqrt(0.05))) <= bin, qPrintable(QString::number(s.hd95)));
+    QCOMPARE(s.assd, double(1.0f / 3.0f));  // the mean is the sample's: spreading moves no area's mean
+    std::vector<WeightedDistance> many(19, {0.0f, 1.0f});
+    many.push_back({1.0f / 3.0f, 1.0f});
+    std::vector<DistanceSpread> spreads(19, {0.0f, 0.0f, 0.0f});
+    spreads.push_back({0.0f, 0.0f, 1.0f});
+    QVERIFY(summariseBinned(many, {}, bin, spreads, 1.0f).hd95 <= bin);
+    // Beyond the bracket around the points' percentile a spread is left a point.
+    QVERIFY(std::abs(summariseBinned(one, {}, bin, std::vector<DistanceSpread>{{0.9f, 0.95f, 1.0f}}, 0.1f).hd95 - 1.0 / 3.0) <= bin);
   }
 
   void agreesWithTheExactEvaluationOnColin27() {

@@ -119,30 +119,23 @@ struct WeightedDistance {
 };
 
 // The sampled error's (sampled_error.h) samples of a triangle: one, its centroid, for a triangle
-// small beside the sampling spacing; kSubTriangles, the centroids of its four midpoint
-// sub-triangles (the corner ones, then the middle one), for a larger one; kFineSubTriangles, the
-// centroids of the nine sub-triangles of a split in thirds (the upright ones row by row from
-// corner a, then the inverted ones), for the largest. Sample q of `count`.
+// small beside the sampling spacing; otherwise kSubTriangles, the centroids of its four midpoint
+// sub-triangles (the corner ones, then the middle one). Sample q of `count`.
 inline constexpr int kSubTriangles = 4;
-inline constexpr int kFineSplit = 3;
-inline constexpr int kFineSubTriangles = kFineSplit * kFineSplit;
 SINEW_HD collision::P3 subTriangleCentroid(collision::P3 a, collision::P3 b, collision::P3 c, int q, int count) {
   using namespace collision;
-  if (count == kFineSubTriangles) {
-    // Of a split into k x k: upright sub-triangle (i, j), i + j < k, has corners (i, j), (i + 1, j)
-    // and (i, j + 1) k-ths of the edges from a; inverted (i, j), i + j < k - 1, (i + 1, j),
-    // (i, j + 1) and (i + 1, j + 1).
-    constexpr int k = kFineSplit;
-    const bool upright = q < k * (k + 1) / 2;
-    int r = upright ? q : q - k * (k + 1) / 2, i = 0;
-    for (int row = upright ? k : k - 1; r >= row; r -= row, --row) ++i;
-    const float offset = upright ? 1.0f / 3.0f : 2.0f / 3.0f;
-    const float u = (float(i) + offset) / float(k), v = (float(r) + offset) / float(k);
-    return add(a, add(scale(sub(b, a), u), scale(sub(c, a), v)));
-  }
   const P3 centroid = scale(add(a, add(b, c)), 1.0f / 3.0f);
   if (count == 1 || q == 3) return centroid;
   const P3 corner = q == 0 ? a : q == 1 ? b : c;
   return scale(add(corner, centroid), 0.5f);  // halfway from a corner to the centroid
+}
+// The corners of the sub-triangle whose centroid subTriangleCentroid gives (the area sample q
+// stands for), into out[0..2].
+inline void subTriangleCorners(collision::P3 a, collision::P3 b, collision::P3 c, int q, int count, collision::P3* out) {
+  using namespace collision;
+  const P3 ab = scale(add(a, b), 0.5f), bc = scale(add(b, c), 0.5f), ca = scale(add(c, a), 0.5f);
+  const P3 corners[4][3] = {{a, ab, ca}, {b, bc, ab}, {c, ca, bc}, {ab, bc, ca}};
+  const P3* k = count == 1 ? nullptr : corners[q];
+  out[0] = k ? k[0] : a, out[1] = k ? k[1] : b, out[2] = k ? k[2] : c;
 }
 }  // namespace sinew
