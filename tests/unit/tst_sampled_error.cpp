@@ -94,7 +94,7 @@ private slots:
   // A spread sample's area is spread as a linear function's over a triangle: corners at 0, 0 and 1
   // put the share 1 - (1 - t)^2 at or below t, so the 95th percentile is 1 - sqrt(0.05) = 0.776,
   // where the point at its centroid (1/3) gave 1/3. Beside 19 points at 0 (95 % of the area), the
-  // percentile falls back to 0 whatever the spread.
+  // percentile stays in the first bin.
   void spreadSamplesTakeTheirAreasValues() {
     const float bin = SampledError::kBinMm;
     const std::vector<WeightedDistance> one{{1.0f / 3.0f, 1.0f}};

@@ -8,9 +8,10 @@
 //   the truth's hierarchy (the exact evaluation's, triangle_bvh.h): at coarse levels four, the
 //   centroids of its midpoint split; where the level's triangles' longest edges are on average no
 //   longer than 1.25 times the truth's sampling spacing, one, the centroid (a quarter of the queries
-//   at the fine levels, where the meshes have the most triangles). On the host each search starts bounded by the distance to the truth triangle that was
-//   nearest to the same sample last time (the meshes move little between samples), which prunes
-//   most of the walk and changes no distance;
+//   at the fine levels, where the meshes have the most triangles). On the host each search starts
+//   bounded by the distance to the truth triangle that was nearest to the same sample last time
+//   (the meshes move little between samples), which prunes most of the walk and changes no
+//   distance;
 // - truth to mesh: the truth sampled at a coarser spacing than the exact evaluation's (sampleSurface),
 //   the samples grouped into patches (cubes of kPatchMm, per structure); one search per patch, from
 //   its centre into a hierarchy of the tessellation (built once per level, a tree per structure,
@@ -27,8 +28,8 @@
 //   sample's own value at its centroid, and its area spread over the values that takes
 //   (DistanceSpread). As points, the few samples where HD95 lies made it low at the coarsest level,
 //   where the exact evaluation takes 36-64 samples a triangle: on tst_sampled_error's scene it
-//   missed by up to 0.050 mm at that level; spread, 0.016 (docs/benchmarks.md, "Four samples a triangle,
-//   spread").
+//   missed by up to 0.050 mm at that level; spread, 0.016 (docs/benchmarks.md, "Four samples a
+//   triangle, spread").
 // On the host the searches walk the trees' wide form (triangle_bvh_wide.h: the same distances). The
 // CUDA backend runs the binary trees' inline queries in its kernels (ExecutionBackend::measureError).
 #pragma once
