@@ -7,6 +7,8 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <numeric>
+#include <tuple>
 #include <unordered_map>
 
 namespace sinew {
@@ -23,6 +25,29 @@ SampledError::SampledError(const std::vector<const ReferenceSurface*>& truths, f
     sampleOffsets_.push_back(Index(samples_.size()));
   }
   planes_.resize(patchCentres_.size());
+  // Each patch's neighbours, structure by structure (their patches are consecutive): a sweep along
+  // x, then each list in patch order.
+  std::vector<std::vector<int>> near(patchCentres_.size());
+  std::vector<int> order(patchCentres_.size());
+  std::iota(order.begin(), order.end(), 0);
+  std::stable_sort(order.begin(), order.end(), [&](int a, int b) {
+    return patchStructure_[a] != patchStructure_[b] ? patchStructure_[a] < patchStructure_[b]
+                                                    : patchCentres_[a].x < patchCentres_[b].x;
+  });
+  const float reach2 = kCurvatureReachMm * kCurvatureReachMm;
+  for (size_t i = 0; i < order.size(); ++i)
+    for (size_t j = i + 1; j < order.size(); ++j) {
+      const int a = order[i], b = order[j];
+      if (patchStructure_[b] != patchStructure_[a] || patchCentres_[b].x - patchCentres_[a].x > kCurvatureReachMm) break;
+      const collision::P3 d = collision::sub(patchCentres_[b], patchCentres_[a]);
+      if (collision::dot3(d, d) <= reach2) near[a].push_back(b), near[b].push_back(a);
+    }
+  neighbourOffsets_.assign(1, 0);
+  for (std::vector<int>& list : near) {
+    std::sort(list.begin(), list.end());
+    neighbours_.insert(neighbours_.end(), list.begin(), list.end());
+    neighbourOffsets_.push_back(int(neighbours_.size()));
+  }
 }
 
 void SampledError::groupIntoPatches(const std::vector<SurfaceSample>& samples, int structure) {
@@ -159,7 +184,55 @@ std::vector<std::optional<SurfaceDistanceStats>> SampledError::measure(MeshStore
     const int patch = samplePatch_[k];
     fromTruth_[k] = {trianglebvh::planeDistance(planes_[patch], patchCentres_[patch], asP3(samples_[k].point)), samples_[k].area};
   });
+  applyCurvature(planes_, fromTruth_, ex);
   return summarise(toTruth_, fromTruth_, ex);
+}
+
+CurvedPlane fitCurvature(std::span<const trianglebvh::TangentPlane> planes, std::span<const collision::P3> centres, int k,
+                         std::span<const int> neighbours) {
+  const auto nearest = [&](int j) {
+    const Vec3 n(planes[j].n.x, planes[j].n.y, planes[j].n.z);
+    return std::pair<Vec3, Vec3>(asVec3(centres[j]) - planes[j].d * n, n);
+  };
+  CurvedPlane c;
+  std::tie(c.q, c.n) = nearest(k);
+  c.e1 = c.n.unitOrthogonal();
+  c.e2 = c.n.cross(c.e1);
+  Eigen::Matrix3f normal = Eigen::Matrix3f::Identity() * 1e-3f;  // a little damping towards flat
+  Eigen::Vector3f right = Eigen::Vector3f::Zero();
+  for (const int j : neighbours) {
+    auto [q, n] = nearest(j);
+    if (n.dot(c.n) < 0.0f) n = -n;
+    const Vec3 dq = q - c.q, dn = n - c.n;
+    const float u1 = dq.dot(c.e1), u2 = dq.dot(c.e2);
+    const Eigen::Vector3f r1(u1, u2, 0.0f), r2(0.0f, u1, u2);
+    normal += r1 * r1.transpose() + r2 * r2.transpose();
+    right += r1 * dn.dot(c.e1) + r2 * dn.dot(c.e2);
+  }
+  if (neighbours.size() < 2) return c;
+  const Eigen::Vector3f s = normal.ldlt().solve(right);
+  c.s11 = s[0], c.s12 = s[1], c.s22 = s[2];
+  return c;
+}
+
+float curvedDistance(const CurvedPlane& p, const Vec3& s) {
+  const Vec3 r = s - p.q;
+  const float z = p.n.dot(r), u1 = r.dot(p.e1), u2 = r.dot(p.e2);
+  return std::abs(z + 0.5f * (p.s11 * u1 * u1 + 2.0f * p.s12 * u1 * u2 + p.s22 * u2 * u2));
+}
+
+void SampledError::applyCurvature(std::span<const trianglebvh::TangentPlane> planes, std::span<WeightedDistance> fromTruth,
+                                  const Executor& executor) const {
+  // At the coarsest level the tessellation's 3-4 mm facets are larger than the neighbourhood, and
+  // the term made HD95 worse there (docs/benchmarks.md, "The truth's tangent planes with a
+  // curvature term").
+  if (perTriangle_ != 1) return;
+  std::vector<CurvedPlane> curved(patchCentres_.size());
+  executor.forEach(Index(curved.size()), [&](Index k) {
+    curved[k] = fitCurvature(planes, patchCentres_, int(k),
+                             std::span<const int>(neighbours_).subspan(neighbourOffsets_[k], neighbourOffsets_[k + 1] - neighbourOffsets_[k]));
+  });
+  executor.forEach(Index(samples_.size()), [&](Index k) { fromTruth[k].d = curvedDistance(curved[samplePatch_[k]], samples_[k].point); });
 }
 
 namespace {

@@ -85,10 +85,13 @@ std::vector<std::optional<SurfaceDistanceStats>> DeviceSampledError::measure(Sam
   launchSampledError(view, e, stream);
   hostTo_.resize(toTruth_.size());
   hostFrom_.resize(fromTruth_.size());
+  hostPlanes_.resize(planes_.size());
   toTruth_.download(hostTo_.data(), hostTo_.size(), stream);
   fromTruth_.download(hostFrom_.data(), hostFrom_.size(), stream);
+  if (error.samplesPerTriangle() == 1) planes_.download(hostPlanes_.data(), hostPlanes_.size(), stream);
   SINEW_CUDA(cudaStreamSynchronize(stream));
   SINEW_CUDA(cudaGetLastError());
+  error.applyCurvature(hostPlanes_, hostFrom_, store.executor());  // the host's, as for a host measure
   return error.summarise(hostTo_, hostFrom_, store.executor());
 }
 

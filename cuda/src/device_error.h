@@ -32,6 +32,7 @@ private:
   DeviceArray<float> sampleAreas_;
   DeviceArray<WeightedDistance> toTruth_, fromTruth_;
   std::vector<WeightedDistance> hostTo_, hostFrom_;
+  std::vector<trianglebvh::TangentPlane> hostPlanes_;
 };
 
 // The exact evaluation's searches (ExecutionBackend::closestDistances): the hierarchy and the points

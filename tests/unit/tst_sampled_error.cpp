@@ -112,6 +112,36 @@ private slots:
     QVERIFY(std::abs(summariseBinned(one, {}, bin, std::vector<DistanceSpread>{{0.9f, 0.95f, 1.0f}}, 0.1f).hd95 - 1.0 / 3.0) <= bin);
   }
 
+  // The curvature term on a sphere of radius 10: patches 1 mm outside it, each plane tangent at its
+  // nearest point; the middle patch's operator fitted to the others is I / 10, and samples 0.5 mm
+  // out and 0.5 mm in, 1.4 mm along, take their distances to within a few thousandths where the
+  // plane alone is out by about u^2 / 2R (0.1 mm).
+  void curvatureTermOnASphere() {
+    const float radius = 10.0f;
+    std::vector<trianglebvh::TangentPlane> planes;
+    std::vector<collision::P3> centres;
+    std::vector<int> others;
+    for (int i = -2; i <= 2; ++i)
+      for (int j = -2; j <= 2; ++j) {
+        const Vec3 n = Vec3(float(i), float(j), radius).normalized();
+        centres.push_back(asP3(Vec3((radius + 1.0f) * n)));
+        planes.push_back({asP3(n), 1.0f});
+        if (i != 0 || j != 0) others.push_back(int(planes.size()) - 1);
+      }
+    const CurvedPlane c = fitCurvature(planes, centres, 12, others);
+    QVERIFY2(std::abs(c.s11 - 0.1f) < 0.01f && std::abs(c.s22 - 0.1f) < 0.01f && std::abs(c.s12) < 0.01f,
+             qPrintable(QString("%1 %2 %3").arg(c.s11).arg(c.s12).arg(c.s22)));
+    for (const float offset : {0.5f, -0.5f}) {
+      const Vec3 s = (radius + offset) * Vec3(1.2f, -0.8f, radius).normalized();
+      const float plain = std::abs(c.n.dot(s - c.q));
+      QVERIFY(std::abs(plain - 0.5f) > 0.08f);
+      QVERIFY2(std::abs(curvedDistance(c, s) - 0.5f) < 0.01f, qPrintable(QString::number(curvedDistance(c, s))));
+    }
+    // Fewer than two neighbours: the plane alone.
+    const CurvedPlane flat = fitCurvature(planes, centres, 12, std::span<const int>(others).first(1));
+    QVERIFY(flat.s11 == 0.0f && flat.s12 == 0.0f && flat.s22 == 0.0f);
+  }
+
   void agreesWithTheExactEvaluationOnColin27() {
     const QString t = "/usr/share/mricron/templates/";
     if (!QFile::exists(t + "aal.nii.gz")) QSKIP("Debian package mricron-data is not installed");
