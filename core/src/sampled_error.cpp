@@ -196,20 +196,26 @@ CurvedPlane fitCurvature(std::span<const trianglebvh::TangentPlane> planes, std:
   };
   CurvedPlane c;
   std::tie(c.q, c.n) = nearest(k);
+  c.e1 = c.e2 = Vec3::Zero();
+  // A centre on a degenerate triangle has no normal (closestTangentPlane's zero): no plane to bend.
+  if (c.n.squaredNorm() < 0.25f) return c;
   c.e1 = c.n.unitOrthogonal();
   c.e2 = c.n.cross(c.e1);
   Eigen::Matrix3f normal = Eigen::Matrix3f::Identity() * 1e-3f;  // a little damping towards flat
   Eigen::Vector3f right = Eigen::Vector3f::Zero();
+  int used = 0;
   for (const int j : neighbours) {
     auto [q, n] = nearest(j);
+    if (n.squaredNorm() < 0.25f) continue;
     if (n.dot(c.n) < 0.0f) n = -n;
     const Vec3 dq = q - c.q, dn = n - c.n;
     const float u1 = dq.dot(c.e1), u2 = dq.dot(c.e2);
     const Eigen::Vector3f r1(u1, u2, 0.0f), r2(0.0f, u1, u2);
     normal += r1 * r1.transpose() + r2 * r2.transpose();
     right += r1 * dn.dot(c.e1) + r2 * dn.dot(c.e2);
+    ++used;
   }
-  if (neighbours.size() < 2) return c;
+  if (used < 2) return c;
   const Eigen::Vector3f s = normal.ldlt().solve(right);
   c.s11 = s[0], c.s12 = s[1], c.s22 = s[2];
   return c;

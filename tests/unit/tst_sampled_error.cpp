@@ -140,6 +140,10 @@ private slots:
     // Fewer than two neighbours: the plane alone.
     const CurvedPlane flat = fitCurvature(planes, centres, 12, std::span<const int>(others).first(1));
     QVERIFY(flat.s11 == 0.0f && flat.s12 == 0.0f && flat.s22 == 0.0f);
+    // A plane without a normal (a centre on a degenerate triangle) stays finite.
+    planes[12].n = {0, 0, 0};
+    const CurvedPlane none = fitCurvature(planes, centres, 12, others);
+    QVERIFY(std::isfinite(curvedDistance(none, Vec3(1, 2, 3))));
   }
 
   void agreesWithTheExactEvaluationOnColin27() {
