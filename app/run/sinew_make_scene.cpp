@@ -6,6 +6,7 @@
 #include "builtin_plugins.h"
 #include "collision_share_learning.h"
 #include "label_list.h"
+#include "label_parts.h"
 #include "sinew/core/scene.h"
 #include "sinew/core/io.h"
 #include "sinew/core/types.h"
@@ -13,11 +14,14 @@
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <iostream>
+#include <memory>
 #include <random>
 #include <sstream>
+#include <tuple>
 
 namespace fs = std::filesystem;
 using Json = nlohmann::ordered_json;
@@ -62,7 +66,7 @@ int main(int argc, char** argv) {
   std::string atlas, labelList, training, target, groundTruth, output = "scene.json", model, transform;
   std::string structures = kDefaultStructures;
   std::string iterations, initialise = "bspline";  // iterations: kDemoIterations or kSubjectIterations
-  bool subject = false;
+  bool subject = false, splitParts = false;
   unsigned seed = 1;
   double maxRotation = 8.0, maxTranslation = 3.0, scaleMin = 0.9, scaleMax = 1.1, coarseSpacing = 4.0;
   double collisionWeight = 1.0, collisionMargin = 0.15, contactWeight = -1.0;  // contacts: the mode's default
@@ -84,6 +88,11 @@ int main(int argc, char** argv) {
   cli.add_option("--training", training, "image the intensity profiles are trained on (default with --model: its atlas)");
   cli.add_option("--target", target, "image to segment")->required();
   cli.add_option("--ground-truth", groundTruth, "label map to score against (demo mode default: the atlas)");
+  cli.add_flag("--split-parts", splitParts,
+               "a label in parts apart from each other on both sides (a parcel of both hemispheres) becomes two "
+               "structures, NAME_L and NAME_R, each modelled and scored on its own side; the split label maps are "
+               "written beside the scene (SCENE.atlas-parts.nii.gz, SCENE.truth-parts.nii.gz), the output label "
+               "map keeps the label's value");
   cli.add_option("--seed", seed, "seed of the random placement")->capture_default_str();
   cli.add_option("--max-rotation-deg", maxRotation, "largest rotation")->capture_default_str();
   cli.add_option("--max-translation-mm", maxTranslation, "largest translation")->capture_default_str();
@@ -158,6 +167,54 @@ int main(int argc, char** argv) {
     } else {
       list = labelList.empty() ? unnamedLabels(splitList(structures)) : readLabelList(labelList);
     }
+    if (splitParts && !model.empty())
+      throw sinew::InputError("--split-parts goes with --atlas: a model's structures are built already");
+    // The labels in parts, split by side into maps beside the scene (atomically, like the scene).
+    const fs::path sceneOut(output);
+    std::vector<SideParts> splits;
+    std::string atlasMap = atlas.empty() ? atlas : absolute(atlas), truthMap = groundTruth.empty() ? atlasMap : absolute(groundTruth);
+    std::vector<std::unique_ptr<sinew::AtomicOutput>> partMaps;
+    if (splitParts) {
+      Registry registry;
+      PluginLoader plugins(registry);
+      addBuiltinPlugins(plugins);
+      std::vector<std::int32_t> values;
+      for (const std::string& key : splitList(structures)) values.push_back(findLabel(list, key, fs::path(labelList)).value);
+      const auto splitInto = [&](const std::string& from, const std::string& suffix, std::span<const std::int32_t> which,
+                                 std::span<const SideParts> given) {
+        LabelVolume labels = registry.imageIOFor(from).readLabels(from);
+        std::vector<SideParts> made = splitBySide(labels, which, given);
+        if (made.empty()) return std::pair(made, absolute(from));  // nothing split: the map as it is
+        for (const SideParts& p : made)
+          if (std::max(p.left, p.right) > 32767)
+            throw sinew::InputError(from + ": no label value left for the parts of label " + std::to_string(p.label) +
+                                    " (values run to 32767)");
+        fs::path target = sceneOut;
+        target.replace_extension(suffix);
+        if (target.has_parent_path()) fs::create_directories(target.parent_path());
+        partMaps.push_back(std::make_unique<sinew::AtomicOutput>(absolute(target.string())));
+        registry.imageIOFor(target).writeLabels(partMaps.back()->tempPath(), labels);
+        return std::pair(made, absolute(target.string()));
+      };
+      std::tie(splits, atlasMap) = splitInto(atlas, ".atlas-parts.nii.gz", values, {});
+      if (!groundTruth.empty() && !splits.empty()) {
+        // Only the labels split in the atlas, with its values: the others are scored as they are.
+        std::vector<std::int32_t> split;
+        for (const SideParts& p : splits) split.push_back(p.label);
+        std::vector<SideParts> truthSplits;
+        std::tie(truthSplits, truthMap) = splitInto(groundTruth, ".truth-parts.nii.gz", split, splits);
+        for (const SideParts& p : splits)
+          if (std::none_of(truthSplits.begin(), truthSplits.end(), [&](const SideParts& t) { return t.label == p.label; }))
+            throw sinew::InputError(groundTruth + ": label " + std::to_string(p.label) +
+                                    " is not in parts on both sides here, as it is in the atlas; it cannot be split alike");
+      } else if (groundTruth.empty()) {
+        truthMap = atlasMap;
+      }
+      if (splits.empty()) std::cerr << "--split-parts: no label of the scene is in parts on both sides; none split\n";
+      for (const SideParts& p : splits)
+        std::cerr << "label " << p.label << " is in parts on both sides: split into " << p.left << " (left, "
+                  << p.leftVoxels << " voxels) and " << p.right << " (right, " << p.rightVoxels << ")\n";
+    }
     std::mt19937 rng(seed);
     std::uniform_real_distribution<double> unit(0.0, 1.0);
     std::normal_distribution<double> gauss(0.0, 1.0);
@@ -180,12 +237,23 @@ int main(int argc, char** argv) {
     if (!training.empty()) scene["images"]["training"] = absolute(training);
     Json items = Json::array();
     const fs::path listFile = model.empty() ? fs::path(labelList) : fs::path(model) / "model.json";
+    // Each structure, or each side of a label split in two (named NAME_L and NAME_R).
+    std::vector<std::tuple<std::string, std::int32_t, std::int32_t>> parts;  // name, output value, value in the maps
     for (const std::string& key : splitList(structures)) {
       const LabelEntry& e = findLabel(list, key, listFile);
+      const auto split = std::find_if(splits.begin(), splits.end(), [&](const SideParts& p) { return p.label == e.value; });
+      if (split == splits.end()) {
+        parts.emplace_back(e.name, e.value, e.value);
+      } else {
+        parts.emplace_back(e.name + "_L", e.value, split->left);
+        parts.emplace_back(e.name + "_R", e.value, split->right);
+      }
+    }
+    for (const auto& [name, value, inMaps] : parts) {
       Json s;
-      s["name"] = e.name;
-      s["label"] = e.value;
-      if (model.empty()) s["reference"] = {{"label_map", absolute(atlas)}, {"label", e.value}};
+      s["name"] = name;
+      s["label"] = value;
+      if (model.empty()) s["reference"] = {{"label_map", atlasMap}, {"label", inMaps}};
       if (!subject) {
         const Eigen::Vector3d axis = direction(), shift = direction() * (maxTranslation * unit(rng));
         s["initial"] = {{"rotation_axis", {axis.x(), axis.y(), axis.z()}},
@@ -194,7 +262,7 @@ int main(int argc, char** argv) {
                         {"scale", scaleMin + (scaleMax - scaleMin) * unit(rng)}};
       }
       if (!subject || !groundTruth.empty())
-        s["ground_truth"] = {{"label_map", absolute(groundTruth.empty() ? atlas : groundTruth)}, {"label", e.value}};
+        s["ground_truth"] = {{"label_map", truthMap}, {"label", inMaps}};
       items.push_back(s);
     }
     scene["structures"] = items;
@@ -296,6 +364,7 @@ int main(int argc, char** argv) {
       f << scene.dump(2) << "\n";
       if (!f) throw sinew::InputError(output + ": cannot write the scene");
     }
+    for (const auto& map : partMaps) map->commit();  // before the scene that names them
     file.commit();
     if (subject) std::cerr << "wrote " << output << " (" << items.size() << " structures, subject mode)\n";
     else std::cerr << "wrote " << output << " (" << items.size() << " structures, seed " << seed << ")\n";

@@ -4,6 +4,7 @@
 // registration; then the transform reused, a scene without ground truth, and failures refused.
 #include "sinew/core/image_fit.h"
 #include "synthetic.h"
+#include "sinew/core/registry.h"
 // After the engine headers: a Qt macro (emit) breaks TBB headers included after it.
 #include "run_tool.h"
 
@@ -498,6 +499,111 @@ private slots:
     QCOMPARE(r.code, 3);
     QVERIFY2(r.err.contains("'Hippocampus_L' is not a label value"), qPrintable(r.err));
     QVERIFY(!QFile::exists(path("refused-model/model.json")));
+  }
+
+  // A label in parts on both sides (Harvard-Oxford's insular cortex, label 2: one part in each
+  // hemisphere) split into two structures, each modelled and scored on its own side; the output
+  // label map keeps the label's value.
+  void splitsALabelInParts() {
+    const QString ho = kTemplates + "HarvardOxford-cort-maxprob-thr0-1mm.nii.gz";
+    if (!QFile::exists(ho)) QSKIP("this mricron-data has no Harvard-Oxford atlas");
+    Result r = runTool(SINEW_MAKE_SCENE, {"--atlas", ho, "--training", kTemplates + "ch2better.nii.gz", "--target",
+                                          kTemplates + "ch2.nii.gz", "--structures", "1,2", "--split-parts", "--iterations",
+                                          "20,10,5", "-o", path("split.json")});
+    QVERIFY2(r.code == 0, qPrintable(r.err));
+    QVERIFY2(r.err.contains("label 2 is in parts on both sides"), qPrintable(r.err));
+    const QJsonArray structures = readJson(path("split.json"))["structures"].toArray();
+    QCOMPARE(structures.size(), 3);  // label 1 (the frontal pole) is one part across the midline
+    QCOMPARE(structures[0].toObject()["name"].toString(), QString("label_1"));
+    QCOMPARE(structures[1].toObject()["name"].toString(), QString("label_2_L"));
+    QCOMPARE(structures[2].toObject()["name"].toString(), QString("label_2_R"));
+    const int left = structures[1].toObject()["reference"].toObject()["label"].toInt();
+    const int right = structures[2].toObject()["ground_truth"].toObject()["label"].toInt();
+    QVERIFY(left != right && left != 2 && right != 2);
+    QCOMPARE(structures[1].toObject()["label"].toInt(), 2);  // the output's value
+    // The split map: label 2's voxels and no other changed, each side in its own hemisphere by
+    // AAL's Insula_L (29) and Insula_R (30), looked up at the same world points.
+    const fs::path parts = path("split.atlas-parts.nii.gz").toStdString();
+    QCOMPARE(structures[0].toObject()["reference"].toObject()["label_map"].toString(), QString::fromStdString(parts.string()));
+    const Registry& registry = builtinRegistry();
+    const auto read = [&](const fs::path& file) { return registry.imageIOFor(file).readLabels(file); };
+    const LabelVolume before = read(ho.toStdString()), after = read(parts), aal = read((kTemplates + "aal.nii.gz").toStdString());
+    QCOMPARE(after.voxels().size(), before.voxels().size());
+    const auto aalAt = [&](const Vec3& world) {
+      const Vec3 k = aal.worldToIndex(world);
+      const ImageGeometry& g = aal.geometry();
+      const int x = int(std::lround(k.x())), y = int(std::lround(k.y())), z = int(std::lround(k.z()));
+      if (x < 0 || y < 0 || z < 0 || x >= g.size[0] || y >= g.size[1] || z >= g.size[2]) return 0;
+      return aal.voxels()[(std::size_t(z) * g.size[1] + y) * g.size[0] + x];
+    };
+    std::size_t voxels[2] = {0, 0}, changed = 0, inInsula[2][2] = {{0, 0}, {0, 0}};  // [side][Insula_L, Insula_R]
+    const ImageGeometry& g = before.geometry();
+    for (std::size_t i = 0; i < before.voxels().size(); ++i) {
+      const int b = before.voxels()[i], a = after.voxels()[i];
+      if (b != 2) {
+        changed += a != b;
+        continue;
+      }
+      QVERIFY(a == left || a == right);
+      const int side = a == left ? 0 : 1;
+      ++voxels[side];
+      const Vec3 index(float(i % g.size[0]), float((i / g.size[0]) % g.size[1]), float(i / (std::size_t(g.size[0]) * g.size[1])));
+      const int atlasLabel = aalAt(before.indexToWorld(index));
+      inInsula[side][0] += atlasLabel == 29, inInsula[side][1] += atlasLabel == 30;
+    }
+    QCOMPARE(changed, std::size_t(0));
+    QVERIFY2(voxels[0] > 12000 && voxels[1] > 12000, qPrintable(QString("%1 %2").arg(voxels[0]).arg(voxels[1])));
+    QVERIFY2(inInsula[0][0] > 1000 && inInsula[0][1] == 0 && inInsula[1][1] > 1000 && inInsula[1][0] == 0,
+             qPrintable(QString("%1 %2 %3 %4").arg(inInsula[0][0]).arg(inInsula[0][1]).arg(inInsula[1][0]).arg(inInsula[1][1])));
+
+    r = runTool(SINEW_RUN, {path("split.json"), "-o", path("split"), "-q", "--backend", "cpu"});
+    QVERIFY2(r.code == 0, qPrintable(r.err));
+    QVERIFY2(!r.err.contains("in parts apart"), qPrintable(r.err));  // each side's model is its whole part
+    const QJsonArray results = readJson(path("split/report.json"))["structures"].toArray();
+    QCOMPARE(results.size(), 3);
+    // Each side scored against its own part (the unsplit label's model is one side, Dice 0.57
+    // against the whole label on this scene).
+    for (int i = 1; i < 3; ++i)
+      QVERIFY2(results[i].toObject()["dice"].toDouble() > 0.8, qPrintable(QString::number(results[i].toObject()["dice"].toDouble())));
+    const LabelVolume out = read(path("split/segmentation.nii.gz").toStdString());
+    std::size_t two = 0, split = 0;
+    for (const int v : out.voxels()) two += v == 2, split += v == left || v == right;
+    QVERIFY(two > 20000);
+    QCOMPARE(split, std::size_t(0));
+
+    // A new subject's own labels split alike: the same values for the same sides.
+    r = runTool(SINEW_MAKE_SUBJECT, {"--image", kTemplates + "ch2.nii.gz", "--labels", ho, "--seed", "17", "-o", path("ho-subject")});
+    QVERIFY2(r.code == 0, qPrintable(r.err));
+    r = runTool(SINEW_MAKE_SCENE, {"--subject", "--atlas", ho, "--training", kTemplates + "ch2better.nii.gz", "--target",
+                                   path("ho-subject/image.nii.gz"), "--ground-truth", path("ho-subject/labels.nii.gz"),
+                                   "--structures", "2", "--split-parts", "-o", path("split-subject.json")});
+    QVERIFY2(r.code == 0, qPrintable(r.err));
+    const QJsonArray subjectParts = readJson(path("split-subject.json"))["structures"].toArray();
+    QCOMPARE(subjectParts.size(), 2);
+    for (int side = 0; side < 2; ++side) {
+      const QJsonObject truth = subjectParts[side].toObject()["ground_truth"].toObject();
+      QCOMPARE(truth["label_map"].toString(), path("split-subject.truth-parts.nii.gz"));
+      QCOMPARE(truth["label"].toInt(), side == 0 ? left : right);
+    }
+    const LabelVolume subjectTruth = read(path("split-subject.truth-parts.nii.gz").toStdString());
+    std::size_t subjectSides[2] = {0, 0};
+    for (const int v : subjectTruth.voxels()) subjectSides[0] += v == left, subjectSides[1] += v == right;
+    QVERIFY2(subjectSides[0] > 8000 && subjectSides[1] > 8000, qPrintable(QString("%1 %2").arg(subjectSides[0]).arg(subjectSides[1])));
+
+    // A ground truth whose label is whole cannot be split as the atlas was: refused, nothing written.
+    r = runTool(SINEW_MAKE_SCENE, {"--subject", "--atlas", ho, "--training", kTemplates + "ch2better.nii.gz", "--target",
+                                   kTemplates + "ch2.nii.gz", "--ground-truth", kTemplates + "aal.nii.gz", "--structures", "2",
+                                   "--split-parts", "-o", path("refused-truth/scene.json")});
+    QCOMPARE(r.code, 3);
+    QVERIFY2(r.err.contains("aal.nii.gz: label 2 is not in parts on both sides here"), qPrintable(r.err));
+    QVERIFY(QDir(path("refused-truth")).entryList(QDir::Files | QDir::Hidden).isEmpty());
+
+    // A model's structures are built already: nothing to split.
+    r = runTool(SINEW_MAKE_SCENE, {"--model", model_, "--target", kTemplates + "ch2.nii.gz", "--split-parts", "-o",
+                                   path("refused-split.json")});
+    QCOMPARE(r.code, 3);
+    QVERIFY2(r.err.contains("--split-parts goes with --atlas"), qPrintable(r.err));
+    QVERIFY(!QFile::exists(path("refused-split.json")));
   }
 
   void refusesWhatCannotBeInitialised() {
