@@ -6,6 +6,8 @@
 
 #include <algorithm>
 #include <map>
+#include <set>
+#include <string>
 
 namespace sinew {
 
@@ -17,7 +19,8 @@ struct Part {
 };
 }  // namespace
 
-std::vector<SideParts> splitBySide(LabelVolume& labels, std::span<const std::int32_t> which, std::span<const SideParts> given) {
+std::vector<SideParts> splitBySide(LabelVolume& labels, std::span<const std::int32_t> which,
+                                   std::span<const SideParts> given, const std::string& source) {
   const ImageGeometry& g = labels.geometry();
   std::vector<std::int32_t>& voxels = labels.voxels();
   // Parts of equal value, every label at once (26-connected: a part touching another only at a
@@ -25,7 +28,7 @@ std::vector<SideParts> splitBySide(LabelVolume& labels, std::span<const std::int
   using Labels = itk::Image<std::int32_t, 3>;
   using Parts = itk::Image<std::uint32_t, 3>;
   auto connect = itk::ScalarConnectedComponentImageFilter<Labels, Parts>::New();
-  connect->SetInput(toItk<std::int32_t>(labels));
+  connect->SetInput(itkViewOf(labels));
   connect->SetDistanceThreshold(0);
   connect->SetFullyConnected(true);
   connect->Update();
@@ -33,34 +36,60 @@ std::vector<SideParts> splitBySide(LabelVolume& labels, std::span<const std::int
 
   std::map<std::int32_t, std::map<std::uint32_t, Part>> partsOf;
   for (const std::int32_t v : which) partsOf[v];
-  std::int32_t largestValue = 0;
-  const std::size_t sx = std::size_t(g.size[0]), sxy = sx * std::size_t(g.size[1]);
+  std::set<std::int32_t> inUse;  // values of the labels not split
+  const std::size_t sx = std::size_t(g.size[0]), sy = std::size_t(g.size[1]);
   for (std::size_t i = 0; i < voxels.size(); ++i) {
-    largestValue = std::max(largestValue, voxels[i]);
     const auto it = partsOf.find(voxels[i]);
-    if (it == partsOf.end()) continue;
+    if (it == partsOf.end()) {
+      if (i == 0 || voxels[i] != voxels[i - 1]) inUse.insert(voxels[i]);  // runs of one value: one insert
+      continue;
+    }
     Part& p = it->second[part[i]];
     ++p.voxels;
-    p.indexSum += Eigen::Vector3d(double(i % sx), double((i / sx) % std::size_t(g.size[1])), double(i / sxy));
+    p.indexSum += Eigen::Vector3d(double(i % sx), double((i / sx) % sy), double(i / (sx * sy)));
   }
+  std::int32_t next = inUse.empty() ? 0 : *inUse.rbegin();
+  for (const auto& [label, parts] : partsOf) next = std::max(next, label);
+  for (const SideParts& s : given) next = std::max({next, s.left, s.right});
+
   const Eigen::Matrix3d toWorld = g.indexToWorldMatrix();
+  const auto worldX = [&](const Eigen::Vector3d& index) { return (toWorld * index)[0]; };
   std::vector<SideParts> out;
   std::map<std::uint32_t, std::int32_t> relabel;  // part -> its side's value
-  std::int32_t next = largestValue;
   for (const auto& [label, parts] : partsOf) {
-    std::size_t total = 0, largest = 0;
+    std::size_t total = 0;
     Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-    for (const auto& [id, p] : parts) total += p.voxels, largest = std::max(largest, p.voxels), sum += p.indexSum;
-    if (total == 0 || double(largest) >= BuiltModel::kWholeLabel * double(total)) continue;
-    const double centreX = (toWorld * (sum / double(total)))[0];
+    for (const auto& [id, p] : parts) {
+      total += p.voxels;
+      sum += p.indexSum;
+    }
+    if (total == 0) continue;
+    const double centreX = worldX(sum / double(total));
+    std::map<std::uint32_t, bool> onLeft;
     SideParts s;
     s.label = label;
-    for (const auto& [id, p] : parts) ((toWorld * (p.indexSum / double(p.voxels)))[0] > centreX ? s.leftVoxels : s.rightVoxels) += p.voxels;
-    if (s.leftVoxels == 0 || s.rightVoxels == 0) continue;
+    for (const auto& [id, p] : parts) {
+      onLeft[id] = worldX(p.indexSum / double(p.voxels)) > centreX;
+      (onLeft[id] ? s.leftVoxels : s.rightVoxels) += p.voxels;
+    }
+    // Each side at least 1 - kWholeLabel of the label, so its largest part holds at most
+    // kWholeLabel (less, and sinew-build-model models the label by that part) and a stray island
+    // across the midline is no side.
+    const double smallestSide = (1.0 - BuiltModel::kWholeLabel) * double(total);
+    if (double(s.leftVoxels) < smallestSide || double(s.rightVoxels) < smallestSide) continue;
     const auto known = std::find_if(given.begin(), given.end(), [&](const SideParts& x) { return x.label == label; });
-    s.left = known != given.end() ? known->left : ++next;
-    s.right = known != given.end() ? known->right : ++next;
-    for (const auto& [id, p] : parts) relabel[id] = (toWorld * (p.indexSum / double(p.voxels)))[0] > centreX ? s.left : s.right;
+    if (known != given.end()) {
+      s.left = known->left;
+      s.right = known->right;
+      for (const std::int32_t v : {s.left, s.right})
+        if (inUse.count(v))
+          throw InputError(source + ": label value " + std::to_string(v) + ", which a side of label " +
+                           std::to_string(label) + " takes as in the atlas, is another label here");
+    } else {
+      s.left = ++next;
+      s.right = ++next;
+    }
+    for (const auto& [id, left] : onLeft) relabel[id] = left ? s.left : s.right;
     out.push_back(s);
   }
   if (!relabel.empty())

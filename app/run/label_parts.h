@@ -10,6 +10,7 @@
 
 #include <cstdint>
 #include <span>
+#include <string>
 #include <vector>
 
 namespace sinew {
@@ -20,14 +21,16 @@ struct SideParts {
   std::size_t leftVoxels = 0, rightVoxels = 0;
 };
 
-// Splits, in place, each label of `which` whose largest connected part (26-connected) holds less
-// than BuiltModel::kWholeLabel of its voxels (where sinew-build-model says that a model is the
-// largest part of its label) and whose parts lie on both sides of the label's centre along world
-// x (each part on the side of its own centre; LPS, so +x is the subject's left): the left parts
-// take the value `left`, the right ones `right`. New values are given from the largest value in
-// the map up, or, where `given` names the label, its values (a ground truth split as its atlas
-// was). Labels that stay whole, or whose parts lie on one side, are not in the result.
+// Splits, in place, each label of `which` whose connected parts (26-connected) lie on both sides
+// of the label's centre along world x, each side with at least 1 - BuiltModel::kWholeLabel of its
+// voxels (each part on the side of its own centre; LPS, so +x is the subject's left): the left
+// parts take the value `left`, the right ones `right`. So a split label's largest part holds at
+// most kWholeLabel of it (where sinew-build-model would model it by that part alone), and a stray
+// island across the midline is no side. New values are given from the largest value in the map
+// up, or, where `given` names the label (a ground truth split as its atlas was), its values; a
+// given value that another label of the map holds already is an InputError naming `source`.
+// Labels that stay whole, or whose parts lie on one side, are not in the result.
 std::vector<SideParts> splitBySide(LabelVolume& labels, std::span<const std::int32_t> which,
-                                   std::span<const SideParts> given = {});
+                                   std::span<const SideParts> given, const std::string& source);
 
 }  // namespace sinew

@@ -183,18 +183,18 @@ int main(int argc, char** argv) {
       const auto splitInto = [&](const std::string& from, const std::string& suffix, std::span<const std::int32_t> which,
                                  std::span<const SideParts> given) {
         LabelVolume labels = registry.imageIOFor(from).readLabels(from);
-        std::vector<SideParts> made = splitBySide(labels, which, given);
+        std::vector<SideParts> made = splitBySide(labels, which, given, from);
         if (made.empty()) return std::pair(made, absolute(from));  // nothing split: the map as it is
         for (const SideParts& p : made)
           if (std::max(p.left, p.right) > 32767)
             throw sinew::InputError(from + ": no label value left for the parts of label " + std::to_string(p.label) +
                                     " (values run to 32767)");
-        fs::path target = sceneOut;
-        target.replace_extension(suffix);
-        if (target.has_parent_path()) fs::create_directories(target.parent_path());
-        partMaps.push_back(std::make_unique<sinew::AtomicOutput>(absolute(target.string())));
-        registry.imageIOFor(target).writeLabels(partMaps.back()->tempPath(), labels);
-        return std::pair(made, absolute(target.string()));
+        fs::path partsFile = sceneOut;
+        partsFile.replace_extension(suffix);
+        if (partsFile.has_parent_path()) fs::create_directories(partsFile.parent_path());
+        partMaps.push_back(std::make_unique<sinew::AtomicOutput>(absolute(partsFile.string())));
+        registry.imageIOFor(partsFile).writeLabels(partMaps.back()->tempPath(), labels);
+        return std::pair(made, absolute(partsFile.string()));
       };
       std::tie(splits, atlasMap) = splitInto(atlas, ".atlas-parts.nii.gz", values, {});
       if (!groundTruth.empty() && !splits.empty()) {

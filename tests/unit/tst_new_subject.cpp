@@ -505,9 +505,16 @@ private slots:
   // hemisphere) split into two structures, each modelled and scored on its own side; the output
   // label map keeps the label's value.
   void splitsALabelInParts() {
+    // A model's structures are built already: nothing to split.
+    Result r = runTool(SINEW_MAKE_SCENE, {"--model", model_, "--target", kTemplates + "ch2.nii.gz", "--split-parts", "-o",
+                                          path("refused-split.json")});
+    QCOMPARE(r.code, 3);
+    QVERIFY2(r.err.contains("--split-parts goes with --atlas"), qPrintable(r.err));
+    QVERIFY(!QFile::exists(path("refused-split.json")));
+
     const QString ho = kTemplates + "HarvardOxford-cort-maxprob-thr0-1mm.nii.gz";
     if (!QFile::exists(ho)) QSKIP("this mricron-data has no Harvard-Oxford atlas");
-    Result r = runTool(SINEW_MAKE_SCENE, {"--atlas", ho, "--training", kTemplates + "ch2better.nii.gz", "--target",
+    r = runTool(SINEW_MAKE_SCENE, {"--atlas", ho, "--training", kTemplates + "ch2better.nii.gz", "--target",
                                           kTemplates + "ch2.nii.gz", "--structures", "1,2", "--split-parts", "--iterations",
                                           "20,10,5", "-o", path("split.json")});
     QVERIFY2(r.code == 0, qPrintable(r.err));
@@ -518,8 +525,10 @@ private slots:
     QCOMPARE(structures[1].toObject()["name"].toString(), QString("label_2_L"));
     QCOMPARE(structures[2].toObject()["name"].toString(), QString("label_2_R"));
     const int left = structures[1].toObject()["reference"].toObject()["label"].toInt();
-    const int right = structures[2].toObject()["ground_truth"].toObject()["label"].toInt();
+    const int right = structures[2].toObject()["reference"].toObject()["label"].toInt();
     QVERIFY(left != right && left != 2 && right != 2);
+    for (int i = 1; i < 3; ++i)  // the atlas is the truth: scored against the same side
+      QCOMPARE(structures[i].toObject()["ground_truth"].toObject()["label"].toInt(), i == 1 ? left : right);
     QCOMPARE(structures[1].toObject()["label"].toInt(), 2);  // the output's value
     // The split map: label 2's voxels and no other changed, each side in its own hemisphere by
     // AAL's Insula_L (29) and Insula_R (30), looked up at the same world points.
@@ -540,6 +549,7 @@ private slots:
     const ImageGeometry& g = before.geometry();
     for (std::size_t i = 0; i < before.voxels().size(); ++i) {
       const int b = before.voxels()[i], a = after.voxels()[i];
+      QVERIFY(b != left && b != right);  // new values, no label's before
       if (b != 2) {
         changed += a != b;
         continue;
@@ -585,10 +595,32 @@ private slots:
       QCOMPARE(truth["label_map"].toString(), path("split-subject.truth-parts.nii.gz"));
       QCOMPARE(truth["label"].toInt(), side == 0 ? left : right);
     }
+    // Each side of the subject's truth where it should be: the left one at larger world x (LPS).
     const LabelVolume subjectTruth = read(path("split-subject.truth-parts.nii.gz").toStdString());
+    const ImageGeometry& sg = subjectTruth.geometry();
     std::size_t subjectSides[2] = {0, 0};
-    for (const int v : subjectTruth.voxels()) subjectSides[0] += v == left, subjectSides[1] += v == right;
+    double sideX[2] = {0, 0};
+    for (std::size_t i = 0; i < subjectTruth.voxels().size(); ++i) {
+      const int v = subjectTruth.voxels()[i];
+      if (v != left && v != right) continue;
+      const Vec3 index(float(i % sg.size[0]), float((i / sg.size[0]) % sg.size[1]), float(i / (std::size_t(sg.size[0]) * sg.size[1])));
+      ++subjectSides[v == left ? 0 : 1];
+      sideX[v == left ? 0 : 1] += subjectTruth.indexToWorld(index).x();
+    }
     QVERIFY2(subjectSides[0] > 8000 && subjectSides[1] > 8000, qPrintable(QString("%1 %2").arg(subjectSides[0]).arg(subjectSides[1])));
+    QVERIFY2(sideX[0] / subjectSides[0] > 20 && sideX[1] / subjectSides[1] < -20,
+             qPrintable(QString("%1 %2").arg(sideX[0] / subjectSides[0]).arg(sideX[1] / subjectSides[1])));
+
+    // A truth that holds a side's value as another label already: refused, naming the file.
+    LabelVolume clash = read(path("ho-subject/labels.nii.gz").toStdString());
+    *std::find(clash.voxels().begin(), clash.voxels().end(), 1) = left;
+    builtinRegistry().imageIOFor("clash.nii.gz").writeLabels(path("clash.nii.gz").toStdString(), clash);
+    r = runTool(SINEW_MAKE_SCENE, {"--subject", "--atlas", ho, "--training", kTemplates + "ch2better.nii.gz", "--target",
+                                   path("ho-subject/image.nii.gz"), "--ground-truth", path("clash.nii.gz"), "--structures",
+                                   "2", "--split-parts", "-o", path("refused-clash/scene.json")});
+    QCOMPARE(r.code, 3);
+    QVERIFY2(r.err.contains(QString("clash.nii.gz: label value %1, which a side of label 2").arg(left)), qPrintable(r.err));
+    QVERIFY(QDir(path("refused-clash")).entryList(QDir::Files | QDir::Hidden).isEmpty());
 
     // A ground truth whose label is whole cannot be split as the atlas was: refused, nothing written.
     r = runTool(SINEW_MAKE_SCENE, {"--subject", "--atlas", ho, "--training", kTemplates + "ch2better.nii.gz", "--target",
@@ -598,12 +630,6 @@ private slots:
     QVERIFY2(r.err.contains("aal.nii.gz: label 2 is not in parts on both sides here"), qPrintable(r.err));
     QVERIFY(QDir(path("refused-truth")).entryList(QDir::Files | QDir::Hidden).isEmpty());
 
-    // A model's structures are built already: nothing to split.
-    r = runTool(SINEW_MAKE_SCENE, {"--model", model_, "--target", kTemplates + "ch2.nii.gz", "--split-parts", "-o",
-                                   path("refused-split.json")});
-    QCOMPARE(r.code, 3);
-    QVERIFY2(r.err.contains("--split-parts goes with --atlas"), qPrintable(r.err));
-    QVERIFY(!QFile::exists(path("refused-split.json")));
   }
 
   void refusesWhatCannotBeInitialised() {
