@@ -2,7 +2,10 @@
 // each subject's task leaves.
 #include "cohort.h"
 
+#include "builtin_plugins.h"
+#include "cohort_sides.h"
 #include "sinew/core/io.h"
+#include "sinew/core/plugin_loader.h"
 #include "sinew/core/types.h"
 
 #include <fstream>
@@ -85,8 +88,12 @@ Cohort prepareCohort(const fs::path& manifest, const fs::path& sceneTemplate, co
     fs::create_directories(c.subjectDir(i), ec);
     if (ec) throw InputError(c.subjectDir(i).string() + ": cannot create: " + ec.message());
     std::string scene;
+    std::optional<LabelVolume> truthParts;  // the subject's truth split by side, for a model's sides
+    const fs::path partsFile = c.subjectDir(i) / "truth-parts.nii.gz";
     try {
-      scene = subjectScene(tmpl, templateDir, c.subjects[i], model).dump(2) + "\n";
+      Json sceneJson = subjectScene(tmpl, templateDir, c.subjects[i], model);
+      truthParts = splitTruthBySide(sceneJson, partsFile);
+      scene = sceneJson.dump(2) + "\n";
     } catch (const InputError& e) {
       // This subject cannot run; the others can.
       fs::remove(c.sceneFile(i), ec);
@@ -101,6 +108,14 @@ Cohort prepareCohort(const fs::path& manifest, const fs::path& sceneTemplate, co
     if (fs::exists(c.sceneFile(i)) && readText(c.sceneFile(i)) == scene) continue;
     fs::remove(c.statusFile(i), ec);
     fs::remove(c.outputDir(i) / "report.json", ec);
+    if (truthParts) {  // before the scene that names it
+      Registry registry;
+      PluginLoader plugins(registry);
+      addBuiltinPlugins(plugins);
+      AtomicOutput parts(partsFile);
+      registry.imageIOFor(partsFile).writeLabels(parts.tempPath(), *truthParts);
+      parts.commit();
+    }
     writeFileAtomically(c.sceneFile(i), scene);
   }
   writeFileAtomically(c.dir / "cohort.json", j.dump(2) + "\n");

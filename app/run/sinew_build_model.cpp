@@ -4,12 +4,14 @@
 // model folder instead of rebuilding the shapes from labels in every run.
 #include "builtin_plugins.h"
 #include "label_list.h"
+#include "label_parts.h"
 #include "sinew/core/executor.h"
 #include "sinew/core/model_builder.h"
 #include "sinew/core/model_file.h"
 
 #include <CLI/CLI.hpp>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <ctime>
@@ -32,7 +34,7 @@ int main(int argc, char** argv) {
   std::vector<std::string> meshes;
   int levels = 3, threads = 0;
   double coarseSpacing = 4.0;
-  bool quiet = false;
+  bool quiet = false, splitParts = false;
   cli.add_option("--atlas", atlas, "atlas label map (the reference shapes)");
   cli.add_option("--labels", labelList,
                  "label list of the atlas, 'value name' per line (without it, --structures are label values, named label_VALUE)");
@@ -44,6 +46,9 @@ int main(int argc, char** argv) {
       ->check(CLI::PositiveNumber)->capture_default_str();
   cli.add_option("-j,--threads", threads, "CPU threads (0 = all)")->check(CLI::NonNegativeNumber);
   cli.add_option("-o,--output", output, "model folder to write")->required();
+  cli.add_flag("--split-parts", splitParts,
+               "a label in parts apart from each other on both sides (a parcel of both hemispheres) becomes two "
+               "structures, NAME_L and NAME_R, each built from its side; both keep the label's value in output label maps");
   cli.add_flag("-q,--quiet", quiet, "no progress output");
   cli.footer("Exit codes: 0 success, 2 bad command line, 3 bad input (the message names the file).");
   cli.set_version_flag("--version", std::string("sinew-build-model ") + SINEW_VERSION);
@@ -52,8 +57,9 @@ int main(int argc, char** argv) {
   } catch (const CLI::ParseError& e) {
     return cli.exit(e) == 0 ? 0 : 2;
   }
-  if (meshes.empty() == atlas.empty() || (atlas.empty() && !labelList.empty())) {
-    std::fprintf(stderr, "sinew-build-model: give either --atlas (with --labels to name its labels), or one or more --mesh\n");
+  if (meshes.empty() == atlas.empty() || (atlas.empty() && (!labelList.empty() || splitParts))) {
+    std::fprintf(stderr, "sinew-build-model: give either --atlas (with --labels to name its labels, --split-parts to split "
+                         "labels by side), or one or more --mesh\n");
     return 2;
   }
   const auto start = std::chrono::steady_clock::now();
@@ -77,17 +83,39 @@ int main(int argc, char** argv) {
       if (!labelList.empty()) model.inputs.push_back(describeInput("label_list", labelList));
       const auto list = labelList.empty() ? unnamedLabels(splitList(structures)) : readLabelList(labelList);
       log("reading " + atlas);
-      const LabelVolume labels = registry.imageIOFor(atlas).readLabels(atlas);
+      LabelVolume labels = registry.imageIOFor(atlas).readLabels(atlas);
+      std::vector<const LabelEntry*> entries;
+      for (const std::string& key : splitList(structures)) entries.push_back(&findLabel(list, key, labelList));
+      // The labels in parts on both sides, split in the map in memory: each side takes a value of its own.
+      std::vector<SideParts> splits;
+      if (splitParts) {
+        std::vector<std::int32_t> values;
+        for (const LabelEntry* e : entries) values.push_back(e->value);
+        splits = splitBySide(labels, values, {}, atlas);
+        if (splits.empty()) std::fprintf(stderr, "sinew-build-model: --split-parts: no label is in parts on both sides; none split\n");
+        for (const SideParts& p : splits)
+          log("label " + std::to_string(p.label) + " is in parts on both sides: split into its left (" +
+              std::to_string(p.leftVoxels) + " voxels) and right (" + std::to_string(p.rightVoxels) + ")");
+      }
       const auto extents = labelExtents(labels);  // one pass, not one per structure and surface
-      for (const std::string& key : splitList(structures)) {
-        const LabelEntry& e = findLabel(list, key, labelList);
-        log("structure '" + e.name + "' (label " + std::to_string(e.value) + "): " + std::to_string(levels) + " levels");
-        const auto extent = extents.find(e.value);
-        BuiltModel b = buildModelFromLabel(registry, labels, atlas, e.value, e.name, coarseSpacing, levels, executor,
+      const auto build = [&](const std::string& name, int label, std::int32_t inMap, const std::string& side) {
+        log("structure '" + name + "' (label " + std::to_string(label) + (side.empty() ? "" : ", its " + side + " side") +
+            "): " + std::to_string(levels) + " levels");
+        const auto extent = extents.find(inMap);
+        BuiltModel b = buildModelFromLabel(registry, labels, atlas, inMap, name, coarseSpacing, levels, executor,
                                            extent == extents.end() ? nullptr : &extent->second);
-        if (const std::string note = b.partNote(e.name, e.value); !note.empty())
+        if (const std::string note = b.partNote(name, label); !note.empty())
           std::fprintf(stderr, "sinew-build-model: note: %s\n", note.c_str());
-        model.structures.push_back({e.name, e.value, std::move(b.levels), std::move(b.positions)});
+        model.structures.push_back({name, label, std::move(b.levels), std::move(b.positions), side});
+      };
+      for (const LabelEntry* e : entries) {
+        const auto split = std::find_if(splits.begin(), splits.end(), [&](const SideParts& p) { return p.label == e->value; });
+        if (split == splits.end()) {
+          build(e->name, e->value, e->value, "");
+        } else {
+          build(e->name + "_L", e->value, split->left, "left");
+          build(e->name + "_R", e->value, split->right, "right");
+        }
       }
     } else {
       int nextLabel = 1;

@@ -18,8 +18,11 @@
 #include <cmath>
 #include <fstream>
 #include <iostream>
+#include <map>
 #include <memory>
+#include <optional>
 #include <random>
+#include <span>
 #include <sstream>
 #include <tuple>
 
@@ -152,6 +155,7 @@ int main(int argc, char** argv) {
     if (target.empty()) throw sinew::InputError("--target: the image to segment is required");
     // In subject mode the structures are those of the model (or the atlas), named as in it.
     std::vector<LabelEntry> list;
+    std::map<std::string, std::string> sideOf;  // a model's structures that are one side of a label (sinew-build-model --split-parts)
     if (!model.empty()) {
       // Only the manifest is read here: the names and labels of the model's structures.
       std::ifstream in(fs::path(model) / "model.json");
@@ -159,7 +163,10 @@ int main(int argc, char** argv) {
       const Json m = Json::parse(in, nullptr, false);
       if (m.is_discarded() || !m.contains("structures"))
         throw sinew::InputError((fs::path(model) / "model.json").string() + ": not a valid model manifest");
-      for (const auto& s : m["structures"]) list.push_back({s.value("label", 0), s.value("name", std::string())});
+      for (const auto& s : m["structures"]) {
+        list.push_back({s.value("label", 0), s.value("name", std::string())});
+        if (s.contains("side")) sideOf[list.back().name] = s.value("side", std::string());
+      }
       if (structuresOption->count() == 0) {
         structures.clear();
         for (const LabelEntry& e : list) structures += (structures.empty() ? "" : ",") + e.name;
@@ -168,52 +175,73 @@ int main(int argc, char** argv) {
       list = labelList.empty() ? unnamedLabels(splitList(structures)) : readLabelList(labelList);
     }
     if (splitParts && !model.empty())
-      throw sinew::InputError("--split-parts goes with --atlas: a model's structures are built already");
-    // The labels in parts, split by side into maps beside the scene (atomically, like the scene).
+      throw sinew::InputError("--split-parts goes with --atlas: a model's structures are built already "
+                              "(sinew-build-model --split-parts splits its labels)");
+    const fs::path listFile = model.empty() ? fs::path(labelList) : fs::path(model) / "model.json";
+    // The structures asked for. Of a model's sides, a key that is the label's value or name takes both.
+    std::vector<const LabelEntry*> chosen;
+    for (const std::string& key : splitList(structures)) {
+      const auto exact = std::find_if(list.begin(), list.end(), [&](const LabelEntry& e) { return e.name == key; });
+      const size_t before = chosen.size();
+      if (exact == list.end())
+        for (const LabelEntry& e : list)
+          if (sideOf.count(e.name) && (e.name == key + "_L" || e.name == key + "_R" || std::to_string(e.value) == key))
+            chosen.push_back(&e);
+      if (chosen.size() == before) chosen.push_back(&findLabel(list, key, listFile));
+    }
+    // The labels in parts, split by side into maps beside the scene (atomically, like the scene):
+    // the atlas's and a subject's truth with --split-parts, a subject's truth for a model's sides.
     const fs::path sceneOut(output);
-    std::vector<SideParts> splits;
+    std::vector<SideParts> splits, truthSplits;
     std::string atlasMap = atlas.empty() ? atlas : absolute(atlas), truthMap = groundTruth.empty() ? atlasMap : absolute(groundTruth);
     std::vector<std::unique_ptr<sinew::AtomicOutput>> partMaps;
+    Registry registry;
+    PluginLoader plugins(registry);
+    addBuiltinPlugins(plugins);
+    const auto splitInto = [&](const std::string& from, const std::string& suffix, std::span<const std::int32_t> which,
+                               std::span<const SideParts> given) {
+      LabelVolume labels = registry.imageIOFor(from).readLabels(from);
+      std::vector<SideParts> made = splitBySide(labels, which, given, from);
+      if (made.empty()) return std::pair(made, absolute(from));  // nothing split: the map as it is
+      for (const SideParts& p : made)
+        if (std::max(p.left, p.right) > 32767)
+          throw sinew::InputError(from + ": no label value left for the parts of label " + std::to_string(p.label) +
+                                  " (values run to 32767)");
+      fs::path partsFile = sceneOut;
+      partsFile.replace_extension(suffix);
+      if (partsFile.has_parent_path()) fs::create_directories(partsFile.parent_path());
+      partMaps.push_back(std::make_unique<sinew::AtomicOutput>(absolute(partsFile.string())));
+      registry.imageIOFor(partsFile).writeLabels(partMaps.back()->tempPath(), labels);
+      return std::pair(made, absolute(partsFile.string()));
+    };
+    // A truth split as the atlas or the model was: every label of `labels` must split.
+    const auto splitTruth = [&](std::span<const std::int32_t> labels, std::span<const SideParts> given) {
+      std::tie(truthSplits, truthMap) = splitInto(groundTruth, ".truth-parts.nii.gz", labels, given);
+      for (const std::int32_t label : labels)
+        if (std::none_of(truthSplits.begin(), truthSplits.end(), [&](const SideParts& t) { return t.label == label; }))
+          throw sinew::InputError(groundTruth + ": label " + std::to_string(label) + " is not in parts on both sides here, as it is in the " +
+                                  (model.empty() ? "atlas" : "model") + "; it cannot be split alike");
+    };
     if (splitParts) {
-      Registry registry;
-      PluginLoader plugins(registry);
-      addBuiltinPlugins(plugins);
       std::vector<std::int32_t> values;
-      for (const std::string& key : splitList(structures)) values.push_back(findLabel(list, key, fs::path(labelList)).value);
-      const auto splitInto = [&](const std::string& from, const std::string& suffix, std::span<const std::int32_t> which,
-                                 std::span<const SideParts> given) {
-        LabelVolume labels = registry.imageIOFor(from).readLabels(from);
-        std::vector<SideParts> made = splitBySide(labels, which, given, from);
-        if (made.empty()) return std::pair(made, absolute(from));  // nothing split: the map as it is
-        for (const SideParts& p : made)
-          if (std::max(p.left, p.right) > 32767)
-            throw sinew::InputError(from + ": no label value left for the parts of label " + std::to_string(p.label) +
-                                    " (values run to 32767)");
-        fs::path partsFile = sceneOut;
-        partsFile.replace_extension(suffix);
-        if (partsFile.has_parent_path()) fs::create_directories(partsFile.parent_path());
-        partMaps.push_back(std::make_unique<sinew::AtomicOutput>(absolute(partsFile.string())));
-        registry.imageIOFor(partsFile).writeLabels(partMaps.back()->tempPath(), labels);
-        return std::pair(made, absolute(partsFile.string()));
-      };
+      for (const LabelEntry* e : chosen) values.push_back(e->value);
       std::tie(splits, atlasMap) = splitInto(atlas, ".atlas-parts.nii.gz", values, {});
-      if (!groundTruth.empty() && !splits.empty()) {
-        // Only the labels split in the atlas, with its values: the others are scored as they are.
-        std::vector<std::int32_t> split;
-        for (const SideParts& p : splits) split.push_back(p.label);
-        std::vector<SideParts> truthSplits;
-        std::tie(truthSplits, truthMap) = splitInto(groundTruth, ".truth-parts.nii.gz", split, splits);
-        for (const SideParts& p : splits)
-          if (std::none_of(truthSplits.begin(), truthSplits.end(), [&](const SideParts& t) { return t.label == p.label; }))
-            throw sinew::InputError(groundTruth + ": label " + std::to_string(p.label) +
-                                    " is not in parts on both sides here, as it is in the atlas; it cannot be split alike");
-      } else if (groundTruth.empty()) {
-        truthMap = atlasMap;
-      }
+      std::vector<std::int32_t> split;  // only the labels split in the atlas, with its values
+      for (const SideParts& p : splits) split.push_back(p.label);
+      if (!groundTruth.empty() && !splits.empty()) splitTruth(split, splits);
+      else if (groundTruth.empty()) truthMap = atlasMap;
       if (splits.empty()) std::cerr << "--split-parts: no label of the scene is in parts on both sides; none split\n";
       for (const SideParts& p : splits)
         std::cerr << "label " << p.label << " is in parts on both sides: split into " << p.left << " (left, "
                   << p.leftVoxels << " voxels) and " << p.right << " (right, " << p.rightVoxels << ")\n";
+    } else if (!sideOf.empty() && !groundTruth.empty()) {
+      std::vector<std::int32_t> sided;
+      for (const LabelEntry* e : chosen)
+        if (sideOf.count(e->name) && std::find(sided.begin(), sided.end(), e->value) == sided.end()) sided.push_back(e->value);
+      if (!sided.empty()) splitTruth(sided, {});
+      for (const SideParts& p : truthSplits)
+        std::cerr << "label " << p.label << " of the truth is in parts on both sides, as in the model: split into "
+                  << p.left << " (left, " << p.leftVoxels << " voxels) and " << p.right << " (right, " << p.rightVoxels << ")\n";
     }
     std::mt19937 rng(seed);
     std::uniform_real_distribution<double> unit(0.0, 1.0);
@@ -236,17 +264,21 @@ int main(int argc, char** argv) {
     scene["images"] = {{"target", absolute(target)}};
     if (!training.empty()) scene["images"]["training"] = absolute(training);
     Json items = Json::array();
-    const fs::path listFile = model.empty() ? fs::path(labelList) : fs::path(model) / "model.json";
     // Each structure, or each side of a label split in two (named NAME_L and NAME_R).
     std::vector<std::tuple<std::string, std::int32_t, std::int32_t>> parts;  // name, output value, value in the maps
-    for (const std::string& key : splitList(structures)) {
-      const LabelEntry& e = findLabel(list, key, listFile);
-      const auto split = std::find_if(splits.begin(), splits.end(), [&](const SideParts& p) { return p.label == e.value; });
-      if (split == splits.end()) {
-        parts.emplace_back(e.name, e.value, e.value);
+    const auto sideValue = [](std::span<const SideParts> in, std::int32_t label, bool left) -> std::optional<std::int32_t> {
+      const auto s = std::find_if(in.begin(), in.end(), [&](const SideParts& p) { return p.label == label; });
+      if (s == in.end()) return std::nullopt;
+      return left ? s->left : s->right;
+    };
+    for (const LabelEntry* e : chosen) {
+      if (const auto side = sideOf.find(e->name); side != sideOf.end()) {  // a model's side: its truth's side
+        parts.emplace_back(e->name, e->value, sideValue(truthSplits, e->value, side->second == "left").value_or(e->value));
+      } else if (const auto left = sideValue(splits, e->value, true)) {
+        parts.emplace_back(e->name + "_L", e->value, *left);
+        parts.emplace_back(e->name + "_R", e->value, *sideValue(splits, e->value, false));
       } else {
-        parts.emplace_back(e.name + "_L", e.value, split->left);
-        parts.emplace_back(e.name + "_R", e.value, split->right);
+        parts.emplace_back(e->name, e->value, e->value);
       }
     }
     for (const auto& [name, value, inMaps] : parts) {
@@ -305,9 +337,6 @@ int main(int argc, char** argv) {
       scene["forces"]["collision"]["reaction"] = kCollisionReaction;
       scene["forces"]["collision"]["size_share"] = kCollisionSizeShare;
       if (!sharesFrom.empty()) {
-        Registry registry;
-        PluginLoader plugins(registry);
-        addBuiltinPlugins(plugins);
         std::vector<std::string> names;
         for (const auto& s : items) names.push_back(s["name"].get<std::string>());
         const Json shares = collisionSharesFor(learnContactSides(registry, sharesFrom), names, sharesMinContacts);

@@ -120,8 +120,8 @@ std::string BuiltModel::partNote(const std::string& name, int label) const {
   if (!(labelShareEnclosed < kWholeLabel)) return {};
   return "structure '" + name + "': label " + std::to_string(label) + " is in parts apart from each other; its model is the " +
          "largest, " + std::to_string(int(std::lround(100.0 * labelShareEnclosed))) + " % of the label's volume, while " +
-         "a ground truth of the label is all of it (where its parts lie on both sides, sinew-make-scene --split-parts "
-         "makes each side a structure of its own)";
+         "a ground truth of the label is all of it (where its parts lie on both sides, --split-parts of sinew-make-scene "
+         "or sinew-build-model makes each side a structure of its own)";
 }
 
 BuiltModel buildModelFromMesh(const TriangleMesh& mesh, const std::filesystem::path& file, int levelCount,

@@ -130,6 +130,7 @@ void writeModel(const Registry& registry, const Model& model, const fs::path& fo
       counts.push_back(s.levels.levels[l].vertexCount());
     }
     structures.push_back({{"name", s.name}, {"label", s.label}, {"vertices", counts}});
+    if (!s.side.empty()) structures.back()["side"] = s.side;
   }
   j["structures"] = structures;
   j["files"] = files;
@@ -200,6 +201,9 @@ Model readModel(const Registry& registry, const fs::path& folder) {
                                  std::string::npos || ms.name[0] == '.')
         fail("structure name '" + ms.name + "' is not a plain name");
       ms.label = integer(s.at("label"), "label", int());
+      ms.side = s.value("side", "");
+      if (!ms.side.empty() && ms.side != "left" && ms.side != "right")
+        fail("structure '" + ms.name + "': \"side\" must be \"left\" or \"right\", not \"" + ms.side + "\"");
       if (!s.at("vertices").is_array()) fail("structure '" + ms.name + "': \"vertices\" must be a list of counts");
       std::vector<Index> counts;
       for (const Json& c : s.at("vertices")) counts.push_back(integer(c, "vertices", Index()));

@@ -366,11 +366,14 @@ private slots:
     const TriangleMesh shape = ellipsoidSurface(Vec3(0, 0, 0), Vec3(12, 9, 7), 3);
     BuiltModel b = buildModelFromMesh(shape, "ellipsoid", 3, executor);
     m.structures.push_back({"Ellipsoid", 5, b.levels, b.positions});
+    m.structures.push_back({"Ellipsoid_L", 6, b.levels, b.positions, "left"});  // a side of a label split by side
     const Registry& registry = builtinRegistry();
     writeModel(registry, m, folder);
     const Model back = readModel(registry, folder);
-    QCOMPARE(back.structures.size(), size_t(1));
+    QCOMPARE(back.structures.size(), size_t(2));
     QCOMPARE(back.structures[0].label, 5);
+    QCOMPARE(back.structures[0].side, std::string());
+    QCOMPARE(back.structures[1].side, std::string("left"));
     QCOMPARE(back.levelCount(), 3);
     for (int l = 0; l < 3; ++l) {
       QVERIFY(back.structures[0].levels.levels[l].neighbours == b.levels.levels[l].neighbours);
@@ -384,13 +387,15 @@ private slots:
       f.put('#');
     }
     expectError([&] { readModel(registry, folder); }, QString::fromStdString(level1.string()) + ": checksum mismatch");
-    // Another format version.
+    // Another format version, and a side that is neither.
     writeModel(registry, m, folder);
     std::string text;
     {
       std::ifstream in(folder / "model.json");
       text.assign(std::istreambuf_iterator<char>(in), {});
     }
+    { std::ofstream(folder / "model.json") << std::string(text).replace(text.find("\"left\""), 6, "\"up\""); }
+    expectError([&] { readModel(registry, folder); }, "structure 'Ellipsoid_L': \"side\" must be \"left\" or \"right\", not \"up\"");
     text.replace(text.find("\"version\": 1"), 12, "\"version\": 7");
     { std::ofstream(folder / "model.json") << text; }
     expectError([&] { readModel(registry, folder); }, "model format version 7 is not supported");

@@ -22,6 +22,9 @@ struct ModelStructure {
   int label = 0;
   LevelHierarchy levels;
   std::vector<std::vector<Vec3>> positions;  // reference shape per level
+  // "left" or "right": one side of a label in parts on both sides (sinew-build-model
+  // --split-parts), whose subjects' ground truths are split alike; empty: the whole label.
+  std::string side;
 };
 
 struct ModelInput {
