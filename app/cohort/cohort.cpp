@@ -84,16 +84,28 @@ Cohort prepareCohort(const fs::path& manifest, const fs::path& sceneTemplate, co
             {"template", fs::absolute(sceneTemplate).lexically_normal().string()}, {"subjects", subjects}};
   if (model) j["model"] = fs::absolute(*model).lexically_normal().string();
 
+  Registry registry;  // the subjects' ground truths, where the model's sides split them
+  PluginLoader plugins(registry);
+  addBuiltinPlugins(plugins);
   for (size_t i = 0; i < c.subjects.size(); ++i) {
     fs::create_directories(c.subjectDir(i), ec);
     if (ec) throw InputError(c.subjectDir(i).string() + ": cannot create: " + ec.message());
     std::string scene;
-    std::optional<LabelVolume> truthParts;  // the subject's truth split by side, for a model's sides
-    const fs::path partsFile = c.subjectDir(i) / "truth-parts.nii.gz";
+    bool unchanged = false;
     try {
       Json sceneJson = subjectScene(tmpl, templateDir, c.subjects[i], model);
-      truthParts = splitTruthBySide(sceneJson, partsFile);
+      const fs::path partsFile = c.subjectDir(i) / "truth-parts.nii.gz";
+      const std::optional<LabelVolume> truthParts = splitTruthBySide(registry, sceneJson, partsFile);
       scene = sceneJson.dump(2) + "\n";
+      // A changed scene (another template or manifest entry) makes earlier outputs stale.
+      unchanged = fs::exists(c.sceneFile(i)) && readText(c.sceneFile(i)) == scene;
+      // The split truth, before the scene that names it: written again unless the subject is done
+      // with this very scene, so that a truth replaced at the same path is not scored as it was.
+      if (truthParts && !(unchanged && isDone(c, i) && fs::exists(partsFile))) {
+        AtomicOutput parts(partsFile);
+        registry.imageIOFor(partsFile).writeLabels(parts.tempPath(), *truthParts);
+        parts.commit();
+      }
     } catch (const InputError& e) {
       // This subject cannot run; the others can.
       fs::remove(c.sceneFile(i), ec);
@@ -104,18 +116,9 @@ Cohort prepareCohort(const fs::path& manifest, const fs::path& sceneTemplate, co
       writeStatus(c, i, st);
       continue;
     }
-    // A changed scene (another template or manifest entry) makes earlier outputs stale.
-    if (fs::exists(c.sceneFile(i)) && readText(c.sceneFile(i)) == scene) continue;
+    if (unchanged) continue;
     fs::remove(c.statusFile(i), ec);
     fs::remove(c.outputDir(i) / "report.json", ec);
-    if (truthParts) {  // before the scene that names it
-      Registry registry;
-      PluginLoader plugins(registry);
-      addBuiltinPlugins(plugins);
-      AtomicOutput parts(partsFile);
-      registry.imageIOFor(partsFile).writeLabels(parts.tempPath(), *truthParts);
-      parts.commit();
-    }
     writeFileAtomically(c.sceneFile(i), scene);
   }
   writeFileAtomically(c.dir / "cohort.json", j.dump(2) + "\n");

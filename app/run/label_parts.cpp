@@ -1,12 +1,12 @@
 #include "label_parts.h"
 
 #include "itk_convert.h"
+#include "sinew/core/types.h"
 
 #include <itkScalarConnectedComponentImageFilter.h>
 
 #include <algorithm>
 #include <map>
-#include <set>
 #include <string>
 
 namespace sinew {
@@ -19,8 +19,7 @@ struct Part {
 };
 }  // namespace
 
-std::vector<SideParts> splitBySide(LabelVolume& labels, std::span<const std::int32_t> which,
-                                   std::span<const SideParts> given, const std::string& source) {
+std::vector<SideParts> splitBySide(LabelVolume& labels, std::span<const std::int32_t> which, std::int32_t floor) {
   const ImageGeometry& g = labels.geometry();
   std::vector<std::int32_t>& voxels = labels.voxels();
   // Parts of equal value, every label at once (26-connected: a part touching another only at a
@@ -36,59 +35,43 @@ std::vector<SideParts> splitBySide(LabelVolume& labels, std::span<const std::int
 
   std::map<std::int32_t, std::map<std::uint32_t, Part>> partsOf;
   for (const std::int32_t v : which) partsOf[v];
-  std::set<std::int32_t> inUse;  // values of the labels not split
+  std::int32_t next = floor;  // new values from above every value in use
+  Part labelled;              // every labelled voxel: the midline is their centre
   const std::size_t sx = std::size_t(g.size[0]), sy = std::size_t(g.size[1]);
   for (std::size_t i = 0; i < voxels.size(); ++i) {
+    if (voxels[i] == 0) continue;
+    next = std::max(next, voxels[i]);
+    const Eigen::Vector3d index(double(i % sx), double((i / sx) % sy), double(i / (sx * sy)));
+    ++labelled.voxels;
+    labelled.indexSum += index;
     const auto it = partsOf.find(voxels[i]);
-    if (it == partsOf.end()) {
-      if (i == 0 || voxels[i] != voxels[i - 1]) inUse.insert(voxels[i]);  // runs of one value: one insert
-      continue;
-    }
+    if (it == partsOf.end()) continue;
     Part& p = it->second[part[i]];
     ++p.voxels;
-    p.indexSum += Eigen::Vector3d(double(i % sx), double((i / sx) % sy), double(i / (sx * sy)));
+    p.indexSum += index;
   }
-  std::int32_t next = inUse.empty() ? 0 : *inUse.rbegin();
-  for (const auto& [label, parts] : partsOf) next = std::max(next, label);
-  for (const SideParts& s : given) next = std::max({next, s.left, s.right});
-
+  if (labelled.voxels == 0) return {};
   const Eigen::Matrix3d toWorld = g.indexToWorldMatrix();
   const auto worldX = [&](const Eigen::Vector3d& index) { return (toWorld * index)[0]; };
+  const double midlineX = worldX(labelled.indexSum / double(labelled.voxels));
   std::vector<SideParts> out;
   std::map<std::uint32_t, std::int32_t> relabel;  // part -> its side's value
   for (const auto& [label, parts] : partsOf) {
-    std::size_t total = 0;
-    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-    for (const auto& [id, p] : parts) {
-      total += p.voxels;
-      sum += p.indexSum;
-    }
-    if (total == 0) continue;
-    const double centreX = worldX(sum / double(total));
-    std::map<std::uint32_t, bool> onLeft;
     SideParts s;
     s.label = label;
+    std::map<std::uint32_t, bool> onLeft;
     for (const auto& [id, p] : parts) {
-      onLeft[id] = worldX(p.indexSum / double(p.voxels)) > centreX;
+      onLeft[id] = worldX(p.indexSum / double(p.voxels)) > midlineX;
       (onLeft[id] ? s.leftVoxels : s.rightVoxels) += p.voxels;
     }
     // Each side at least 1 - kWholeLabel of the label, so its largest part holds at most
     // kWholeLabel (less, and sinew-build-model models the label by that part) and a stray island
     // across the midline is no side.
-    const double smallestSide = (1.0 - BuiltModel::kWholeLabel) * double(total);
-    if (double(s.leftVoxels) < smallestSide || double(s.rightVoxels) < smallestSide) continue;
-    const auto known = std::find_if(given.begin(), given.end(), [&](const SideParts& x) { return x.label == label; });
-    if (known != given.end()) {
-      s.left = known->left;
-      s.right = known->right;
-      for (const std::int32_t v : {s.left, s.right})
-        if (inUse.count(v))
-          throw InputError(source + ": label value " + std::to_string(v) + ", which a side of label " +
-                           std::to_string(label) + " takes as in the atlas, is another label here");
-    } else {
-      s.left = ++next;
-      s.right = ++next;
-    }
+    const double smallestSide = (1.0 - BuiltModel::kWholeLabel) * double(s.leftVoxels + s.rightVoxels);
+    if (s.leftVoxels + s.rightVoxels == 0 || double(s.leftVoxels) < smallestSide || double(s.rightVoxels) < smallestSide)
+      continue;
+    s.left = ++next;
+    s.right = ++next;
     for (const auto& [id, left] : onLeft) relabel[id] = left ? s.left : s.right;
     out.push_back(s);
   }
@@ -96,6 +79,26 @@ std::vector<SideParts> splitBySide(LabelVolume& labels, std::span<const std::int
     for (std::size_t i = 0; i < voxels.size(); ++i)
       if (const auto it = relabel.find(part[i]); it != relabel.end() && partsOf.count(voxels[i])) voxels[i] = it->second;
   return out;
+}
+
+std::vector<SideParts> splitTruthBySide(LabelVolume& truth, std::span<const std::int32_t> labels, std::int32_t floor,
+                                        const std::string& file, const std::string& splitIn) {
+  std::vector<SideParts> made = splitBySide(truth, labels, floor);
+  for (const std::int32_t label : labels)
+    if (std::none_of(made.begin(), made.end(), [&](const SideParts& p) { return p.label == label; }))
+      throw InputError(file + ": label " + std::to_string(label) + " is not in parts on both sides here, as it is in the " +
+                       splitIn + "; it cannot be split alike");
+  for (const SideParts& p : made)
+    if (std::max(p.left, p.right) > kLargestLabelValue)
+      throw InputError(file + ": no label value left for the sides of label " + std::to_string(p.label) + " (values run to " +
+                       std::to_string(kLargestLabelValue) + ")");
+  return made;
+}
+
+bool isLeftSide(const std::string& side, const std::string& manifest, const std::string& structure) {
+  if (side != "left" && side != "right")
+    throw InputError(manifest + ": structure '" + structure + "': \"side\" must be \"left\" or \"right\", not \"" + side + "\"");
+  return side == "left";
 }
 
 }  // namespace sinew

@@ -22,15 +22,28 @@ struct SideParts {
 };
 
 // Splits, in place, each label of `which` whose connected parts (26-connected) lie on both sides
-// of the label's centre along world x, each side with at least 1 - BuiltModel::kWholeLabel of its
-// voxels (each part on the side of its own centre; LPS, so +x is the subject's left): the left
-// parts take the value `left`, the right ones `right`. So a split label's largest part holds at
-// most kWholeLabel of it (where sinew-build-model would model it by that part alone), and a stray
-// island across the midline is no side. New values are given from the largest value in the map
-// up, or, where `given` names the label (a ground truth split as its atlas was), its values; a
-// given value that another label of the map holds already is an InputError naming `source`.
-// Labels that stay whole, or whose parts lie on one side, are not in the result.
-std::vector<SideParts> splitBySide(LabelVolume& labels, std::span<const std::int32_t> which,
-                                   std::span<const SideParts> given, const std::string& source);
+// of the midline, each side with at least 1 - BuiltModel::kWholeLabel of its voxels: the left
+// parts take the value `left`, the right ones `right`. The midline is the plane along world x
+// (LPS, so +x is the subject's left) through the centre of every labelled voxel of the map; each
+// part lies on the side its own centre does. So a split label's largest part holds at most
+// kWholeLabel of it (where sinew-build-model would model it by that part alone), a stray island
+// across the midline is no side, and a label in one hemisphere is not split. New values are given
+// from above the map's largest value and `floor` (the values of the labels a scene scores against,
+// whether or not this map holds them). Labels that stay whole, or whose parts lie on one side, are
+// not in the result.
+std::vector<SideParts> splitBySide(LabelVolume& labels, std::span<const std::int32_t> which, std::int32_t floor = 0);
+
+// The largest value a label map written by Sinew may hold (16-bit maps).
+inline constexpr std::int32_t kLargestLabelValue = 32767;
+
+// A subject's ground truth (read from `file`) split so: every label of `labels` must split, as it
+// did in the atlas or the model (`splitIn`), and the new values must fit a written label map; an
+// InputError naming the file otherwise.
+std::vector<SideParts> splitTruthBySide(LabelVolume& truth, std::span<const std::int32_t> labels, std::int32_t floor,
+                                        const std::string& file, const std::string& splitIn);
+
+// A model manifest's "side" of a structure: true for "left", false for "right", an InputError
+// naming the manifest and the structure for anything else.
+bool isLeftSide(const std::string& side, const std::string& manifest, const std::string& structure);
 
 }  // namespace sinew

@@ -91,7 +91,7 @@ int main(int argc, char** argv) {
       if (splitParts) {
         std::vector<std::int32_t> values;
         for (const LabelEntry* e : entries) values.push_back(e->value);
-        splits = splitBySide(labels, values, {}, atlas);
+        splits = splitBySide(labels, values);
         if (splits.empty()) std::fprintf(stderr, "sinew-build-model: --split-parts: no label is in parts on both sides; none split\n");
         for (const SideParts& p : splits)
           log("label " + std::to_string(p.label) + " is in parts on both sides: split into its left (" +

@@ -24,7 +24,6 @@
 #include <random>
 #include <span>
 #include <sstream>
-#include <tuple>
 
 namespace fs = std::filesystem;
 using Json = nlohmann::ordered_json;
@@ -155,7 +154,7 @@ int main(int argc, char** argv) {
     if (target.empty()) throw sinew::InputError("--target: the image to segment is required");
     // In subject mode the structures are those of the model (or the atlas), named as in it.
     std::vector<LabelEntry> list;
-    std::map<std::string, std::string> sideOf;  // a model's structures that are one side of a label (sinew-build-model --split-parts)
+    std::map<std::string, bool> leftOf;  // a model's structures that are one side of a label (sinew-build-model --split-parts)
     if (!model.empty()) {
       // Only the manifest is read here: the names and labels of the model's structures.
       std::ifstream in(fs::path(model) / "model.json");
@@ -165,7 +164,9 @@ int main(int argc, char** argv) {
         throw sinew::InputError((fs::path(model) / "model.json").string() + ": not a valid model manifest");
       for (const auto& s : m["structures"]) {
         list.push_back({s.value("label", 0), s.value("name", std::string())});
-        if (s.contains("side")) sideOf[list.back().name] = s.value("side", std::string());
+        if (s.contains("side"))
+          leftOf[list.back().name] = isLeftSide(s["side"].is_string() ? s["side"].get<std::string>() : s["side"].dump(),
+                                                (fs::path(model) / "model.json").string(), list.back().name);
       }
       if (structuresOption->count() == 0) {
         structures.clear();
@@ -178,19 +179,29 @@ int main(int argc, char** argv) {
       throw sinew::InputError("--split-parts goes with --atlas: a model's structures are built already "
                               "(sinew-build-model --split-parts splits its labels)");
     const fs::path listFile = model.empty() ? fs::path(labelList) : fs::path(model) / "model.json";
-    // The structures asked for. Of a model's sides, a key that is the label's value or name takes both.
+    // The structures asked for, each once. Of a model's sides, a key that is the label's value or
+    // name takes both.
     std::vector<const LabelEntry*> chosen;
+    const auto choose = [&](const LabelEntry* e) {
+      if (std::find(chosen.begin(), chosen.end(), e) == chosen.end()) chosen.push_back(e);
+    };
     for (const std::string& key : splitList(structures)) {
       const auto exact = std::find_if(list.begin(), list.end(), [&](const LabelEntry& e) { return e.name == key; });
-      const size_t before = chosen.size();
+      bool sides = false;
       if (exact == list.end())
         for (const LabelEntry& e : list)
-          if (sideOf.count(e.name) && (e.name == key + "_L" || e.name == key + "_R" || std::to_string(e.value) == key))
-            chosen.push_back(&e);
-      if (chosen.size() == before) chosen.push_back(&findLabel(list, key, listFile));
+          if (leftOf.count(e.name) && (e.name == key + "_L" || e.name == key + "_R" || std::to_string(e.value) == key)) {
+            choose(&e);
+            sides = true;
+          }
+      if (!sides) choose(&findLabel(list, key, listFile));
     }
+    // New values for the sides from above every label the scene scores against.
+    std::int32_t floor = 0;
+    for (const LabelEntry* e : chosen) floor = std::max(floor, std::int32_t(e->value));
     // The labels in parts, split by side into maps beside the scene (atomically, like the scene):
     // the atlas's and a subject's truth with --split-parts, a subject's truth for a model's sides.
+    // Each map's sides take values of its own.
     const fs::path sceneOut(output);
     std::vector<SideParts> splits, truthSplits;
     std::string atlasMap = atlas.empty() ? atlas : absolute(atlas), truthMap = groundTruth.empty() ? atlasMap : absolute(groundTruth);
@@ -198,47 +209,48 @@ int main(int argc, char** argv) {
     Registry registry;
     PluginLoader plugins(registry);
     addBuiltinPlugins(plugins);
-    const auto splitInto = [&](const std::string& from, const std::string& suffix, std::span<const std::int32_t> which,
-                               std::span<const SideParts> given) {
-      LabelVolume labels = registry.imageIOFor(from).readLabels(from);
-      std::vector<SideParts> made = splitBySide(labels, which, given, from);
-      if (made.empty()) return std::pair(made, absolute(from));  // nothing split: the map as it is
-      for (const SideParts& p : made)
-        if (std::max(p.left, p.right) > 32767)
-          throw sinew::InputError(from + ": no label value left for the parts of label " + std::to_string(p.label) +
-                                  " (values run to 32767)");
+    // A split map written beside the scene, its path returned.
+    const auto writeBeside = [&](const std::string& suffix, const LabelVolume& labels) {
       fs::path partsFile = sceneOut;
       partsFile.replace_extension(suffix);
       if (partsFile.has_parent_path()) fs::create_directories(partsFile.parent_path());
       partMaps.push_back(std::make_unique<sinew::AtomicOutput>(absolute(partsFile.string())));
       registry.imageIOFor(partsFile).writeLabels(partMaps.back()->tempPath(), labels);
-      return std::pair(made, absolute(partsFile.string()));
+      return absolute(partsFile.string());
     };
-    // A truth split as the atlas or the model was: every label of `labels` must split.
-    const auto splitTruth = [&](std::span<const std::int32_t> labels, std::span<const SideParts> given) {
-      std::tie(truthSplits, truthMap) = splitInto(groundTruth, ".truth-parts.nii.gz", labels, given);
-      for (const std::int32_t label : labels)
-        if (std::none_of(truthSplits.begin(), truthSplits.end(), [&](const SideParts& t) { return t.label == label; }))
-          throw sinew::InputError(groundTruth + ": label " + std::to_string(label) + " is not in parts on both sides here, as it is in the " +
-                                  (model.empty() ? "atlas" : "model") + "; it cannot be split alike");
+    // The subject's truth: every label of `labels` split, as it is in the atlas or the model.
+    const auto splitTruth = [&](std::span<const std::int32_t> labels) {
+      LabelVolume truth = registry.imageIOFor(groundTruth).readLabels(groundTruth);
+      truthSplits = splitTruthBySide(truth, labels, floor, groundTruth, model.empty() ? "atlas" : "model");
+      truthMap = writeBeside(".truth-parts.nii.gz", truth);
     };
     if (splitParts) {
+      // The atlas: whichever labels are in parts on both sides (none of them need be).
       std::vector<std::int32_t> values;
       for (const LabelEntry* e : chosen) values.push_back(e->value);
-      std::tie(splits, atlasMap) = splitInto(atlas, ".atlas-parts.nii.gz", values, {});
-      std::vector<std::int32_t> split;  // only the labels split in the atlas, with its values
+      LabelVolume labels = registry.imageIOFor(atlas).readLabels(atlas);
+      splits = splitBySide(labels, values, floor);
+      for (const SideParts& p : splits)
+        if (std::max(p.left, p.right) > kLargestLabelValue)
+          throw sinew::InputError(atlas + ": no label value left for the sides of label " + std::to_string(p.label));
+      if (!splits.empty()) atlasMap = writeBeside(".atlas-parts.nii.gz", labels);
+      std::vector<std::int32_t> split;  // only the labels split in the atlas
       for (const SideParts& p : splits) split.push_back(p.label);
-      if (!groundTruth.empty() && !splits.empty()) splitTruth(split, splits);
-      else if (groundTruth.empty()) truthMap = atlasMap;
+      if (!groundTruth.empty() && !splits.empty()) {
+        splitTruth(split);
+      } else if (groundTruth.empty()) {  // demo mode: the atlas is the truth
+        truthMap = atlasMap;
+        truthSplits = splits;
+      }
       if (splits.empty()) std::cerr << "--split-parts: no label of the scene is in parts on both sides; none split\n";
       for (const SideParts& p : splits)
         std::cerr << "label " << p.label << " is in parts on both sides: split into " << p.left << " (left, "
                   << p.leftVoxels << " voxels) and " << p.right << " (right, " << p.rightVoxels << ")\n";
-    } else if (!sideOf.empty() && !groundTruth.empty()) {
+    } else if (!leftOf.empty() && !groundTruth.empty()) {
       std::vector<std::int32_t> sided;
       for (const LabelEntry* e : chosen)
-        if (sideOf.count(e->name) && std::find(sided.begin(), sided.end(), e->value) == sided.end()) sided.push_back(e->value);
-      if (!sided.empty()) splitTruth(sided, {});
+        if (leftOf.count(e->name) && std::find(sided.begin(), sided.end(), e->value) == sided.end()) sided.push_back(e->value);
+      if (!sided.empty()) splitTruth(sided);
       for (const SideParts& p : truthSplits)
         std::cerr << "label " << p.label << " of the truth is in parts on both sides, as in the model: split into "
                   << p.left << " (left, " << p.leftVoxels << " voxels) and " << p.right << " (right, " << p.rightVoxels << ")\n";
@@ -264,28 +276,37 @@ int main(int argc, char** argv) {
     scene["images"] = {{"target", absolute(target)}};
     if (!training.empty()) scene["images"]["training"] = absolute(training);
     Json items = Json::array();
-    // Each structure, or each side of a label split in two (named NAME_L and NAME_R).
-    std::vector<std::tuple<std::string, std::int32_t, std::int32_t>> parts;  // name, output value, value in the maps
+    // Each structure, or each side of a label split in two (named NAME_L and NAME_R): its name, its
+    // output value, its value in the reference map and in the truth's.
+    struct Part {
+      std::string name;
+      std::int32_t label, reference, truth;
+    };
+    std::vector<Part> parts;
     const auto sideValue = [](std::span<const SideParts> in, std::int32_t label, bool left) -> std::optional<std::int32_t> {
       const auto s = std::find_if(in.begin(), in.end(), [&](const SideParts& p) { return p.label == label; });
       if (s == in.end()) return std::nullopt;
       return left ? s->left : s->right;
     };
     for (const LabelEntry* e : chosen) {
-      if (const auto side = sideOf.find(e->name); side != sideOf.end()) {  // a model's side: its truth's side
-        parts.emplace_back(e->name, e->value, sideValue(truthSplits, e->value, side->second == "left").value_or(e->value));
-      } else if (const auto left = sideValue(splits, e->value, true)) {
-        parts.emplace_back(e->name + "_L", e->value, *left);
-        parts.emplace_back(e->name + "_R", e->value, *sideValue(splits, e->value, false));
-      } else {
-        parts.emplace_back(e->name, e->value, e->value);
+      if (const auto side = leftOf.find(e->name); side != leftOf.end()) {  // a model's side: its truth's side
+        parts.push_back({e->name, e->value, e->value, sideValue(truthSplits, e->value, side->second).value_or(e->value)});
+        continue;
       }
+      const std::optional<std::int32_t> left = sideValue(splits, e->value, true);
+      if (!left) {
+        parts.push_back({e->name, e->value, e->value, e->value});
+        continue;
+      }
+      for (const bool isLeft : {true, false})
+        parts.push_back({e->name + (isLeft ? "_L" : "_R"), e->value, *sideValue(splits, e->value, isLeft),
+                         sideValue(truthSplits, e->value, isLeft).value_or(e->value)});
     }
-    for (const auto& [name, value, inMaps] : parts) {
+    for (const Part& p : parts) {
       Json s;
-      s["name"] = name;
-      s["label"] = value;
-      if (model.empty()) s["reference"] = {{"label_map", atlasMap}, {"label", inMaps}};
+      s["name"] = p.name;
+      s["label"] = p.label;
+      if (model.empty()) s["reference"] = {{"label_map", atlasMap}, {"label", p.reference}};
       if (!subject) {
         const Eigen::Vector3d axis = direction(), shift = direction() * (maxTranslation * unit(rng));
         s["initial"] = {{"rotation_axis", {axis.x(), axis.y(), axis.z()}},
@@ -294,7 +315,7 @@ int main(int argc, char** argv) {
                         {"scale", scaleMin + (scaleMax - scaleMin) * unit(rng)}};
       }
       if (!subject || !groundTruth.empty())
-        s["ground_truth"] = {{"label_map", truthMap}, {"label", inMaps}};
+        s["ground_truth"] = {{"label_map", truthMap}, {"label", p.truth}};
       items.push_back(s);
     }
     scene["structures"] = items;

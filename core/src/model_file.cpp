@@ -79,6 +79,11 @@ ModelInput describeInput(const std::string& role, const fs::path& file) {
 
 void writeModel(const Registry& registry, const Model& model, const fs::path& folder) {
   if (model.structures.empty()) throw InputError(folder.string() + ": a model needs at least one structure");
+  // Each structure's files live in a folder of its name: two of one name would overwrite each other.
+  for (size_t i = 0; i < model.structures.size(); ++i)
+    for (size_t j = 0; j < i; ++j)
+      if (model.structures[i].name == model.structures[j].name)
+        throw InputError(folder.string() + ": two structures are named '" + model.structures[i].name + "'");
   std::error_code ec;
   if (fs::exists(folder, ec) && !fs::exists(folder / "model.json", ec))
     throw InputError(folder.string() + ": exists and is not a Sinew model; refusing to replace it");

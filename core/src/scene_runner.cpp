@@ -266,6 +266,11 @@ void SceneRunner::load() {
       spec.levels.prolongations.resize(levels - 1);
       spec.referencePositions = ms->positions[0];
       spec.finerReferences.assign(ms->positions.begin() + 1, ms->positions.begin() + levels);
+      // One side of a label split by side, scored against that label whole: its scores mean little.
+      if (!ms->side.empty() && d.groundTruth && d.groundTruth->label == ms->label)
+        log("note: structure '" + d.name + "' is the " + ms->side + " side of label " + std::to_string(ms->label) +
+            " (sinew-build-model --split-parts), but its ground truth is that label whole, both sides: its scores "
+            "are against both (sinew-make-scene --model --ground-truth splits the truth by side)");
     } else {
       if (d.reference.mesh)
         log("structure " + std::to_string(i + 1) + "/" + std::to_string(scene_.structures.size()) + " '" + d.name +

@@ -404,6 +404,11 @@ private slots:
     text.replace(text.find("\"version\": 7"), 12, "\"version\": 1e46");
     { std::ofstream(folder / "model.json") << text; }
     expectError([&] { readModel(registry, folder); }, "\"version\" must be a whole number from");
+    // Two structures of one name (their files would overwrite each other): refused.
+    Model twice = m;
+    twice.structures[1].name = "Ellipsoid";
+    expectError([&] { writeModel(registry, twice, fs::path(dir.path().toStdString()) / "twice"); },
+                "two structures are named 'Ellipsoid'");
     // A folder that is not a model is never replaced.
     const fs::path other = fs::path(dir.path().toStdString()) / "other";
     fs::create_directories(other);
