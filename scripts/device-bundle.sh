@@ -46,7 +46,7 @@ cp -L /usr/lib/x86_64-linux-gnu/qt6/plugins/platforms/libqoffscreen.so "$stage/q
 cp -L /usr/lib/x86_64-linux-gnu/libstdc++.so.6 /usr/lib/x86_64-linux-gnu/libgcc_s.so.1 "$stage/lib/"
 cp /usr/share/fonts/truetype/dejavu/DejaVuSans*.ttf "$stage/fonts/"
 t=/usr/share/mricron/templates
-cp "$t/aal.nii.gz" "$t/aal.nii.txt" "$t/ch2.nii.gz" "$t/ch2better.nii.gz" "$stage/data/"
+cp "$t/aal.nii.gz" "$t/aal.nii.txt" "$t/ch2.nii.gz" "$t/ch2better.nii.gz" "$t/HarvardOxford-cort-maxprob-thr0-1mm.nii.gz" "$stage/data/"
 echo "$build" > "$stage/BUILD"
 mkdir -p .device
 tar -C "$stage" -cf - . | xz -T2 -6 > .device/bundle.tar.xz

@@ -59,6 +59,15 @@ for c in ${CHECKS:-parity demo accuracy}; do
     cohort)
       # Subjects per minute over a cohort of new subjects (docs/benchmarks.md, "Cohorts").
       bash scripts/cohort-bench.sh "$build" /tmp/cohort ${COHORT_SUBJECTS:-24} 2>&1 | tee "$out/cohort.md" ;;
+    split)
+      # Harvard-Oxford's labels in parts on both sides, a model split by side, on a new subject, both
+      # backends (docs/accuracy.md, "Models of labels split by side").
+      t=/usr/share/mricron/templates; ho=$t/HarvardOxford-cort-maxprob-thr0-1mm.nii.gz; d=/tmp/split
+      "$build/app/sinew-build-model" --atlas $ho --training $t/ch2better.nii.gz --structures 1,2,16 --split-parts -o $d/model -q
+      "$build/app/sinew-make-subject" --image $t/ch2.nii.gz --labels $ho --seed 23 -o $d/subject >/dev/null
+      "$build/app/sinew-make-scene" --model $d/model --target $d/subject/image.nii.gz --ground-truth $d/subject/labels.nii.gz \
+        -o $d/scene.json 2>&1 | tee "$out/split.txt"
+      for b in cuda cpu; do "$build/app/sinew-run" $d/scene.json -o $d/run-$b -q --backend $b 2>&1 | tail -9 | tee -a "$out/split.txt"; done ;;
     demo) "$build/tests/tst_backend_demo" 2>&1 | tee "$out/demo.txt" | grep -E "PASS|FAIL|QINFO|Totals|SKIP" ;;
     memory) "$build/tests/tst_device_memory" 2>&1 | tee "$out/memory.txt" | grep -E "PASS|FAIL|QINFO|Totals|SKIP" ;;
     soak) "$build/tests/bench/bench_soak" ${SOAK_ARGS:---steps 1000000} 2>&1 | tee "$out/soak.txt" ;;
