@@ -68,6 +68,22 @@ for c in ${CHECKS:-parity demo accuracy}; do
       "$build/app/sinew-make-scene" --model $d/model --target $d/subject/image.nii.gz --ground-truth $d/subject/labels.nii.gz \
         -o $d/scene.json 2>&1 | tee "$out/split.txt"
       for b in cuda cpu; do "$build/app/sinew-run" $d/scene.json -o $d/run-$b -q --backend $b 2>&1 | tail -9 | tee -a "$out/split.txt"; done ;;
+    varied)
+      # The varied subjects of scripts/varied_subjects.py (VARIED="FIRST END"), the model of the 12
+      # structures, subject scenes as written, on CUDA (docs/accuracy.md, "Twenty varied subjects").
+      t=/usr/share/mricron/templates; d=/tmp/varied
+      "$build/app/sinew-build-model" --atlas $t/aal.nii.gz --labels $t/aal.nii.txt --training $t/ch2better.nii.gz -o $d/model -q
+      python3 scripts/varied_subjects.py ${VARIED:-7401 7421} | while read -r seed opts; do
+        s=$d/subject-$seed
+        "$build/app/sinew-make-subject" --image $t/ch2.nii.gz --labels $t/aal.nii.gz --seed $seed $opts -o $s >/dev/null 2>&1
+        "$build/app/sinew-make-scene" --model $d/model --target $s/image.nii.gz --ground-truth $s/labels.nii.gz \
+          -o $s/scene.json 2>/dev/null
+        "$build/app/sinew-run" $s/scene.json -o $s/run -q --backend ${VARIED_BACKEND:-cuda} >/dev/null 2>&1
+        echo -n "$seed exit $? "
+        python3 -c 'import json,sys; r=json.load(open(sys.argv[1])); s=r["structures"]
+print("ASSD %.4f Dice %.4f overlap %.3f total %.2f s" % (sum(x["assd_mm"]["final"] for x in s)/len(s),
+      sum(x["dice"] for x in s)/len(s), r["overlaps"]["total_after_mm3"], r["total_seconds"]))' $s/run/report.json
+      done | tee "$out/varied.txt" ;;
     demo) "$build/tests/tst_backend_demo" 2>&1 | tee "$out/demo.txt" | grep -E "PASS|FAIL|QINFO|Totals|SKIP" ;;
     memory) "$build/tests/tst_device_memory" 2>&1 | tee "$out/memory.txt" | grep -E "PASS|FAIL|QINFO|Totals|SKIP" ;;
     soak) "$build/tests/bench/bench_soak" ${SOAK_ARGS:---steps 1000000} 2>&1 | tee "$out/soak.txt" ;;
