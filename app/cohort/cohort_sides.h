@@ -14,8 +14,8 @@ namespace sinew::cohort {
 
 // The scene's structures that are one side of a label in the model the scene names; where the
 // subject's scene scores any of them against a ground truth, that truth is read through
-// `registry` and split by side (sinew::splitTruthBySide: the side's label there is its
-// ground_truth label), every structure's ground truth pointed at `partsFile` and each side's label
+// `registry` and split by side (sinew::splitTruthBySide: the side's label there is the model's
+// label, the structure's "label"), every structure's ground truth pointed at `partsFile` and each side's label
 // set to its side's value there, and the split map returned for the caller to write to
 // `partsFile`. Nothing to split: nullopt, the scene unchanged. A truth whose label is not in parts
 // on both sides is an InputError naming the file.

@@ -263,8 +263,10 @@ private slots:
   void cohortOfSides() {
     // A cohort on the model: each subject's truth split alike in its own folder. Subject b's truth
     // has the label whole: it fails with the reason, the other runs.
-    Result r = runTool(SINEW_MAKE_SCENE, {"--model", model_, "--target", subject_ + "/image.nii.gz", "--iterations", "20,10", "-o",
-                                          path("template.json")});
+    // The template made with a subject's truth: its sides' truth labels are that subject's values,
+    // and each subject's split must not take them.
+    Result r = runTool(SINEW_MAKE_SCENE, {"--model", model_, "--target", subject_ + "/image.nii.gz", "--ground-truth",
+                                          subject_ + "/labels.nii.gz", "--iterations", "20,10", "-o", path("template.json")});
     QVERIFY2(r.code == 0, qPrintable(r.err));
     QFile manifest(path("cohort.csv"));
     QVERIFY(manifest.open(QIODevice::WriteOnly));
