@@ -6,7 +6,9 @@
 #include <itkScalarConnectedComponentImageFilter.h>
 
 #include <algorithm>
+#include <cmath>
 #include <map>
+#include <optional>
 #include <string>
 
 namespace sinew {
@@ -17,6 +19,31 @@ struct Part {
   std::size_t voxels = 0;
   Eigen::Vector3d indexSum = Eigen::Vector3d::Zero();
 };
+
+// The label's left-right axis, pointing to the subject's left (+x in LPS), if its parts lie on
+// both sides of the midline: from its largest part to the largest other part such that the two
+// lie across the brain's centre (the centre of every labelled voxel projects between them, within
+// the middle half) along an axis within 60 degrees of world x. So a head turned by up to 60 degrees
+// still splits (a plane along world x cut turned labels at the wrong place), while a label in one
+// hemisphere, in parts one behind the other, does not.
+template <class CentreOf>
+std::optional<Eigen::Vector3d> sideAxis(const std::map<std::uint32_t, Part>& parts, const CentreOf& centreOf,
+                                        const Eigen::Vector3d& brainCentre) {
+  std::vector<const Part*> bySize;
+  for (const auto& [id, p] : parts) bySize.push_back(&p);
+  std::stable_sort(bySize.begin(), bySize.end(), [](const Part* a, const Part* b) { return a->voxels > b->voxels; });
+  if (bySize.size() < 2) return std::nullopt;
+  const Eigen::Vector3d largest = centreOf(*bySize[0]);
+  for (size_t k = 1; k < bySize.size(); ++k) {
+    const Eigen::Vector3d d = largest - centreOf(*bySize[k]);
+    const double length2 = d.squaredNorm();
+    if (length2 == 0.0 || std::abs(d.x()) < 0.5 * std::sqrt(length2)) continue;  // not across: within 60 degrees of x
+    const double t = (brainCentre - centreOf(*bySize[k])).dot(d) / length2;   // 0 at part k, 1 at the largest
+    if (t < 0.25 || t > 0.75) continue;
+    return d.x() > 0.0 ? d / std::sqrt(length2) : Eigen::Vector3d(-d / std::sqrt(length2));
+  }
+  return std::nullopt;
+}
 }  // namespace
 
 std::vector<SideParts> splitBySide(LabelVolume& labels, std::span<const std::int32_t> which, std::int32_t floor) {
@@ -36,7 +63,7 @@ std::vector<SideParts> splitBySide(LabelVolume& labels, std::span<const std::int
   std::map<std::int32_t, std::map<std::uint32_t, Part>> partsOf;
   for (const std::int32_t v : which) partsOf[v];
   std::int32_t next = floor;  // new values from above every value in use
-  Part labelled;              // every labelled voxel: the midline is their centre
+  Part labelled;              // every labelled voxel: their centre is the brain's
   const std::size_t sx = std::size_t(g.size[0]), sy = std::size_t(g.size[1]);
   for (std::size_t i = 0; i < voxels.size(); ++i) {
     if (voxels[i] == 0) continue;
@@ -52,21 +79,24 @@ std::vector<SideParts> splitBySide(LabelVolume& labels, std::span<const std::int
   }
   if (labelled.voxels == 0) return {};
   const Eigen::Matrix3d toWorld = g.indexToWorldMatrix();
-  const auto worldX = [&](const Eigen::Vector3d& index) { return (toWorld * index)[0]; };
-  const double midlineX = worldX(labelled.indexSum / double(labelled.voxels));
+  const auto centreOf = [&](const Part& p) -> Eigen::Vector3d { return toWorld * (p.indexSum / double(p.voxels)); };
+  const Eigen::Vector3d brainCentre = centreOf(labelled);
   std::vector<SideParts> out;
   std::map<std::uint32_t, std::int32_t> relabel;  // part -> its side's value
   for (const auto& [label, parts] : partsOf) {
+    const std::optional<Eigen::Vector3d> leftward = sideAxis(parts, centreOf, brainCentre);
+    if (!leftward) continue;
     SideParts s;
     s.label = label;
     std::map<std::uint32_t, bool> onLeft;
     for (const auto& [id, p] : parts) {
-      onLeft[id] = worldX(p.indexSum / double(p.voxels)) > midlineX;
+      onLeft[id] = leftward->dot(centreOf(p) - brainCentre) > 0.0;
       (onLeft[id] ? s.leftVoxels : s.rightVoxels) += p.voxels;
     }
     // Each side at least 1 - kWholeLabel of the label, so its largest part holds at most
     // kWholeLabel (less, and sinew-build-model models the label by that part) and a stray island
-    // across the midline is no side.
+    // across the midline is no side. The midline: the plane through the brain's centre across
+    // the label's left-right axis.
     const double smallestSide = (1.0 - BuiltModel::kWholeLabel) * double(s.leftVoxels + s.rightVoxels);
     if (s.leftVoxels + s.rightVoxels == 0 || double(s.leftVoxels) < smallestSide || double(s.rightVoxels) < smallestSide)
       continue;

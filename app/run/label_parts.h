@@ -23,14 +23,17 @@ struct SideParts {
 
 // Splits, in place, each label of `which` whose connected parts (26-connected) lie on both sides
 // of the midline, each side with at least 1 - BuiltModel::kWholeLabel of its voxels: the left
-// parts take the value `left`, the right ones `right`. The midline is the plane along world x
-// (LPS, so +x is the subject's left) through the centre of every labelled voxel of the map; each
-// part lies on the side its own centre does. So a split label's largest part holds at most
-// kWholeLabel of it (where sinew-build-model would model it by that part alone), a stray island
-// across the midline is no side, and a label in one hemisphere is not split. New values are given
-// from above the map's largest value and `floor` (the values of the labels a scene scores against,
-// whether or not this map holds them). Labels that stay whole, or whose parts lie on one side, are
-// not in the result.
+// parts take the value `left`, the right ones `right`. The label's left-right axis runs from its
+// largest part to the largest other part that lies across the brain's centre (the centre of
+// every labelled voxel of the map projects between the two, in the middle half) along an axis
+// within 60 degrees of world x; it points to the larger x (LPS: the subject's left). The midline
+// is the plane through the brain's centre across that axis; each part lies on the side its own
+// centre does. So a head turned by up to 60 degrees splits as an upright one, a split label's
+// largest part holds at most kWholeLabel of it (where sinew-build-model would model it by that
+// part alone), a stray island across the midline is no side, and a label in one hemisphere is not
+// split. New values are given from above the map's largest value and `floor` (the values of the
+// labels a scene scores against, whether or not this map holds them). Labels that stay whole, or
+// whose parts lie on one side, are not in the result.
 std::vector<SideParts> splitBySide(LabelVolume& labels, std::span<const std::int32_t> which, std::int32_t floor = 0);
 
 // The largest value a label map written by Sinew may hold (16-bit maps).

@@ -193,6 +193,17 @@ private slots:
              qPrintable(QString("%1 %2").arg(clashLeft).arg(clashRight)));
     checkSides(path("clash/scene.truth-parts.nii.gz"), clashLeft, clashRight);
 
+    // A head turned by up to 60 degrees: its labels split as the upright atlas's. Label 8 lies far
+    // back; a plane along world x through the brain's centre put both its sides on one side.
+    r = runTool(SINEW_MAKE_SUBJECT, {"--image", kTemplates + "ch2.nii.gz", "--labels", ho, "--seed", "41", "--max-rotation-deg",
+                                     "60", "-o", path("turned")});
+    QVERIFY2(r.code == 0, qPrintable(r.err));
+    r = runTool(SINEW_MAKE_SCENE, {"--subject", "--atlas", ho, "--training", kTemplates + "ch2better.nii.gz", "--target",
+                                   path("turned/image.nii.gz"), "--ground-truth", path("turned/labels.nii.gz"), "--structures",
+                                   "2,8", "--split-parts", "-o", path("turned/scene.json")});
+    QVERIFY2(r.code == 0, qPrintable(r.err));
+    QCOMPARE(readJson(path("turned/scene.json"))["structures"].toArray().size(), 4);
+
     // A ground truth whose label is whole cannot be split as the atlas was: refused, nothing written.
     r = runTool(SINEW_MAKE_SCENE, {"--subject", "--atlas", ho, "--training", kTemplates + "ch2better.nii.gz", "--target",
                                    kTemplates + "ch2.nii.gz", "--ground-truth", kTemplates + "aal.nii.gz", "--structures", "2",
