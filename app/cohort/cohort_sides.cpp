@@ -4,7 +4,6 @@
 #include "sinew/core/types.h"
 
 #include <algorithm>
-#include <fstream>
 #include <map>
 #include <string>
 #include <vector>
@@ -13,28 +12,11 @@ namespace sinew::cohort {
 
 namespace fs = std::filesystem;
 
-namespace {
-// Name -> left (true) or right for the model's structures that are one side of a label. A model
-// that cannot be read gives none here: sinew-run names its problem.
-std::map<std::string, bool> sidesOfModel(const nlohmann::ordered_json& scene) {
-  std::map<std::string, bool> out;
-  if (!scene.contains("model") || !scene["model"].is_string()) return out;
-  const fs::path manifest = fs::path(scene["model"].get<std::string>()) / "model.json";
-  std::ifstream in(manifest);
-  const nlohmann::ordered_json m = nlohmann::ordered_json::parse(in, nullptr, false);
-  if (m.is_discarded() || !m.is_object() || !m.contains("structures") || !m["structures"].is_array()) return out;
-  for (const nlohmann::ordered_json& s : m["structures"])
-    if (s.is_object() && s.contains("name") && s["name"].is_string() && s.contains("side")) {
-      const std::string name = s["name"].get<std::string>();
-      out[name] = isLeftSide(s["side"].is_string() ? s["side"].get<std::string>() : s["side"].dump(), manifest.string(), name);
-    }
-  return out;
-}
-}  // namespace
-
 std::optional<LabelVolume> splitTruthBySide(const Registry& registry, nlohmann::ordered_json& scene, const fs::path& partsFile) {
-  const std::map<std::string, bool> sides = sidesOfModel(scene);
-  if (sides.empty() || !scene.contains("structures") || !scene["structures"].is_array()) return std::nullopt;
+  if (!scene.contains("model") || !scene["model"].is_string() || !scene.contains("structures") || !scene["structures"].is_array())
+    return std::nullopt;
+  const std::map<std::string, bool> sides = sidesOfModel(scene["model"].get<std::string>());
+  if (sides.empty()) return std::nullopt;
   // The sides' labels in the truth: the model's label, whatever the template's truth label was (a
   // template made with a subject's truth holds that subject's side values there). The floor for
   // the new values: every label the scene scores against.

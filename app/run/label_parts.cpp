@@ -1,12 +1,16 @@
 #include "label_parts.h"
 
 #include "itk_convert.h"
+#include "sinew/core/model_file.h"
 #include "sinew/core/types.h"
+
+#include <nlohmann/json.hpp>
 
 #include <itkScalarConnectedComponentImageFilter.h>
 
 #include <algorithm>
 #include <cmath>
+#include <fstream>
 #include <map>
 #include <optional>
 #include <string>
@@ -118,17 +122,30 @@ std::vector<SideParts> splitTruthBySide(LabelVolume& truth, std::span<const std:
     if (std::none_of(made.begin(), made.end(), [&](const SideParts& p) { return p.label == label; }))
       throw InputError(file + ": label " + std::to_string(label) + " is not in parts on both sides here, as it is in the " +
                        splitIn + "; it cannot be split alike");
+  checkSideValues(made, file);
+  return made;
+}
+
+void checkSideValues(std::span<const SideParts> made, const std::string& file) {
   for (const SideParts& p : made)
     if (std::max(p.left, p.right) > kLargestLabelValue)
       throw InputError(file + ": no label value left for the sides of label " + std::to_string(p.label) + " (values run to " +
                        std::to_string(kLargestLabelValue) + ")");
-  return made;
 }
 
-bool isLeftSide(const std::string& side, const std::string& manifest, const std::string& structure) {
-  if (side != "left" && side != "right")
-    throw InputError(manifest + ": structure '" + structure + "': \"side\" must be \"left\" or \"right\", not \"" + side + "\"");
-  return side == "left";
+std::map<std::string, bool> sidesOfModel(const std::filesystem::path& model) {
+  std::map<std::string, bool> out;
+  const std::filesystem::path manifest = model / "model.json";
+  std::ifstream in(manifest);
+  const nlohmann::json m = nlohmann::json::parse(in, nullptr, false);
+  if (m.is_discarded() || !m.is_object() || !m.contains("structures") || !m["structures"].is_array()) return out;
+  for (const nlohmann::json& s : m["structures"])
+    if (s.is_object() && s.contains("name") && s["name"].is_string() && s.contains("side")) {
+      const std::string name = s["name"].get<std::string>();
+      out[name] = isLeftSide(s["side"].is_string() ? s["side"].get<std::string>() : s["side"].dump(),
+                             manifest.string() + ": structure '" + name + "'");
+    }
+  return out;
 }
 
 }  // namespace sinew

@@ -9,6 +9,8 @@
 #include "sinew/core/model_builder.h"
 
 #include <cstdint>
+#include <filesystem>
+#include <map>
 #include <span>
 #include <string>
 #include <vector>
@@ -45,8 +47,12 @@ inline constexpr std::int32_t kLargestLabelValue = 32767;
 std::vector<SideParts> splitTruthBySide(LabelVolume& truth, std::span<const std::int32_t> labels, std::int32_t floor,
                                         const std::string& file, const std::string& splitIn);
 
-// A model manifest's "side" of a structure: true for "left", false for "right", an InputError
-// naming the manifest and the structure for anything else.
-bool isLeftSide(const std::string& side, const std::string& manifest, const std::string& structure);
+// The sides' new values fit a written label map; an InputError naming `file` otherwise.
+void checkSideValues(std::span<const SideParts> made, const std::string& file);
+
+// The structures of a model (its folder) that are one side of a label: name -> left (true) or
+// right. Only the manifest is read; one that cannot be read has none (sinew-run names its
+// problem); a "side" that is neither is an InputError naming the manifest.
+std::map<std::string, bool> sidesOfModel(const std::filesystem::path& model);
 
 }  // namespace sinew

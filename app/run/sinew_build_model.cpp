@@ -104,7 +104,7 @@ int main(int argc, char** argv) {
         const auto extent = extents.find(inMap);
         BuiltModel b = buildModelFromLabel(registry, labels, atlas, inMap, name, coarseSpacing, levels, executor,
                                            extent == extents.end() ? nullptr : &extent->second);
-        if (const std::string note = b.partNote(name, label); !note.empty())
+        if (const std::string note = b.partNote(name, label, side); !note.empty())
           std::fprintf(stderr, "sinew-build-model: note: %s\n", note.c_str());
         model.structures.push_back({name, label, std::move(b.levels), std::move(b.positions), side});
       };

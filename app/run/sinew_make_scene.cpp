@@ -162,12 +162,8 @@ int main(int argc, char** argv) {
       const Json m = Json::parse(in, nullptr, false);
       if (m.is_discarded() || !m.contains("structures"))
         throw sinew::InputError((fs::path(model) / "model.json").string() + ": not a valid model manifest");
-      for (const auto& s : m["structures"]) {
-        list.push_back({s.value("label", 0), s.value("name", std::string())});
-        if (s.contains("side"))
-          leftOf[list.back().name] = isLeftSide(s["side"].is_string() ? s["side"].get<std::string>() : s["side"].dump(),
-                                                (fs::path(model) / "model.json").string(), list.back().name);
-      }
+      for (const auto& s : m["structures"]) list.push_back({s.value("label", 0), s.value("name", std::string())});
+      leftOf = sidesOfModel(model);
       if (structuresOption->count() == 0) {
         structures.clear();
         for (const LabelEntry& e : list) structures += (structures.empty() ? "" : ",") + e.name;
@@ -230,9 +226,7 @@ int main(int argc, char** argv) {
       for (const LabelEntry* e : chosen) values.push_back(e->value);
       LabelVolume labels = registry.imageIOFor(atlas).readLabels(atlas);
       splits = splitBySide(labels, values, floor);
-      for (const SideParts& p : splits)
-        if (std::max(p.left, p.right) > kLargestLabelValue)
-          throw sinew::InputError(atlas + ": no label value left for the sides of label " + std::to_string(p.label));
+      checkSideValues(splits, atlas);
       if (!splits.empty()) atlasMap = writeBeside(".atlas-parts.nii.gz", labels);
       std::vector<std::int32_t> split;  // only the labels split in the atlas
       for (const SideParts& p : splits) split.push_back(p.label);

@@ -116,12 +116,16 @@ BuiltModel buildModelFromLabel(const Registry& registry, const LabelVolume& labe
   return built;
 }
 
-std::string BuiltModel::partNote(const std::string& name, int label) const {
+std::string BuiltModel::partNote(const std::string& name, int label, const std::string& side) const {
   if (!(labelShareEnclosed < kWholeLabel)) return {};
-  return "structure '" + name + "': label " + std::to_string(label) + " is in parts apart from each other; its model is the " +
-         "largest, " + std::to_string(int(std::lround(100.0 * labelShareEnclosed))) + " % of the label's volume, while " +
-         "a ground truth of the label is all of it (where its parts lie on both sides, --split-parts of sinew-make-scene "
-         "or sinew-build-model makes each side a structure of its own)";
+  const std::string what = side.empty() ? "the label" : "the side";
+  return "structure '" + name + "': " + (side.empty() ? "" : "the " + side + " side of ") + "label " + std::to_string(label) +
+         " is in parts apart from each other; its model is the largest, " +
+         std::to_string(int(std::lround(100.0 * labelShareEnclosed))) + " % of " + what + "'s volume, while a ground truth of " +
+         what + " is all of it" +
+         (side.empty() ? " (where its parts lie on both sides, --split-parts of sinew-make-scene or sinew-build-model makes "
+                         "each side a structure of its own)"
+                       : "");
 }
 
 BuiltModel buildModelFromMesh(const TriangleMesh& mesh, const std::filesystem::path& file, int levelCount,

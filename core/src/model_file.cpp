@@ -77,6 +77,12 @@ ModelInput describeInput(const std::string& role, const fs::path& file) {
   return in;
 }
 
+bool isLeftSide(const std::string& side, const std::string& where) {
+  if (side != "left" && side != "right")
+    throw InputError(where + ": \"side\" must be \"left\" or \"right\", not \"" + side + "\"");
+  return side == "left";
+}
+
 void writeModel(const Registry& registry, const Model& model, const fs::path& folder) {
   if (model.structures.empty()) throw InputError(folder.string() + ": a model needs at least one structure");
   // Each structure's files live in a folder of its name: two of one name would overwrite each other.
@@ -207,8 +213,7 @@ Model readModel(const Registry& registry, const fs::path& folder) {
         fail("structure name '" + ms.name + "' is not a plain name");
       ms.label = integer(s.at("label"), "label", int());
       ms.side = s.value("side", "");
-      if (!ms.side.empty() && ms.side != "left" && ms.side != "right")
-        fail("structure '" + ms.name + "': \"side\" must be \"left\" or \"right\", not \"" + ms.side + "\"");
+      if (!ms.side.empty()) isLeftSide(ms.side, manifest.string() + ": structure '" + ms.name + "'");
       if (!s.at("vertices").is_array()) fail("structure '" + ms.name + "': \"vertices\" must be a list of counts");
       std::vector<Index> counts;
       for (const Json& c : s.at("vertices")) counts.push_back(integer(c, "vertices", Index()));

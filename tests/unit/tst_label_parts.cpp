@@ -251,6 +251,33 @@ private slots:
     QCOMPARE(results.size(), 2);
     checkDice(results, 0, 2);
 
+    // The same scene scored against the truth whole (as written by hand): sinew-run says so.
+    QJsonObject whole = readJson(path("sides/scene.json"));
+    QJsonArray wholeStructures = whole["structures"].toArray();
+    for (int i = 0; i < 2; ++i) {
+      QJsonObject s = wholeStructures[i].toObject();
+      s["ground_truth"] = QJsonObject{{"label_map", subject_ + "/labels.nii.gz"}, {"label", 2}};
+      wholeStructures[i] = s;
+    }
+    whole["structures"] = wholeStructures;
+    QJsonArray schedule = whole["schedule"].toArray();
+    for (int l = 0; l < schedule.size(); ++l) {
+      QJsonObject level = schedule[l].toObject();
+      level["iterations"] = 0;
+      schedule[l] = level;
+    }
+    whole["schedule"] = schedule;
+    QFile wholeFile(path("whole.json"));
+    QVERIFY(wholeFile.open(QIODevice::WriteOnly));
+    wholeFile.write(QJsonDocument(whole).toJson());
+    wholeFile.close();
+    r = runTool(SINEW_RUN, {path("whole.json"), "-o", path("whole"), "--backend", "cpu"});
+    QVERIFY2(r.code == 0, qPrintable(r.err));
+    QVERIFY2(r.err.contains("note: structure 'label_2_L' is the left side of label 2 (sinew-build-model --split-parts), but its "
+                            "ground truth is that label whole"),
+             qPrintable(r.err));
+    QVERIFY(r.err.contains("note: structure 'label_2_R' is the right side of label 2"));
+
     // One side by its name, the whole label by its own, both sides by the label's value.
     r = runTool(SINEW_MAKE_SCENE, {"--model", model_, "--target", subject_ + "/image.nii.gz", "--structures", "label_1,label_2_R",
                                    "-o", path("one-side.json")});

@@ -19,7 +19,8 @@ struct BuiltModel {
   // closed surface, while its ground truth is all of it; partNote() says so below kWholeLabel.
   double labelShareEnclosed = 1.0;
   static constexpr double kWholeLabel = 0.8;
-  std::string partNote(const std::string& name, int label) const;
+  // side: "left" or "right" for one side of a label split by side (its share is of the side).
+  std::string partNote(const std::string& name, int label, const std::string& side = "") const;
 };
 
 // coarse: the closed triangle mesh whose dual is level 0; surface: where vertices must lie.

@@ -49,6 +49,10 @@ struct Model {
   const ModelStructure* find(const std::string& name) const;
 };
 
+// A model structure's "side": true for "left", false for "right"; an InputError "WHERE: "side"
+// must be ..." for anything else.
+bool isLeftSide(const std::string& side, const std::string& where);
+
 // CRC-32 (zlib's) of a file's bytes; throws InputError naming the file when it cannot be read.
 std::uint32_t fileCrc32(const std::filesystem::path& file);
 ModelInput describeInput(const std::string& role, const std::filesystem::path& file);
