@@ -6,6 +6,7 @@
 #include "sinew/core/registry.h"
 // After the engine headers: a Qt macro (emit) breaks TBB headers included after it.
 #include "run_tool.h"
+#include "scene_json.h"
 
 #include <QDir>
 #include <QFile>
@@ -27,12 +28,6 @@ const QString kTemplates = "/usr/share/mricron/templates/";
 const QString kHarvardOxford = kTemplates + "HarvardOxford-cort-maxprob-thr0-1mm.nii.gz";
 
 using Result = ToolResult;
-
-QJsonObject readJson(const QString& path) {
-  QFile f(path);
-  if (!f.open(QIODevice::ReadOnly)) return {};
-  return QJsonDocument::fromJson(f.readAll()).object();
-}
 
 LabelVolume readLabels(const QString& file) { return builtinRegistry().imageIOFor(file.toStdString()).readLabels(file.toStdString()); }
 
@@ -260,17 +255,8 @@ private slots:
       wholeStructures[i] = s;
     }
     whole["structures"] = wholeStructures;
-    QJsonArray schedule = whole["schedule"].toArray();
-    for (int l = 0; l < schedule.size(); ++l) {
-      QJsonObject level = schedule[l].toObject();
-      level["iterations"] = 0;
-      schedule[l] = level;
-    }
-    whole["schedule"] = schedule;
-    QFile wholeFile(path("whole.json"));
-    QVERIFY(wholeFile.open(QIODevice::WriteOnly));
-    wholeFile.write(QJsonDocument(whole).toJson());
-    wholeFile.close();
+    withoutIterations(whole);
+    writeJson(path("whole.json"), whole);
     r = runTool(SINEW_RUN, {path("whole.json"), "-o", path("whole"), "--backend", "cpu"});
     QVERIFY2(r.code == 0, qPrintable(r.err));
     QVERIFY2(r.err.contains("note: structure 'label_2_L' is the left side of label 2 (sinew-build-model --split-parts), but its "

@@ -7,6 +7,7 @@
 #include "sinew/core/registry.h"
 // After the engine headers: a Qt macro (emit) breaks TBB headers included after it.
 #include "run_tool.h"
+#include "scene_json.h"
 
 #include <QJsonArray>
 #include <QJsonDocument>
@@ -27,29 +28,6 @@ namespace {
 const QString kTemplates = "/usr/share/mricron/templates/";
 
 using Result = ToolResult;
-
-QJsonObject readJson(const QString& path) {
-  QFile f(path);
-  if (!f.open(QIODevice::ReadOnly)) return {};
-  return QJsonDocument::fromJson(f.readAll()).object();
-}
-
-void writeJson(const QString& path, const QJsonObject& o) {
-  QFile f(path);
-  QVERIFY(f.open(QIODevice::WriteOnly));
-  f.write(QJsonDocument(o).toJson());
-}
-
-// Every level of the scene runs no iteration: only the initialisation is measured.
-void withoutIterations(QJsonObject& scene) {
-  QJsonArray schedule = scene["schedule"].toArray();
-  for (int i = 0; i < schedule.size(); ++i) {
-    QJsonObject l = schedule[i].toObject();
-    l["iterations"] = 0;
-    schedule[i] = l;
-  }
-  scene["schedule"] = schedule;
-}
 
 double stageMean(const QJsonObject& report, const QString& name) {
   for (const auto& s : report["stages"].toArray())
